@@ -1,0 +1,1 @@
+//! Export a scene description to Mitsuba 3 XML.

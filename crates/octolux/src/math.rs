@@ -1,0 +1,196 @@
+//! Small geometric helpers on top of `glam`: colours, orthonormal frames, bounding boxes,
+//! rays, spherical directions and robust ray-origin offsetting.
+//!
+//! Conventions: all directions are unit vectors in world space unless a name says `local`;
+//! in a local shading frame the normal is +z. `wo`/`wi` point away from the surface.
+
+use glam::{Vec2, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// Linear RGB radiometric quantity (radiance W/(m² sr), power W, reflectance, ...).
+pub type Color = Vec3;
+
+/// Rec. 709 luminance of a linear RGB colour.
+#[inline]
+pub fn luminance(c: Color) -> f32 {
+    0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z
+}
+
+/// Largest component.
+#[inline]
+pub fn max_component(c: Color) -> f32 {
+    c.x.max(c.y).max(c.z)
+}
+
+/// A ray `o + t d` valid for `t` in `[tmin, tmax]`. `d` need not be normalised for
+/// intersection, but every producer in octolux normalises it so that `t` is a distance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub tmin: f32,
+    pub tmax: f32,
+}
+
+impl Ray {
+    #[inline]
+    pub fn new(o: Vec3, d: Vec3) -> Self {
+        Ray { o, d, tmin: 0.0, tmax: f32::INFINITY }
+    }
+    #[inline]
+    pub fn segment(o: Vec3, d: Vec3, tmax: f32) -> Self {
+        Ray { o, d, tmin: 0.0, tmax }
+    }
+    #[inline]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.o + self.d * t
+    }
+}
+
+/// Offset a point leaving a surface with geometric normal `ng` towards direction `w`, so that
+/// the new ray does not re-hit the surface it starts on. The offset scales with the magnitude
+/// of the coordinates (floating-point error grows with them): `1e-4 * (1 + max |p_i|)`.
+#[inline]
+pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
+    let eps = 1e-4 * (1.0 + p.abs().max_element());
+    if ng.dot(w) >= 0.0 {
+        p + ng * eps
+    } else {
+        p - ng * eps
+    }
+}
+
+/// Orthonormal basis; `n` is the local +z axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub s: Vec3,
+    pub t: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// Frame around a unit normal (Duff et al. 2017, "Building an orthonormal basis, revisited").
+    #[inline]
+    pub fn from_normal(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Frame { s, t, n }
+    }
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// Axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Bounds3 {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Default for Bounds3 {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+impl Bounds3 {
+    pub const EMPTY: Bounds3 = Bounds3 { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+    #[inline]
+    pub fn extend(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+    #[inline]
+    pub fn union(&self, o: &Bounds3) -> Bounds3 {
+        Bounds3 { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+    #[inline]
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+    #[inline]
+    pub fn extent(&self) -> Vec3 {
+        self.max - self.min
+    }
+    #[inline]
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+    /// Centre and radius of a sphere enclosing the box.
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        let c = self.center();
+        (c, (self.max - c).length())
+    }
+    /// Volume of the intersection with another box (0 when disjoint).
+    #[inline]
+    pub fn overlap_volume(&self, o: &Bounds3) -> f32 {
+        let d = (self.max.min(o.max) - self.min.max(o.min)).max(Vec3::ZERO);
+        d.x * d.y * d.z
+    }
+}
+
+/// Unit direction from spherical angles (theta from +z, phi from +x towards +y).
+#[inline]
+pub fn spherical_direction(sin_theta: f32, cos_theta: f32, phi: f32) -> Vec3 {
+    let (s, c) = phi.sin_cos();
+    Vec3::new(sin_theta * c, sin_theta * s, cos_theta)
+}
+
+/// Reflect `wo` about the normal `n` (both pointing away from the surface).
+#[inline]
+pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
+    2.0 * wo.dot(n) * n - wo
+}
+
+/// Barycentric interpolation helper: `(1-u-v) a + u b + v c`.
+#[inline]
+pub fn bary<T>(a: T, b: T, c: T, uv: Vec2) -> T
+where
+    T: std::ops::Mul<f32, Output = T> + std::ops::Add<Output = T>,
+{
+    a * (1.0 - uv.x - uv.y) + b * uv.x + c * uv.y
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_is_orthonormal_for_many_normals() {
+        for i in 0..1000 {
+            let z = -1.0 + 2.0 * (i as f32 + 0.5) / 1000.0;
+            let phi = i as f32 * 2.399963;
+            let r = (1.0 - z * z).sqrt();
+            let n = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let f = Frame::from_normal(n);
+            assert!((f.s.length() - 1.0).abs() < 1e-4);
+            assert!((f.t.length() - 1.0).abs() < 1e-4);
+            assert!(f.s.dot(f.t).abs() < 1e-4 && f.s.dot(n).abs() < 1e-4 && f.t.dot(n).abs() < 1e-4);
+            assert!((f.s.cross(f.t) - n).length() < 1e-4, "right-handed");
+            let v = Vec3::new(0.3, -0.5, 0.8);
+            assert!((f.to_world(f.to_local(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn overlap_volume_of_boxes() {
+        let a = Bounds3 { min: Vec3::ZERO, max: Vec3::ONE };
+        let b = Bounds3 { min: Vec3::splat(0.5), max: Vec3::splat(2.0) };
+        assert!((a.overlap_volume(&b) - 0.125).abs() < 1e-7);
+        let c = Bounds3 { min: Vec3::splat(3.0), max: Vec3::splat(4.0) };
+        assert_eq!(a.overlap_volume(&c), 0.0);
+    }
+}

@@ -1,0 +1,281 @@
+//! Deterministic random numbers and sample warping.
+//!
+//! Every random number in octolux is a pure function of (seed, stream index, sample index,
+//! dimension): a [`Sampler`] is created for one (seed, pixel or photon index, sample index)
+//! triple and then yields dimensions in order. Results therefore do not depend on the thread
+//! that computes them, which makes images bit-identical for any thread count.
+//!
+//! Each warp `square_to_*` has a matching `*_pdf` (density w.r.t. the measure named in the doc).
+
+use crate::math::{spherical_direction, Frame};
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// 64-bit finaliser (SplitMix64 / Murmur3 style); a good avalanche hash.
+#[inline]
+pub fn mix64(mut x: u64) -> u64 {
+    x ^= x >> 30;
+    x = x.wrapping_mul(0xbf58476d1ce4e5b9);
+    x ^= x >> 27;
+    x = x.wrapping_mul(0x94d049bb133111eb);
+    x ^= x >> 31;
+    x
+}
+
+/// A PCG32 generator (O'Neill 2014) whose state and stream are derived by hashing
+/// `(seed, index, sample)`.
+#[derive(Clone, Debug)]
+pub struct Sampler {
+    state: u64,
+    inc: u64,
+}
+
+impl Sampler {
+    /// Sampler for pixel/photon `index`, sample number `sample`, under the global `seed`.
+    #[inline]
+    pub fn new(seed: u64, index: u64, sample: u64) -> Self {
+        let h1 = mix64(seed ^ mix64(index.wrapping_add(0x9e3779b97f4a7c15)));
+        let h2 = mix64(h1 ^ mix64(sample.wrapping_add(0x632be59bd9b4e019)));
+        let mut s = Sampler { state: 0, inc: (mix64(h2 ^ 0xda942042e4dd58b5) << 1) | 1 };
+        s.next_u32();
+        s.state = s.state.wrapping_add(h2);
+        s.next_u32();
+        s
+    }
+
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old.wrapping_mul(6364136223846793005).wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// Uniform in [0, 1).
+    #[inline]
+    pub fn next_1d(&mut self) -> f32 {
+        // 24 random mantissa bits: exactly representable, strictly below 1.
+        (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+    }
+
+    #[inline]
+    pub fn next_2d(&mut self) -> Vec2 {
+        let x = self.next_1d();
+        Vec2::new(x, self.next_1d())
+    }
+}
+
+/// Cosine-weighted hemisphere around +z (Malley's method on a concentric disk).
+/// Density w.r.t. solid angle: `cos θ / π`.
+#[inline]
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_uniform_disk_concentric(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+#[inline]
+pub fn square_to_cosine_hemisphere_pdf(v: Vec3) -> f32 {
+    if v.z > 0.0 {
+        v.z * FRAC_1_PI
+    } else {
+        0.0
+    }
+}
+
+/// Shirley–Chiu concentric map from the unit square to the unit disk. Density w.r.t. area: `1/π`.
+#[inline]
+pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
+    let a = 2.0 * u.x - 1.0;
+    let b = 2.0 * u.y - 1.0;
+    if a == 0.0 && b == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, phi) = if a * a > b * b { (a, (PI / 4.0) * (b / a)) } else { (b, PI / 2.0 - (PI / 4.0) * (a / b)) };
+    let (s, c) = phi.sin_cos();
+    Vec2::new(r * c, r * s)
+}
+
+/// Uniform direction on the unit sphere. Density w.r.t. solid angle: `1/(4π)`.
+#[inline]
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.y;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    spherical_direction(r, z, 2.0 * PI * u.x)
+}
+
+pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
+
+/// Uniform direction in the hemisphere around +z. Density w.r.t. solid angle: `1/(2π)`.
+#[inline]
+pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3 {
+    let z = u.y;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    spherical_direction(r, z, 2.0 * PI * u.x)
+}
+
+pub const UNIFORM_HEMISPHERE_PDF: f32 = 1.0 / (2.0 * PI);
+
+/// Uniform direction in the cone of directions within `acos(cos_max)` of +z.
+/// Density w.r.t. solid angle: `1 / (2π (1 - cos_max))`.
+#[inline]
+pub fn square_to_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let z = 1.0 - u.y * (1.0 - cos_max);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    spherical_direction(r, z, 2.0 * PI * u.x)
+}
+
+#[inline]
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (2.0 * PI * (1.0 - cos_max))
+}
+
+/// Uniform barycentric coordinates `(b1, b2)` on a triangle (the point is
+/// `(1-b1-b2) p0 + b1 p1 + b2 p2`). Density w.r.t. area: `1/area`.
+#[inline]
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    let t = (1.0 - u.x).sqrt();
+    Vec2::new(1.0 - t, u.y * t)
+}
+
+/// Direction `w` mapped into the frame around `n` (convenience for warps around +z).
+#[inline]
+pub fn around(n: Vec3, local: Vec3) -> Vec3 {
+    Frame::from_normal(n).to_world(local)
+}
+
+/// A piecewise-constant discrete distribution over `n` items, sampled by CDF inversion.
+#[derive(Clone, Debug, Default)]
+pub struct Distribution1D {
+    /// Normalised CDF, `cdf[0] = 0`, `cdf[n] = 1`; length `n + 1`.
+    cdf: Vec<f32>,
+    /// Normalised probabilities, length `n`.
+    pmf: Vec<f32>,
+    /// Sum of the (unnormalised) weights, accumulated in f64.
+    total: f64,
+}
+
+impl Distribution1D {
+    /// Build from non-negative finite weights. Returns `None` when the sum is not positive.
+    pub fn new(weights: &[f32]) -> Option<Self> {
+        let mut acc = 0.0f64;
+        let mut cdf = Vec::with_capacity(weights.len() + 1);
+        cdf.push(0.0f64);
+        for &w in weights {
+            let w = if w.is_finite() && w > 0.0 { w as f64 } else { 0.0 };
+            acc += w;
+            cdf.push(acc);
+        }
+        if !(acc > 0.0) {
+            return None;
+        }
+        let pmf = weights.iter().map(|&w| if w.is_finite() && w > 0.0 { (w as f64 / acc) as f32 } else { 0.0 }).collect();
+        let cdf = cdf.into_iter().map(|c| (c / acc) as f32).collect::<Vec<_>>();
+        Some(Distribution1D { cdf, pmf, total: acc })
+    }
+
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf[i]
+    }
+
+    /// Sample an index with `u` in [0,1); returns the index, its probability and `u` rescaled
+    /// to [0,1) within the chosen bucket (for reuse as a fresh uniform number).
+    #[inline]
+    pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        let n = self.pmf.len();
+        // first index i with cdf[i+1] > u
+        let mut i = self.cdf.partition_point(|&c| c <= u).saturating_sub(1).min(n - 1);
+        // skip zero-probability buckets that floating point may land on
+        while self.pmf[i] == 0.0 && i + 1 < n {
+            i += 1;
+        }
+        while self.pmf[i] == 0.0 && i > 0 {
+            i -= 1;
+        }
+        let lo = self.cdf[i];
+        let w = self.cdf[i + 1] - lo;
+        let ur = if w > 0.0 { ((u - lo) / w).clamp(0.0, 1.0 - f32::EPSILON) } else { 0.5 };
+        (i, self.pmf[i], ur)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sampler_is_deterministic_and_in_range() {
+        let mut a = Sampler::new(7, 123, 4);
+        let mut b = Sampler::new(7, 123, 4);
+        let mut c = Sampler::new(7, 123, 5);
+        let mut differs = false;
+        for _ in 0..1000 {
+            let x = a.next_1d();
+            assert!((0.0..1.0).contains(&x));
+            assert_eq!(x, b.next_1d());
+            differs |= x != c.next_1d();
+        }
+        assert!(differs);
+    }
+
+    #[test]
+    fn sampler_mean_and_variance_are_uniform() {
+        let mut s = Sampler::new(1, 2, 3);
+        let n = 200_000;
+        let (mut m, mut m2) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let x = s.next_1d() as f64;
+            m += x;
+            m2 += x * x;
+        }
+        m /= n as f64;
+        m2 /= n as f64;
+        assert!((m - 0.5).abs() < 0.003, "mean {m}");
+        assert!((m2 - m * m - 1.0 / 12.0).abs() < 0.002);
+    }
+
+    #[test]
+    fn distribution_sampling_matches_pmf() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0, 4.0]).unwrap();
+        let mut counts = [0usize; 4];
+        let n = 80_000;
+        for i in 0..n {
+            let (k, p, ur) = d.sample((i as f32 + 0.5) / n as f32);
+            assert!((0.0..1.0).contains(&ur));
+            assert_eq!(p, d.pmf(k));
+            counts[k] += 1;
+        }
+        assert_eq!(counts[1], 0);
+        assert!((counts[0] as f32 / n as f32 - 0.125).abs() < 1e-3);
+        assert!((counts[3] as f32 / n as f32 - 0.5).abs() < 1e-3);
+        assert!(Distribution1D::new(&[0.0, 0.0]).is_none());
+        assert!(Distribution1D::new(&[f32::NAN]).is_none());
+    }
+
+    #[test]
+    fn warps_land_where_their_pdf_says() {
+        let mut s = Sampler::new(0, 0, 0);
+        for _ in 0..1000 {
+            let u = s.next_2d();
+            let c = square_to_cosine_hemisphere(u);
+            assert!((c.length() - 1.0).abs() < 1e-4 && c.z >= 0.0);
+            let d = square_to_uniform_sphere(u);
+            assert!((d.length() - 1.0).abs() < 1e-4);
+            let k = square_to_uniform_cone(u, 0.9);
+            assert!(k.z >= 0.9 - 1e-5);
+            let b = square_to_uniform_triangle(u);
+            assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+        }
+    }
+}
