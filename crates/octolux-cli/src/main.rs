@@ -1,1 +1,300 @@
-fn main(){}
+//! The `octolux` command-line renderer.
+//!
+//! `octolux render [SCENE] ...` renders a built-in scene (default `cornell-box`), a Mitsuba XML
+//! file, or an OBJ/PLY mesh, and writes `OUT.exr`, `OUT.png` and `OUT.json` (statistics).
+//! `octolux export SCENE -o scene.xml` writes the scene as Mitsuba 3 XML (meshes as PLY).
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use octolux::accel::BackendKind;
+use octolux::integrators::{path::PathSettings, Integrator};
+use octolux::prepared::Scene;
+use octolux::render::{render, RenderSettings, RenderStats};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(name = "octolux", version, about = "Offline renderer with a photon-built octree of incident radiance (Pacanowski, Granier & Schlick 2005)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to OUT.exr, OUT.png and OUT.json.
+    Render(RenderArgs),
+    /// Write a scene as Mitsuba 3 XML (meshes as PLY files in a `meshes/` folder beside it).
+    Export(ExportArgs),
+    /// List the built-in scenes.
+    Scenes,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum IntegratorArg {
+    /// Path tracing with next-event estimation and MIS (the reference).
+    Path,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum BackendArg {
+    Auto,
+    Embree,
+    Bvh,
+}
+
+#[derive(clap::Args)]
+struct SceneArgs {
+    /// Built-in scene name (cornell-box, cornell-spheres), Mitsuba XML file, or OBJ/PLY mesh.
+    #[arg(default_value = "cornell-box")]
+    scene: String,
+    /// Override a Mitsuba `<default>` parameter: -D name=value (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    define: Vec<String>,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[arg(long, value_enum, default_value = "path")]
+    integrator: IntegratorArg,
+    /// Samples per pixel (default: the scene's sampler, else 64). With --time-budget: per pass.
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Image size WxH (default: the scene's film).
+    #[arg(long, value_parser = parse_resolution)]
+    resolution: Option<(u32, u32)>,
+    /// Longest path in vertices, Mitsuba's meaning (default: the scene's, else -1 = unbounded).
+    #[arg(long, allow_negative_numbers = true)]
+    max_depth: Option<i32>,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Keep adding passes of --spp samples until this many seconds have passed.
+    #[arg(long)]
+    time_budget: Option<f64>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Ray-intersection backend.
+    #[arg(long, value_enum, default_value = "auto")]
+    backend: BackendArg,
+    /// Output image path; `.exr` (and `.png`, `.json` beside it).
+    #[arg(short, long, default_value = "out.exr")]
+    output: PathBuf,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(clap::Args)]
+struct ExportArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Output XML path.
+    #[arg(short, long)]
+    output: PathBuf,
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    #[arg(long, default_value_t = -1, allow_negative_numbers = true)]
+    max_depth: i32,
+}
+
+fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}' is not WxH (e.g. 512x512)"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width in '{s}'"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height in '{s}'"))?;
+    if w == 0 || h == 0 || w > 32768 || h > 32768 {
+        return Err(format!("resolution {w}x{h} is out of range 1..32768"));
+    }
+    Ok((w, h))
+}
+
+fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
+    defs.iter()
+        .map(|d| {
+            let (k, v) = d.split_once('=').with_context(|| format!("-D {d}: expected NAME=VALUE"))?;
+            Ok((k.trim().to_string(), v.trim().to_string()))
+        })
+        .collect()
+}
+
+fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
+    let defines = parse_defines(&args.define)?;
+    let loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(loaded)
+}
+
+/// Timings of the phases of one run, in seconds.
+#[derive(Serialize, Default)]
+struct Timings {
+    load_s: f64,
+    prepare_s: f64,
+    render_s: f64,
+    write_s: f64,
+    total_s: f64,
+}
+
+#[derive(Serialize)]
+struct StatsFile<'a> {
+    octolux_version: &'a str,
+    command_line: Vec<String>,
+    scene: &'a str,
+    integrator: &'a str,
+    integrator_settings: serde_json::Value,
+    backend: String,
+    threads: usize,
+    triangles: usize,
+    seed: u64,
+    timings: Timings,
+    samples_per_second: f64,
+    rays_per_second: f64,
+    render: &'a RenderStats,
+    warnings: &'a [String],
+}
+
+fn cmd_render(args: RenderArgs) -> Result<()> {
+    let t0 = Instant::now();
+    if let Some(n) = args.threads {
+        if n == 0 {
+            bail!("--threads must be at least 1");
+        }
+        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot start the worker threads")?;
+    }
+    if let Some(b) = args.time_budget {
+        if !(b.is_finite() && b > 0.0) {
+            bail!("--time-budget must be a positive number of seconds, got {b}");
+        }
+    }
+    if args.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !ext.eq_ignore_ascii_case("exr") {
+        bail!("output '{}' must end in .exr (a .png and a .json are written beside it)", args.output.display());
+    }
+    let loaded = load(&args.scene)?;
+    let load_s = t0.elapsed().as_secs_f64();
+    let mut desc = loaded.desc;
+    if let Some((w, h)) = args.resolution {
+        desc.film.width = w;
+        desc.film.height = h;
+    }
+    let spp = args.spp.or(desc.hints.spp).unwrap_or(64);
+    let max_depth = args.max_depth.or(desc.hints.max_depth).unwrap_or(-1);
+    if max_depth < -1 {
+        bail!("--max-depth must be -1 (unbounded) or at least 0, got {max_depth}");
+    }
+    let backend = match args.backend {
+        BackendArg::Auto => BackendKind::Auto,
+        BackendArg::Embree => BackendKind::Embree,
+        BackendArg::Bvh => BackendKind::Bvh,
+    };
+    let t1 = Instant::now();
+    let scene = Scene::prepare(desc, backend).with_context(|| format!("cannot prepare scene '{}'", args.scene.scene))?;
+    if scene.lights.is_empty() {
+        eprintln!("warning: the scene has no light; the image will be black");
+    }
+    let prepare_s = t1.elapsed().as_secs_f64();
+    let threads = rayon::current_num_threads();
+    let (integrator, integrator_settings) = match args.integrator {
+        IntegratorArg::Path => {
+            let s = PathSettings { max_depth, ..Default::default() };
+            (Integrator::Path(s), serde_json::to_value(s)?)
+        }
+    };
+    if !args.quiet {
+        eprintln!(
+            "octolux: {} ({} triangles), {}x{}, {} spp, integrator {}, backend {}, {} threads",
+            args.scene.scene,
+            scene.triangle_count(),
+            scene.film.width,
+            scene.film.height,
+            spp,
+            integrator.name(),
+            scene.backend_name(),
+            threads
+        );
+    }
+    let settings = RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, ..Default::default() };
+    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((scene.film.width as u64) * (scene.film.height as u64)) };
+    bar.set_style(ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+    let progress = |done: u64, total: u64| {
+        bar.set_length(total);
+        bar.set_position(done.min(total));
+    };
+    let (image, rstats) = render(&scene, &integrator, &settings, &progress);
+    bar.finish_and_clear();
+
+    let t2 = Instant::now();
+    let png = args.output.with_extension("png");
+    let json = args.output.with_extension("json");
+    octolux_io::image_io::write_exr(&args.output, &image).with_context(|| format!("cannot write {}", args.output.display()))?;
+    octolux_io::image_io::write_png(&png, &image).with_context(|| format!("cannot write {}", png.display()))?;
+    let write_s = t2.elapsed().as_secs_f64();
+    let stats = StatsFile {
+        octolux_version: env!("CARGO_PKG_VERSION"),
+        command_line: std::env::args().collect(),
+        scene: &args.scene.scene,
+        integrator: integrator.name(),
+        integrator_settings,
+        backend: scene.backend_name(),
+        threads,
+        triangles: scene.triangle_count(),
+        seed: args.seed,
+        timings: Timings { load_s, prepare_s, render_s: rstats.render_s, write_s, total_s: t0.elapsed().as_secs_f64() },
+        samples_per_second: rstats.samples_per_second,
+        rays_per_second: rstats.rays_per_second,
+        render: &rstats,
+        warnings: &loaded.warnings,
+    };
+    write_json(&json, &stats)?;
+    if !args.quiet {
+        eprintln!(
+            "rendered {} spp in {:.2} s: {:.3} M samples/s, {:.2} M rays/s -> {}, {}, {}",
+            rstats.spp,
+            rstats.render_s,
+            rstats.samples_per_second * 1e-6,
+            rstats.rays_per_second * 1e-6,
+            args.output.display(),
+            png.display(),
+            json.display()
+        );
+    }
+    Ok(())
+}
+
+fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    let tmp = path.with_extension("json.tmp");
+    std::fs::write(&tmp, serde_json::to_string_pretty(value)?).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+fn cmd_export(args: ExportArgs) -> Result<()> {
+    let loaded = load(&args.scene)?;
+    loaded.desc.validate().with_context(|| format!("scene '{}' is invalid", args.scene.scene))?;
+    octolux_io::export::write_mitsuba_scene(&loaded.desc, args.spp, args.max_depth, &args.output)
+        .with_context(|| format!("cannot export to {}", args.output.display()))?;
+    eprintln!("wrote {}", args.output.display());
+    Ok(())
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Render(a) => cmd_render(a),
+        Command::Export(a) => cmd_export(a),
+        Command::Scenes => {
+            for n in octolux_io::builtin::NAMES {
+                println!("{n}");
+            }
+            Ok(())
+        }
+    }
+}

@@ -1,1 +1,164 @@
-//! Image input and output.
+//! Image input and output on [`octolux::material::Image`] (linear RGB, row 0 at the top).
+//!
+//! - OpenEXR is written as 32-bit float RGB (lossless compression), so a write/read round trip
+//!   is bit-exact; reading accepts any RGB(A) EXR (half, float or uint samples; alpha ignored).
+//! - PNG output applies the sRGB transfer function (IEC 61966-2-1) to the clamped linear values
+//!   and rounds to 8 bits; NaN becomes 0.
+//! - Textures ([`read_image`]): PNG/JPEG are sRGB-encoded and converted to linear (as Mitsuba's
+//!   `bitmap` does for 8-bit images with `raw = false`); EXR and Radiance HDR are linear.
+//!
+//! Every output is written atomically: the data goes to a temporary file in the destination
+//! folder, which is renamed over the destination only once complete, so a failed or interrupted
+//! write never leaves a truncated file under the final name.
+
+use crate::IoError;
+use octolux::material::Image;
+use octolux::math::Color;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// sRGB transfer function (linear -> encoded), for values in [0,1].
+#[inline]
+pub fn linear_to_srgb(v: f32) -> f32 {
+    if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Inverse sRGB transfer function (encoded -> linear), for values in [0,1].
+#[inline]
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.040_45 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Encode one linear value as an 8-bit sRGB code (clamped to [0,1], NaN -> 0, rounded).
+#[inline]
+pub fn encode_srgb8(v: f32) -> u8 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    (linear_to_srgb(v) * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
+}
+
+/// Name of a fresh temporary file next to `path` (same folder, so the final rename is atomic).
+fn temp_path_for(path: &Path) -> PathBuf {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "output".into());
+    path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()))
+}
+
+/// Write a file atomically: `write` produces the complete file at the temporary path it is
+/// given (an error message on failure); on success it is renamed to `path`. On any failure the
+/// temporary file is removed and `path` is left untouched.
+pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), IoError> {
+    if path.file_name().is_none() {
+        return Err(IoError::invalid(path, "output path has no file name"));
+    }
+    let tmp = temp_path_for(path);
+    if let Err(msg) = write(&tmp) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(IoError::invalid(path, format!("could not write: {msg}")));
+    }
+    if let Err(e) = std::fs::rename(&tmp, path) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(IoError::os(path, e));
+    }
+    Ok(())
+}
+
+/// Write bytes to a file atomically (see [`write_atomically`]).
+pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+    write_atomically(path, |tmp| std::fs::write(tmp, bytes).map_err(|e| e.to_string()))
+}
+
+fn check_image(path: &Path, img: &Image) -> Result<(), IoError> {
+    if img.width == 0 || img.height == 0 {
+        return Err(IoError::invalid(path, format!("cannot write an empty {}x{} image", img.width, img.height)));
+    }
+    if img.data.len() != img.width as usize * img.height as usize {
+        return Err(IoError::invalid(path, format!("image data has {} pixels, expected {}x{}", img.data.len(), img.width, img.height)));
+    }
+    Ok(())
+}
+
+/// Write a 32-bit float RGB OpenEXR file (atomically).
+pub fn write_exr(path: &Path, img: &Image) -> Result<(), IoError> {
+    check_image(path, img)?;
+    let w = img.width as usize;
+    write_atomically(path, |tmp| {
+        exr::prelude::write_rgb_file(tmp, w, img.height as usize, |x, y| {
+            let c = img.data[y * w + x];
+            (c.x, c.y, c.z)
+        })
+        .map_err(|e| e.to_string())
+    })
+}
+
+/// Read the first RGB(A) layer of an OpenEXR file as linear RGB (alpha is ignored).
+pub fn read_exr(path: &Path) -> Result<Image, IoError> {
+    if !path.is_file() {
+        return Err(IoError::os(path, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")));
+    }
+    let result = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |res, _| Image { width: res.width() as u32, height: res.height() as u32, data: vec![Color::ZERO; res.width() * res.height()] },
+        |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            let i = pos.y() * img.width as usize + pos.x();
+            img.data[i] = Color::new(r, g, b);
+        },
+    );
+    match result {
+        Ok(image) => {
+            let img = image.layer_data.channel_data.pixels;
+            if img.width == 0 || img.height == 0 {
+                return Err(IoError::invalid(path, "the EXR image is empty"));
+            }
+            Ok(img)
+        }
+        Err(exr::error::Error::Io(e)) => Err(IoError::os(path, e)),
+        Err(e) => Err(IoError::invalid(path, format!("not a readable RGB OpenEXR file: {e}"))),
+    }
+}
+
+/// Write an 8-bit sRGB PNG (values clamped to [0,1], atomically).
+pub fn write_png(path: &Path, img: &Image) -> Result<(), IoError> {
+    check_image(path, img)?;
+    let mut bytes = Vec::with_capacity(img.data.len() * 3);
+    for c in &img.data {
+        bytes.extend_from_slice(&[encode_srgb8(c.x), encode_srgb8(c.y), encode_srgb8(c.z)]);
+    }
+    let buf =
+        image::RgbImage::from_raw(img.width, img.height, bytes).ok_or_else(|| IoError::invalid(path, "image buffer size mismatch"))?;
+    write_atomically(path, |tmp| buf.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| e.to_string()))
+}
+
+/// Read a texture as linear RGB: `.exr` and `.hdr` are linear, `.png`/`.jpg`/`.jpeg` are
+/// sRGB-decoded. Alpha is dropped; grey images are replicated to RGB.
+pub fn read_image(path: &Path) -> Result<Image, IoError> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
+    let srgb = match ext.as_str() {
+        "exr" => return read_exr(path),
+        "hdr" | "rgbe" | "pic" => false,
+        "png" | "jpg" | "jpeg" => true,
+        _ => return Err(IoError::invalid(path, format!("unsupported image format '.{ext}' (expected png, jpg, exr or hdr)"))),
+    };
+    let reader = image::ImageReader::open(path).map_err(|e| IoError::os(path, e))?;
+    let reader = reader.with_guessed_format().map_err(|e| IoError::os(path, e))?;
+    let decoded = reader.decode().map_err(|e| match e {
+        image::ImageError::IoError(e) => IoError::os(path, e),
+        e => IoError::invalid(path, format!("could not decode image: {e}")),
+    })?;
+    let rgb = decoded.to_rgb32f();
+    let (width, height) = rgb.dimensions();
+    if width == 0 || height == 0 {
+        return Err(IoError::invalid(path, "the image is empty"));
+    }
+    let conv = |v: f32| if srgb { srgb_to_linear(v) } else { v };
+    let data = rgb.pixels().map(|p| Color::new(conv(p.0[0]), conv(p.0[1]), conv(p.0[2]))).collect();
+    Ok(Image { width, height, data })
+}

@@ -4,12 +4,20 @@
 //! This crate holds no CLI, no Python and no file formats (see `octolux-io`).
 
 pub mod accel;
+pub mod caches;
 pub mod camera;
+pub mod integrators;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod photon;
+pub mod photon_pass;
+pub mod prepared;
+pub mod render;
 pub mod sampling;
 pub mod scene;
+#[doc(hidden)]
+pub mod testing;
 
 pub use glam;
 pub use math::Color;

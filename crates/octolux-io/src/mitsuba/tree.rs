@@ -1,0 +1,378 @@
+//! First stage of the Mitsuba loader: read the XML file(s) into an owned element tree with
+//! every scene-language directive already applied, so that later stages only see plugins and
+//! properties.
+//!
+//! Applied here, in document order like Mitsuba's own parser:
+//! - `$name` substitution in every attribute from the parameter list (command-line `defines`
+//!   first, then each `<default name value>` met so far, which never overrides an existing
+//!   entry); longer names are replaced first; a `$` left over is an error naming it;
+//! - `<include filename>` (resolved relative to the including file, then the main scene's
+//!   folder, then `<path>` folders): the children of an included `<scene>` are spliced in place,
+//!   any other root element is inserted as is;
+//! - `<path value>` adds a folder to the resource search path;
+//! - the 0.5/0.6 dialect (root `version` < 2.0.0): parameter names are converted from
+//!   camelCase to snake_case exactly like Mitsuba 3's `upgrade_tree`, `<lookAt>` becomes
+//!   `<lookat>`, and `diffuse_reflectance` of a `diffuse` bsdf becomes `reflectance`.
+//!
+//! Every element keeps its file and line ([`Loc`]) for messages.
+
+use crate::IoError;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+
+/// Maximal nesting of `<include>` (Mitsuba uses the same kind of limit against cycles).
+const MAX_INCLUDE_DEPTH: usize = 15;
+
+/// Where an element was written.
+#[derive(Clone, Debug)]
+pub(crate) struct Loc {
+    pub file: Rc<PathBuf>,
+    pub line: u32,
+}
+
+impl fmt::Display for Loc {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.file.display(), self.line)
+    }
+}
+
+impl Loc {
+    /// An error at this place.
+    pub fn error(&self, msg: impl Into<String>) -> IoError {
+        IoError::parse(&self.file, self.line, msg)
+    }
+    /// The folder of the file this element was read from.
+    pub fn dir(&self) -> &Path {
+        self.file.parent().unwrap_or_else(|| Path::new("."))
+    }
+}
+
+/// One XML element after directive processing.
+#[derive(Clone, Debug)]
+pub(crate) struct Elem {
+    pub tag: String,
+    pub attrs: Vec<(String, String)>,
+    pub children: Vec<Elem>,
+    pub loc: Loc,
+}
+
+impl Elem {
+    pub fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str())
+    }
+    /// A required attribute.
+    pub fn req_attr(&self, name: &str) -> Result<&str, IoError> {
+        self.attr(name).ok_or_else(|| self.loc.error(format!("{} is missing the attribute \"{name}\"", self.describe())))
+    }
+    /// `<tag type="..." id="..." name="...">` for messages.
+    pub fn describe(&self) -> String {
+        let mut s = format!("<{}", self.tag);
+        for key in ["type", "name", "id"] {
+            if let Some(v) = self.attr(key) {
+                s.push_str(&format!(" {key}=\"{v}\""));
+            }
+        }
+        s.push('>');
+        s
+    }
+    /// `file:line: <tag ...>: msg`, the format of every warning.
+    pub fn warning(&self, msg: impl fmt::Display) -> String {
+        format!("{}: {}: {msg}", self.loc, self.describe())
+    }
+}
+
+/// The processed document.
+pub(crate) struct Tree {
+    /// The root element (normally `<scene>`).
+    pub root: Elem,
+    /// Extra resource folders from `<path>` elements, in order of appearance.
+    pub search_dirs: Vec<PathBuf>,
+}
+
+/// Read and process the scene file at `path`.
+pub(crate) fn read(path: &Path, defines: &[(String, String)], warnings: &mut Vec<String>) -> Result<Tree, IoError> {
+    let text = std::fs::read_to_string(path).map_err(|e| IoError::os(path, e))?;
+    read_str(&text, path, defines, warnings)
+}
+
+/// Process scene text as if read from `path` (used for messages and relative file names).
+pub(crate) fn read_str(text: &str, path: &Path, defines: &[(String, String)], warnings: &mut Vec<String>) -> Result<Tree, IoError> {
+    let mut b = Builder {
+        params: defines.to_vec(),
+        main_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
+        search_dirs: Vec::new(),
+        warnings,
+    };
+    let file = Rc::new(path.to_path_buf());
+    let mut out = Vec::new();
+    b.document(text, &file, None, 0, &mut out)?;
+    let root = match out.len() {
+        1 => out.pop().expect("one element"),
+        _ => return Err(IoError::invalid(path, "the document has no root element")),
+    };
+    if root.tag != "scene" {
+        return Err(root.loc.error(format!("the root element must be <scene>, not <{}>", root.tag)));
+    }
+    Ok(Tree { root, search_dirs: b.search_dirs })
+}
+
+/// A parsed `major.minor.patch` version.
+fn parse_version(v: &str) -> Option<(u32, u32, u32)> {
+    let parts: Vec<&str> = v.trim().split('.').collect();
+    if parts.len() != 3 {
+        return None;
+    }
+    Some((parts[0].parse().ok()?, parts[1].parse().ok()?, parts[2].parse().ok()?))
+}
+
+/// Mitsuba 3's camelCase → snake_case rule (`upgrade_tree`): an underscore goes between a lower-
+/// case letter and the upper-case run that follows it, and the run is lower-cased.
+pub(crate) fn camel_to_snake(name: &str) -> String {
+    let mut s: Vec<u8> = name.as_bytes().to_vec();
+    let mut i = 0;
+    while i + 1 < s.len() {
+        if s[i].is_ascii_lowercase() && s[i + 1].is_ascii_uppercase() {
+            s.insert(i + 1, b'_');
+            i += 2;
+            while i < s.len() && s[i].is_ascii_uppercase() {
+                s[i] = s[i].to_ascii_lowercase();
+                i += 1;
+            }
+        }
+        i += 1;
+    }
+    String::from_utf8(s).unwrap_or_else(|_| name.to_string())
+}
+
+struct Builder<'w> {
+    params: Vec<(String, String)>,
+    main_dir: PathBuf,
+    search_dirs: Vec<PathBuf>,
+    warnings: &'w mut Vec<String>,
+}
+
+impl Builder<'_> {
+    /// Parse one XML text and append what it contributes to `out`: for the main file
+    /// (`legacy_parent == None`) its root element; for an included file (`Some(dialect of the
+    /// includer)`) the children of a `<scene>` root, or any other root element itself.
+    fn document(
+        &mut self,
+        text: &str,
+        file: &Rc<PathBuf>,
+        legacy_parent: Option<bool>,
+        depth: usize,
+        out: &mut Vec<Elem>,
+    ) -> Result<(), IoError> {
+        let opts = roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() };
+        let doc = roxmltree::Document::parse_with_options(text, opts)
+            .map_err(|e| IoError::parse(file, e.pos().row, format!("malformed XML: {e}")))?;
+        let root = doc.root_element();
+        let line = doc.text_pos_at(root.range().start).row;
+        match legacy_parent {
+            None => {
+                if root.attribute("version").is_none() {
+                    self.warnings.push(format!(
+                        "{}:{line}: <{}>: no version attribute; assuming Mitsuba 3 syntax",
+                        file.display(),
+                        root.tag_name().name()
+                    ));
+                }
+                self.element(&doc, root, file, false, depth, out)
+            }
+            Some(legacy) => {
+                if root.tag_name().name() == "scene" {
+                    let legacy = self.version_of(&doc, root, file)?.unwrap_or(legacy);
+                    for child in root.children() {
+                        self.node(&doc, child, file, legacy, depth, out)?;
+                    }
+                    Ok(())
+                } else {
+                    self.element(&doc, root, file, legacy, depth, out)
+                }
+            }
+        }
+    }
+
+    /// `Some(is_legacy)` when the element carries a version attribute.
+    fn version_of(&self, doc: &roxmltree::Document, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<Option<bool>, IoError> {
+        match node.attribute("version") {
+            None => Ok(None),
+            Some(v) => {
+                let v = self.substitute(v, doc, node, file)?;
+                let (major, _, _) = parse_version(&v).ok_or_else(|| {
+                    IoError::parse(file, doc.text_pos_at(node.range().start).row, format!("could not parse version number \"{v}\""))
+                })?;
+                Ok(Some(major < 2))
+            }
+        }
+    }
+
+    fn node(
+        &mut self,
+        doc: &roxmltree::Document,
+        node: roxmltree::Node,
+        file: &Rc<PathBuf>,
+        legacy: bool,
+        depth: usize,
+        out: &mut Vec<Elem>,
+    ) -> Result<(), IoError> {
+        if node.is_element() {
+            return self.element(doc, node, file, legacy, depth, out);
+        }
+        if node.is_text() && node.text().is_some_and(|t| !t.trim().is_empty()) {
+            let line = doc.text_pos_at(node.range().start).row;
+            self.warnings.push(format!("{}:{line}: unexpected text content ignored", file.display()));
+        }
+        Ok(())
+    }
+
+    /// Replace `$name` references in an attribute value.
+    fn substitute(&self, value: &str, doc: &roxmltree::Document, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<String, IoError> {
+        if !value.contains('$') {
+            return Ok(value.to_string());
+        }
+        let mut params: Vec<&(String, String)> = self.params.iter().collect();
+        params.sort_by_key(|p| std::cmp::Reverse(p.0.len()));
+        let mut v = value.to_string();
+        for (name, val) in params {
+            v = v.replace(&format!("${name}"), val);
+        }
+        if let Some(pos) = v.find('$') {
+            let name: String = v[pos + 1..].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
+            let line = doc.text_pos_at(node.range().start).row;
+            return Err(IoError::parse(
+                file,
+                line,
+                format!("undefined parameter \"${name}\" in \"{value}\" (define it with <default name=\"{name}\" value=\"...\"/> or -D {name}=...)"),
+            ));
+        }
+        Ok(v)
+    }
+
+    fn element(
+        &mut self,
+        doc: &roxmltree::Document,
+        node: roxmltree::Node,
+        file: &Rc<PathBuf>,
+        legacy: bool,
+        depth: usize,
+        out: &mut Vec<Elem>,
+    ) -> Result<(), IoError> {
+        let loc = Loc { file: file.clone(), line: doc.text_pos_at(node.range().start).row };
+        let mut tag = node.tag_name().name().to_string();
+        let legacy = self.version_of(doc, node, file)?.unwrap_or(legacy);
+        let mut attrs = Vec::new();
+        for a in node.attributes() {
+            if a.name() == "version" {
+                continue;
+            }
+            let mut v = self.substitute(a.value(), doc, node, file)?;
+            if legacy && a.name() == "name" && tag != "default" {
+                v = camel_to_snake(&v);
+            }
+            attrs.push((a.name().to_string(), v));
+        }
+        if legacy && tag == "lookAt" {
+            tag = "lookat".into();
+        }
+        let elem = Elem { tag, attrs, children: Vec::new(), loc };
+        match elem.tag.as_str() {
+            "default" => {
+                let name = elem.req_attr("name")?.to_string();
+                let value = elem.req_attr("value")?.to_string();
+                if name.is_empty() {
+                    return Err(elem.loc.error("<default>: the name must not be empty"));
+                }
+                if !self.params.iter().any(|(n, _)| *n == name) {
+                    self.params.push((name, value));
+                }
+                Ok(())
+            }
+            "path" => {
+                let p = PathBuf::from(elem.req_attr("value")?);
+                let p = if p.is_absolute() { p } else { elem.loc.dir().join(p) };
+                if !p.is_dir() {
+                    return Err(elem.loc.error(format!("<path>: folder \"{}\" not found", p.display())));
+                }
+                self.search_dirs.insert(0, p);
+                Ok(())
+            }
+            "include" => {
+                let name = elem.req_attr("filename")?;
+                if depth >= MAX_INCLUDE_DEPTH {
+                    return Err(elem.loc.error(format!("<include> nested more than {MAX_INCLUDE_DEPTH} levels deep (a cycle?)")));
+                }
+                let path = self.resolve(&elem.loc, name).ok_or_else(|| {
+                    elem.loc.error(format!("included file \"{name}\" not found (looked next to {})", elem.loc.file.display()))
+                })?;
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| elem.loc.error(format!("cannot read included file \"{}\": {e}", path.display())))?;
+                let inc = Rc::new(path);
+                self.document(&text, &inc, Some(legacy), depth + 1, out)
+            }
+            _ => {
+                let mut elem = elem;
+                let mut children = Vec::new();
+                for child in node.children() {
+                    self.node(doc, child, file, legacy, depth, &mut children)?;
+                }
+                if legacy && elem.tag == "bsdf" && elem.attr("type") == Some("diffuse") {
+                    for c in &mut children {
+                        for (k, v) in &mut c.attrs {
+                            if k == "name" && v == "diffuse_reflectance" {
+                                *v = "reflectance".into();
+                            }
+                        }
+                    }
+                }
+                elem.children = children;
+                out.push(elem);
+                Ok(())
+            }
+        }
+    }
+
+    /// Resolve a file name relative to the element's file, the main scene folder and the
+    /// `<path>` folders, in that order.
+    fn resolve(&self, loc: &Loc, name: &str) -> Option<PathBuf> {
+        resolve_file(loc, name, &self.main_dir, &self.search_dirs)
+    }
+}
+
+/// Find a referenced file: absolute paths as they are; relative ones next to the file that
+/// names them, then in the main scene folder, then in the `<path>` folders.
+pub(crate) fn resolve_file(loc: &Loc, name: &str, main_dir: &Path, search_dirs: &[PathBuf]) -> Option<PathBuf> {
+    let p = Path::new(name);
+    if p.is_absolute() {
+        return p.is_file().then(|| p.to_path_buf());
+    }
+    std::iter::once(loc.dir())
+        .chain(std::iter::once(main_dir))
+        .chain(search_dirs.iter().map(PathBuf::as_path))
+        .map(|d| d.join(p))
+        .find(|c| c.is_file())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn camel_case_names_follow_mitsuba_upgrade_rule() {
+        assert_eq!(camel_to_snake("toWorld"), "to_world");
+        assert_eq!(camel_to_snake("intIOR"), "int_ior");
+        assert_eq!(camel_to_snake("sampleCount"), "sample_count");
+        assert_eq!(camel_to_snake("specularReflectance"), "specular_reflectance");
+        assert_eq!(camel_to_snake("max_depth"), "max_depth");
+        assert_eq!(camel_to_snake("uscale"), "uscale");
+        assert_eq!(camel_to_snake("alphaU"), "alpha_u");
+    }
+
+    #[test]
+    fn versions_parse() {
+        assert_eq!(parse_version("0.5.0"), Some((0, 5, 0)));
+        assert_eq!(parse_version("3.0.0"), Some((3, 0, 0)));
+        assert_eq!(parse_version("3.0"), None);
+    }
+}

@@ -1,0 +1,653 @@
+//! Pure-Rust fallback: a 4-wide BVH with 4-triangle leaf blocks, built with binned SAH.
+//!
+//! Layout (struct-of-arrays so that one SIMD op handles four boxes or four triangles; `glam::Vec4`
+//! maps to SSE on x86-64 and to scalar code elsewhere):
+//! - [`Node4`]: bounds of up to four children as `[min_x, max_x, min_y, max_y, min_z, max_z]`
+//!   lanes, plus a child word each. Empty slots have inverted (+inf/-inf) bounds, so they are never
+//!   entered. A child word is either an inner-node index (`< LEAF_BIT`) or a leaf
+//!   `LEAF_BIT | first_block << 3 | (block_count - 1)`.
+//! - [`Tri4`]: four triangles (vertices, geometric normal, original index). A block with fewer
+//!   than four triangles repeats its first triangle in the unused lanes (duplicate hits are
+//!   harmless: same triangle, same `t`).
+//!
+//! Build: top-down binned SAH (32 bins on all three axes; cost counted in 4-triangle blocks, as
+//! in Embree's BVH4 builder). A BVH4 node is formed by repeatedly splitting the child with the
+//! largest surface area until it has four children (the usual "collapse a BVH2" rule, done during
+//! the build). Leaves hold at most [`MAX_LEAF_TRIS`] triangles. Below depth [`MAX_SAH_DEPTH`] the
+//! builder switches to object-median splits, which bounds the tree depth (and so the fixed
+//! traversal stack) for any input. Subtrees with many triangles are built in parallel (rayon).
+//!
+//! Traversal: ordered (nearest child first, farther ones pushed with their entry distance and
+//! culled on pop once a closer hit is known). Box tests are conservative like Embree's robust
+//! mode (entry distance scaled by `1 - 3 ulp`, exit by `1 + 3 ulp`).
+//!
+//! Triangle test: the watertight algorithm of Woop, Benthin & Wald (JCGT 2013): vertices are
+//! translated to the ray origin and sheared so that the ray becomes the +z axis of a permuted
+//! frame (`kz` = largest |direction| component); the 2D edge functions
+//! `U = Cx*By - Cy*Bx`, `V = Ax*Cy - Ay*Cx`, `W = Bx*Ay - By*Ax` are exactly antisymmetric per
+//! edge and are recomputed in f64 when one is exactly zero, so no ray passes between triangles
+//! sharing an edge or a vertex. `(U, V, W) / (U + V + W)` are the weights of `(p0, p1, p2)`,
+//! hence octolux's `u = V / det`, `v = W / det`; `t = (U Az + V Bz + W Cz) / det`.
+
+use super::TriHit;
+use crate::math::Ray;
+use glam::{Vec3, Vec3A, Vec4};
+use rayon::prelude::*;
+use std::mem::MaybeUninit;
+
+/// Most triangles in one leaf (4 blocks of 4).
+pub const MAX_LEAF_TRIS: usize = 16;
+/// Below this depth (in BVH4 levels) the builder uses SAH; deeper it splits at object medians.
+pub const MAX_SAH_DEPTH: usize = 24;
+/// Traversal stack entries: 3 per level is the bound for ordered traversal of a 4-wide tree
+/// (`MAX_SAH_DEPTH` SAH levels plus at most 16 median levels for < 2^32 triangles).
+const STACK_SIZE: usize = 3 * (MAX_SAH_DEPTH + 17) + 1;
+const LEAF_BIT: u32 = 1 << 31;
+const EMPTY: u32 = u32::MAX;
+const NUM_BINS: usize = 32;
+/// Ranges larger than this build their children in parallel.
+const PAR_THRESHOLD: usize = 8192;
+/// SAH traversal cost of one BVH2-level split, relative to intersecting one 4-triangle block.
+const TRAV_COST: f32 = 0.5;
+/// Conservative box-test factors (3 ulp), as Embree's robust traversal.
+const NEAR_SCALE: f32 = 1.0 - 3.0 * f32::EPSILON * 0.5;
+const FAR_SCALE: f32 = 1.0 + 3.0 * f32::EPSILON * 0.5;
+
+/// Four child boxes (SoA) and their child words.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug)]
+struct Node4 {
+    /// `[min_x, max_x, min_y, max_y, min_z, max_z]`, one lane per child.
+    b: [Vec4; 6],
+    child: [u32; 4],
+}
+
+impl Node4 {
+    const EMPTY: Node4 = Node4 {
+        b: [
+            Vec4::splat(f32::INFINITY),
+            Vec4::splat(f32::NEG_INFINITY),
+            Vec4::splat(f32::INFINITY),
+            Vec4::splat(f32::NEG_INFINITY),
+            Vec4::splat(f32::INFINITY),
+            Vec4::splat(f32::NEG_INFINITY),
+        ],
+        child: [EMPTY; 4],
+    };
+
+    fn set_child(&mut self, k: usize, b: &Aabb, word: u32) {
+        let (lo, hi) = (b.lo.to_array(), b.hi.to_array());
+        for axis in 0..3 {
+            self.b[2 * axis][k] = lo[axis];
+            self.b[2 * axis + 1][k] = hi[axis];
+        }
+        self.child[k] = word;
+    }
+}
+
+/// Four triangles (SoA): vertices `p[vertex][axis]` and original triangle indices.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug)]
+struct Tri4 {
+    p: [[Vec4; 3]; 3],
+    prim: [u32; 4],
+}
+
+/// Axis-aligned box used by the builder.
+#[derive(Clone, Copy, Debug)]
+struct Aabb {
+    lo: Vec3A,
+    hi: Vec3A,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb { lo: Vec3A::splat(f32::INFINITY), hi: Vec3A::splat(f32::NEG_INFINITY) };
+    #[inline]
+    fn grow(&mut self, o: &Aabb) {
+        self.lo = self.lo.min(o.lo);
+        self.hi = self.hi.max(o.hi);
+    }
+    #[inline]
+    fn grow_point(&mut self, p: Vec3A) {
+        self.lo = self.lo.min(p);
+        self.hi = self.hi.max(p);
+    }
+    /// Half the surface area (0 for empty boxes).
+    #[inline]
+    fn half_area(&self) -> f32 {
+        let d = (self.hi - self.lo).max(Vec3A::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+}
+
+/// Triangle reference during the build: bounds and original index.
+#[derive(Clone, Copy, Debug)]
+struct PrimRef {
+    lo: Vec3A,
+    hi: Vec3A,
+    idx: u32,
+}
+
+impl PrimRef {
+    /// Twice the box centre (saves a multiply; only relative positions matter).
+    #[inline]
+    fn c2(&self) -> Vec3A {
+        self.lo + self.hi
+    }
+}
+
+/// The 4-wide BVH.
+#[derive(Debug, Default)]
+pub struct Bvh4 {
+    nodes: Vec<Node4>,
+    tris: Vec<Tri4>,
+}
+
+/// Per-ray constants for the traversal.
+struct RayData {
+    o: [Vec4; 3],
+    inv: [Vec4; 3],
+    /// Index into `Node4::b` of the near plane per axis (`2*axis` or `2*axis + 1`).
+    near: [usize; 3],
+    /// Permuted axes of the watertight triangle test (`kz`: largest |direction| component).
+    k: [usize; 3],
+    /// Shear constants `(Sx, Sy, Sz)`, splatted.
+    shear: [Vec4; 3],
+    tmin: f32,
+}
+
+impl RayData {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        let d = ray.d.to_array();
+        let o = ray.o.to_array();
+        // Tiny components become ±1e-18 (as Embree's rcp_safe) so that no NaN arises from 0*inf.
+        let inv = d.map(|x| 1.0 / if x.abs() < 1e-18 { 1e-18f32.copysign(x) } else { x });
+        let a = ray.d.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let shear = [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]].map(Vec4::splat);
+        RayData {
+            o: o.map(Vec4::splat),
+            inv: inv.map(Vec4::splat),
+            near: [usize::from(inv[0] < 0.0), 2 + usize::from(inv[1] < 0.0), 4 + usize::from(inv[2] < 0.0)],
+            k: [kx, ky, kz],
+            shear,
+            tmin: ray.tmin,
+        }
+    }
+
+    /// Slab test against the four child boxes; returns the hit mask and the entry distances.
+    #[inline(always)]
+    fn hit_node(&self, n: &Node4, tmax: f32) -> (u32, Vec4) {
+        let [nx, ny, nz] = self.near;
+        let tnx = (n.b[nx] - self.o[0]) * self.inv[0];
+        let tny = (n.b[ny] - self.o[1]) * self.inv[1];
+        let tnz = (n.b[nz] - self.o[2]) * self.inv[2];
+        let tfx = (n.b[nx ^ 1] - self.o[0]) * self.inv[0];
+        let tfy = (n.b[ny ^ 1] - self.o[1]) * self.inv[1];
+        let tfz = (n.b[nz ^ 1] - self.o[2]) * self.inv[2];
+        let tn = tnx.max(tny).max(tnz.max(Vec4::splat(self.tmin))) * NEAR_SCALE;
+        let tf = tfx.min(tfy).min(tfz.min(Vec4::splat(tmax))) * FAR_SCALE;
+        (tn.cmple(tf).bitmask(), tn)
+    }
+
+    /// Intersect four triangles: returns the lane mask of hits with `t` in `[tmin, tmax]`,
+    /// `t`, and the unnormalised weights `V`, `W` of `p1`, `p2` with their sum `det`.
+    #[inline(always)]
+    fn hit_tri4(&self, tri: &Tri4, tmax: f32) -> (u32, Vec4, Vec4, Vec4, Vec4) {
+        let [kx, ky, kz] = self.k;
+        let [sx, sy, sz] = self.shear;
+        // Vertex i relative to the origin, sheared: (x, y) in the ray's 2D frame, z along it.
+        let project = |p: &[Vec4; 3]| {
+            let z = p[kz] - self.o[kz];
+            (p[kx] - self.o[kx] - sx * z, p[ky] - self.o[ky] - sy * z, z)
+        };
+        let (ax, ay, az) = project(&tri.p[0]);
+        let (bx, by, bz) = project(&tri.p[1]);
+        let (cx, cy, cz) = project(&tri.p[2]);
+        let mut u = cx * by - cy * bx;
+        let mut v = ax * cy - ay * cx;
+        let mut w = bx * ay - by * ax;
+        let zero = Vec4::ZERO;
+        let mut exact_zero = (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask();
+        if exact_zero != 0 {
+            // Recompute those lanes in f64, where the products are exact (Woop et al. §4).
+            let (ax, ay, bx, by, cx, cy) = (ax.to_array(), ay.to_array(), bx.to_array(), by.to_array(), cx.to_array(), cy.to_array());
+            let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
+            while exact_zero != 0 {
+                let l = exact_zero.trailing_zeros() as usize;
+                exact_zero &= exact_zero - 1;
+                let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+                ua[l] = f(cx[l], by[l], cy[l], bx[l]);
+                va[l] = f(ax[l], cy[l], ay[l], cx[l]);
+                wa[l] = f(bx[l], ay[l], by[l], ax[l]);
+            }
+            (u, v, w) = (Vec4::from_array(ua), Vec4::from_array(va), Vec4::from_array(wa));
+        }
+        let neg = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
+        let pos = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
+        let inside = !(neg & pos).bitmask() & 0xf;
+        if inside == 0 {
+            return (0, zero, zero, zero, zero);
+        }
+        let det = u + v + w;
+        let t = (u * (sz * az) + v * (sz * bz) + w * (sz * cz)) / det;
+        // NaN `t` (det == 0) fails both comparisons.
+        let valid = t.cmpge(Vec4::splat(self.tmin)) & t.cmple(Vec4::splat(tmax)) & det.cmpne(zero);
+        (inside & valid.bitmask(), t, v, w, det)
+    }
+}
+
+/// Fixed-size traversal stack entry.
+#[derive(Clone, Copy)]
+struct StackItem {
+    node: u32,
+    t: f32,
+}
+
+impl Bvh4 {
+    /// Build from validated input (every index `< vertices.len()`, finite vertices).
+    pub fn build(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Bvh4 {
+        if triangles.is_empty() {
+            return Bvh4::default();
+        }
+        let mut prims: Vec<PrimRef> = triangles
+            .par_iter()
+            .enumerate()
+            .map(|(i, t)| {
+                let (a, b, c) = (Vec3A::from(vertices[t[0] as usize]), Vec3A::from(vertices[t[1] as usize]), Vec3A::from(vertices[t[2] as usize]));
+                PrimRef { lo: a.min(b).min(c), hi: a.max(b).max(c), idx: i as u32 }
+            })
+            .collect();
+        let (bounds, cbounds) = range_bounds(&prims);
+        let root = build_inner(&mut prims, 0, bounds, cbounds, 0);
+        let mut bvh = Bvh4 { nodes: Vec::new(), tris: Vec::with_capacity(triangles.len() / 3) };
+        bvh.flatten(&root, &prims, vertices, triangles);
+        bvh.nodes.shrink_to_fit();
+        bvh.tris.shrink_to_fit();
+        bvh
+    }
+
+    /// Number of BVH4 nodes and 4-triangle blocks (for stats and tests).
+    pub fn counts(&self) -> (usize, usize) {
+        (self.nodes.len(), self.tris.len())
+    }
+
+    fn flatten(&mut self, node: &BuildNode, prims: &[PrimRef], vertices: &[Vec3], triangles: &[[u32; 3]]) -> u32 {
+        let BuildNode::Inner(children) = node else {
+            unreachable!("flatten is called on inner nodes only");
+        };
+        let idx = self.nodes.len();
+        self.nodes.push(Node4::EMPTY);
+        for (k, (bounds, child)) in children.iter().enumerate() {
+            let word = match child {
+                BuildNode::Leaf { start, count } => {
+                    let first = self.tris.len() as u32;
+                    for chunk in prims[*start..start + count].chunks(4) {
+                        self.tris.push(make_tri4(chunk, vertices, triangles));
+                    }
+                    let nblocks = count.div_ceil(4) as u32;
+                    LEAF_BIT | (first << 3) | (nblocks - 1)
+                }
+                BuildNode::Inner(_) => self.flatten(child, prims, vertices, triangles),
+            };
+            self.nodes[idx].set_child(k, bounds, word);
+        }
+        idx as u32
+    }
+
+    /// Closest hit with `t` in `[ray.tmin, ray.tmax]`.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<TriHit> {
+        if self.nodes.is_empty() || !(ray.tmin <= ray.tmax) {
+            return None;
+        }
+        let r = RayData::new(ray);
+        let mut tmax = ray.tmax;
+        let mut hit: Option<TriHit> = None;
+        let mut stack = [MaybeUninit::<StackItem>::uninit(); STACK_SIZE];
+        let mut sp = 0usize;
+        let mut cur = 0u32;
+        loop {
+            if cur & LEAF_BIT == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mask, tn) = r.hit_node(node, tmax);
+                if mask != 0 {
+                    if mask & (mask - 1) == 0 {
+                        cur = node.child[mask.trailing_zeros() as usize];
+                        continue;
+                    }
+                    cur = push_sorted(node, mask, tn, &mut stack, &mut sp);
+                    continue;
+                }
+            } else {
+                let first = ((cur & !LEAF_BIT) >> 3) as usize;
+                let count = (cur & 7) as usize + 1;
+                for tri in &self.tris[first..first + count] {
+                    let (mask, t, u, v, s) = r.hit_tri4(tri, tmax);
+                    if mask != 0 {
+                        let ta = t.to_array();
+                        let mut lane = mask.trailing_zeros() as usize;
+                        let mut m = mask & (mask - 1);
+                        while m != 0 {
+                            let l = m.trailing_zeros() as usize;
+                            if ta[l] < ta[lane] {
+                                lane = l;
+                            }
+                            m &= m - 1;
+                        }
+                        tmax = ta[lane];
+                        let (u, v, s) = (u.to_array()[lane], v.to_array()[lane], s.to_array()[lane]);
+                        hit = Some(TriHit { t: tmax, prim: tri.prim[lane], u: u / s, v: v / s });
+                    }
+                }
+            }
+            // Pop the next subtree that may still hold a closer hit.
+            loop {
+                if sp == 0 {
+                    return hit;
+                }
+                sp -= 1;
+                // SAFETY: entries below `sp` were written by `push_sorted`.
+                let it = unsafe { stack[sp].assume_init() };
+                if it.t <= tmax {
+                    cur = it.node;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Whether any triangle is hit with `t` in `[ray.tmin, ray.tmax]`.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        if self.nodes.is_empty() || !(ray.tmin <= ray.tmax) {
+            return false;
+        }
+        let r = RayData::new(ray);
+        let tmax = ray.tmax;
+        let mut stack = [MaybeUninit::<StackItem>::uninit(); STACK_SIZE];
+        let mut sp = 0usize;
+        let mut cur = 0u32;
+        loop {
+            if cur & LEAF_BIT == 0 {
+                let node = &self.nodes[cur as usize];
+                let (mask, tn) = r.hit_node(node, tmax);
+                if mask != 0 {
+                    if mask & (mask - 1) == 0 {
+                        cur = node.child[mask.trailing_zeros() as usize];
+                        continue;
+                    }
+                    cur = push_sorted(node, mask, tn, &mut stack, &mut sp);
+                    continue;
+                }
+            } else {
+                let first = ((cur & !LEAF_BIT) >> 3) as usize;
+                let count = (cur & 7) as usize + 1;
+                for tri in &self.tris[first..first + count] {
+                    if r.hit_tri4(tri, tmax).0 != 0 {
+                        return true;
+                    }
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            // SAFETY: entries below `sp` were written by `push_sorted`.
+            cur = unsafe { stack[sp].assume_init() }.node;
+        }
+    }
+}
+
+/// Order the hit children (2 to 4) by entry distance, push all but the nearest (farthest
+/// first) and return the nearest.
+#[inline(always)]
+fn push_sorted(node: &Node4, mask: u32, tn: Vec4, stack: &mut [MaybeUninit<StackItem>; STACK_SIZE], sp: &mut usize) -> u32 {
+    let ta = tn.to_array();
+    let mut items = [StackItem { node: 0, t: 0.0 }; 4];
+    let mut n = 0;
+    let mut m = mask;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        // Insertion sort, descending by t.
+        let it = StackItem { node: node.child[k], t: ta[k] };
+        let mut j = n;
+        while j > 0 && items[j - 1].t < it.t {
+            items[j] = items[j - 1];
+            j -= 1;
+        }
+        items[j] = it;
+        n += 1;
+    }
+    for it in &items[..n - 1] {
+        stack[*sp].write(*it);
+        *sp += 1;
+    }
+    items[n - 1].node
+}
+
+fn make_tri4(chunk: &[PrimRef], vertices: &[Vec3], triangles: &[[u32; 3]]) -> Tri4 {
+    let mut t = Tri4 { p: [[Vec4::ZERO; 3]; 3], prim: [0; 4] };
+    for lane in 0..4 {
+        let pr = &chunk[if lane < chunk.len() { lane } else { 0 }];
+        let tri = triangles[pr.idx as usize];
+        for (k, &vi) in tri.iter().enumerate() {
+            let pk = vertices[vi as usize];
+            t.p[k][0][lane] = pk.x;
+            t.p[k][1][lane] = pk.y;
+            t.p[k][2][lane] = pk.z;
+        }
+        t.prim[lane] = pr.idx;
+    }
+    t
+}
+
+// ------------------------------------------------------------------------------------------
+// Builder
+// ------------------------------------------------------------------------------------------
+
+/// Intermediate tree produced by the (parallel) builder and flattened afterwards.
+enum BuildNode {
+    Inner(Vec<(Aabb, BuildNode)>),
+    /// `start` is a global index into the reordered `PrimRef` array.
+    Leaf { start: usize, count: usize },
+}
+
+/// How to split a range.
+#[derive(Clone, Copy, Debug)]
+enum SplitPlan {
+    /// Primitives whose centroid bin on `axis` is `<= bin` go left.
+    Sah { axis: usize, bin: usize, origin: f32, scale: f32 },
+    /// Object median along `axis`.
+    Median { axis: usize },
+}
+
+/// A child candidate while forming one BVH4 node. `start`/`end` are local to the node's slice.
+struct Cand {
+    start: usize,
+    end: usize,
+    bounds: Aabb,
+    cbounds: Aabb,
+    /// `None`: make a leaf.
+    plan: Option<SplitPlan>,
+}
+
+fn range_bounds(prims: &[PrimRef]) -> (Aabb, Aabb) {
+    let mut b = Aabb::EMPTY;
+    let mut c = Aabb::EMPTY;
+    for p in prims {
+        b.grow(&Aabb { lo: p.lo, hi: p.hi });
+        c.grow_point(p.c2());
+    }
+    (b, c)
+}
+
+#[inline]
+fn blocks(n: usize) -> f32 {
+    n.div_ceil(4) as f32
+}
+
+/// Decide leaf vs split for a range and, for a split, how.
+fn plan(prims: &[PrimRef], bounds: &Aabb, cbounds: &Aabb, depth: usize) -> Option<SplitPlan> {
+    let n = prims.len();
+    if n <= 4 {
+        return None;
+    }
+    let ext = cbounds.hi - cbounds.lo;
+    let axis_largest = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    if ext.max_element() <= 0.0 {
+        // All centroids coincide: no spatial split separates them.
+        return (n > MAX_LEAF_TRIS).then_some(SplitPlan::Median { axis: axis_largest });
+    }
+    if depth >= MAX_SAH_DEPTH {
+        return Some(SplitPlan::Median { axis: axis_largest });
+    }
+    // Binning on all three axes.
+    let mut bin_b = [[Aabb::EMPTY; NUM_BINS]; 3];
+    let mut bin_n = [[0u32; NUM_BINS]; 3];
+    let scale = Vec3A::select(ext.cmpgt(Vec3A::ZERO), (NUM_BINS as f32 * (1.0 - 1e-6)) / ext, Vec3A::ZERO);
+    let origin = cbounds.lo;
+    for p in prims {
+        let bi = ((p.c2() - origin) * scale).as_uvec3().min(glam::UVec3::splat(NUM_BINS as u32 - 1));
+        let pb = Aabb { lo: p.lo, hi: p.hi };
+        for axis in 0..3 {
+            let k = bi[axis] as usize;
+            bin_b[axis][k].grow(&pb);
+            bin_n[axis][k] += 1;
+        }
+    }
+    let mut best = (f32::INFINITY, 0usize, 0usize);
+    for axis in 0..3 {
+        if scale[axis] == 0.0 {
+            continue;
+        }
+        // Right-to-left sweep: cost of the right part for a split after bin k.
+        let mut right_cost = [0.0f32; NUM_BINS];
+        let mut acc = Aabb::EMPTY;
+        let mut cnt = 0usize;
+        for k in (1..NUM_BINS).rev() {
+            acc.grow(&bin_b[axis][k]);
+            cnt += bin_n[axis][k] as usize;
+            right_cost[k - 1] = acc.half_area() * blocks(cnt);
+        }
+        let mut acc = Aabb::EMPTY;
+        let mut cnt = 0usize;
+        for k in 0..NUM_BINS - 1 {
+            acc.grow(&bin_b[axis][k]);
+            cnt += bin_n[axis][k] as usize;
+            if cnt == 0 || cnt == n {
+                continue;
+            }
+            let c = acc.half_area() * blocks(cnt) + right_cost[k];
+            if c < best.0 {
+                best = (c, axis, k);
+            }
+        }
+    }
+    let area = bounds.half_area().max(f32::MIN_POSITIVE);
+    if !best.0.is_finite() {
+        return (n > MAX_LEAF_TRIS).then_some(SplitPlan::Median { axis: axis_largest });
+    }
+    let split_cost = TRAV_COST + best.0 / area;
+    let leaf_cost = blocks(n);
+    if n <= MAX_LEAF_TRIS && leaf_cost <= split_cost {
+        return None;
+    }
+    let (_, axis, bin) = best;
+    Some(SplitPlan::Sah { axis, bin, origin: origin[axis], scale: scale[axis] })
+}
+
+/// Partition `prims` by `plan`; returns the size of the left part (always in `1..len`).
+fn partition(prims: &mut [PrimRef], plan: SplitPlan) -> usize {
+    let n = prims.len();
+    match plan {
+        SplitPlan::Sah { axis, bin, origin, scale } => {
+            let left = |p: &PrimRef| (((p.c2()[axis] - origin) * scale) as usize).min(NUM_BINS - 1) <= bin;
+            let (mut i, mut j) = (0usize, n);
+            while i < j {
+                if left(&prims[i]) {
+                    i += 1;
+                } else {
+                    j -= 1;
+                    prims.swap(i, j);
+                }
+            }
+            if i == 0 || i == n {
+                // Cannot happen with counts from the same binning, but stay safe.
+                return partition(prims, SplitPlan::Median { axis });
+            }
+            i
+        }
+        SplitPlan::Median { axis } => {
+            let mid = n / 2;
+            prims.select_nth_unstable_by(mid, |a, b| a.c2()[axis].total_cmp(&b.c2()[axis]));
+            mid
+        }
+    }
+}
+
+/// Build one BVH4 node over `prims` (which start at global index `offset`).
+fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb, depth: usize) -> BuildNode {
+    let root_plan = plan(prims, &bounds, &cbounds, depth);
+    let mut cands = vec![Cand { start: 0, end: prims.len(), bounds, cbounds, plan: root_plan }];
+    while cands.len() < 4 {
+        // Split the splittable candidate with the largest surface area.
+        let Some(k) = (0..cands.len())
+            .filter(|&k| cands[k].plan.is_some())
+            .max_by(|&a, &b| cands[a].bounds.half_area().total_cmp(&cands[b].bounds.half_area()))
+        else {
+            break;
+        };
+        let c = &cands[k];
+        let (s, e) = (c.start, c.end);
+        let Some(p) = c.plan else { break };
+        let m = s + partition(&mut prims[s..e], p);
+        let (lb, lc) = range_bounds(&prims[s..m]);
+        let (rb, rc) = range_bounds(&prims[m..e]);
+        let lp = plan(&prims[s..m], &lb, &lc, depth);
+        let rp = plan(&prims[m..e], &rb, &rc, depth);
+        cands[k] = Cand { start: s, end: m, bounds: lb, cbounds: lc, plan: lp };
+        cands.insert(k + 1, Cand { start: m, end: e, bounds: rb, cbounds: rc, plan: rp });
+    }
+    // Children in order; split the slice into disjoint parts for (parallel) recursion.
+    let mut parts: Vec<(&Cand, &mut [PrimRef])> = Vec::with_capacity(cands.len());
+    let mut rest: &mut [PrimRef] = prims;
+    for c in &cands {
+        let (a, b) = std::mem::take(&mut rest).split_at_mut(c.end - c.start);
+        parts.push((c, a));
+        rest = b;
+    }
+    let make = |(c, slice): (&Cand, &mut [PrimRef])| -> (Aabb, BuildNode) {
+        let node = if c.plan.is_none() {
+            BuildNode::Leaf { start: offset + c.start, count: c.end - c.start }
+        } else {
+            build_inner(slice, offset + c.start, c.bounds, c.cbounds, depth + 1)
+        };
+        (c.bounds, node)
+    };
+    let children: Vec<(Aabb, BuildNode)> =
+        if prims_len(&parts) > PAR_THRESHOLD { parts.into_par_iter().map(make).collect() } else { parts.into_iter().map(make).collect() };
+    BuildNode::Inner(children)
+}
+
+fn prims_len(parts: &[(&Cand, &mut [PrimRef])]) -> usize {
+    parts.iter().map(|(_, s)| s.len()).sum()
+}

@@ -1,0 +1,510 @@
+//! Octree construction (paper §3) and the per-leaf density estimates (§4, eq. 5.4).
+//!
+//! Steps, each deterministic whatever the thread count:
+//! 1. Morton keys of the photon positions at depth `h_max` (21 bits per axis at most),
+//!    packed with the photon index into one `u64` (`h_max ≤ 10`) or `u128`, and sorted in
+//!    parallel (the packed values are unique, so an unstable sort has one result).
+//! 2. Top-down subdivision over the sorted ranges: the children of a node are 8 contiguous
+//!    sub-ranges found by binary search on the next 3 key bits (sequential; the node count is
+//!    about `photons / n_max`).
+//! 3. For `Estimator::GeometryArea`: the triangles are filtered down the tree by bounding box
+//!    against the enlarged cells (an enlarged child lies inside its enlarged parent).
+//! 4. Per valid leaf, in parallel: gather the photons of the enlarged cell (own range plus the
+//!    neighbouring leaves met by the enlarged box, tested point by point unless the whole
+//!    neighbour lies inside), then sum the six matrices sequentially in f64.
+
+use super::compress::{compress_leaf, FullLeaf};
+use super::geometry::{lit_areas, projected_lit_area, OrientedArea};
+use super::query::TreeView;
+use super::settings::{Enlarge, Estimator, Storage, MAX_DEPTH};
+use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, LEAF_BIT, NO_VALUE};
+use crate::math::Bounds3;
+use crate::photon::Photon;
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Spread the low 21 bits of `v` to every third bit.
+#[inline]
+pub(super) fn spread_bits(v: u32) -> u64 {
+    let mut x = (v as u64) & 0x1f_ffff;
+    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+    x = (x | (x << 2)) & 0x1249_2492_4924_9249;
+    x
+}
+
+/// Morton key of integer cell coordinates: bit 0 of each triple is x, bit 1 y, bit 2 z.
+#[inline]
+pub(super) fn morton(q: [u32; 3]) -> u64 {
+    spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
+}
+
+/// Integer cell coordinates at depth `h` of a point inside the root cube (clamped to it).
+#[inline]
+pub(super) fn quantize(p: Vec3, origin: Vec3, inv_quant: f32, h: u32) -> [u32; 3] {
+    let max = (1u32 << h) - 1;
+    let q = (p - origin) * inv_quant;
+    // `as` saturates (negative and NaN give 0)
+    [(q.x as u32).min(max), (q.y as u32).min(max), (q.z as u32).min(max)]
+}
+
+/// The root cube of a box: same centre, edge = largest extent padded by 1e-5 (at least a
+/// small positive size for a flat or point-like box).
+fn cube_of(b: &Bounds3) -> Result<(Vec3, f32), OctreeError> {
+    if !b.min.is_finite() || !b.max.is_finite() {
+        return Err(OctreeError::InvalidBounds(format!("non-finite box {b:?}")));
+    }
+    if b.is_empty() {
+        return Err(OctreeError::InvalidBounds(format!("empty box {b:?}")));
+    }
+    let c = b.center();
+    let ext = b.extent().max_element();
+    let edge = (ext * (1.0 + 2e-5)).max(1e-5 * (1.0 + c.abs().max_element()));
+    if !edge.is_finite() {
+        return Err(OctreeError::InvalidBounds(format!("box too large {b:?}")));
+    }
+    Ok((c - Vec3::splat(0.5 * edge), edge))
+}
+
+/// Sorted Morton keys (at depth `h`) and the matching photon indices; photons with
+/// non-finite fields or outside the cube are left out.
+fn sorted_keys(photons: &[Photon], origin: Vec3, size: f32, inv_quant: f32, h: u32) -> (Vec<u64>, Vec<u32>) {
+    let hi = origin + Vec3::splat(size);
+    let key_of = move |ph: &Photon| -> Option<u64> {
+        if !ph.is_finite() || !ph.p.cmpge(origin).all() || !ph.p.cmple(hi).all() {
+            return None;
+        }
+        Some(morton(quantize(ph.p, origin, inv_quant, h)))
+    };
+    if 3 * h <= 32 {
+        let mut packed: Vec<u64> =
+            photons.par_iter().enumerate().filter_map(|(i, ph)| key_of(ph).map(|k| (k << 32) | i as u64)).collect();
+        packed.par_sort_unstable();
+        packed.par_iter().map(|&v| (v >> 32, v as u32)).unzip()
+    } else {
+        let mut packed: Vec<u128> =
+            photons.par_iter().enumerate().filter_map(|(i, ph)| key_of(ph).map(|k| ((k as u128) << 32) | i as u128)).collect();
+        packed.par_sort_unstable();
+        packed.par_iter().map(|&v| ((v >> 32) as u64, v as u32)).unzip()
+    }
+}
+
+/// A leaf during the build.
+#[derive(Clone, Copy, Debug)]
+struct LeafBuild {
+    node: u32,
+    /// Photon range `[lo, hi)` in the sorted order.
+    lo: u32,
+    hi: u32,
+    depth: u32,
+    ijk: [u32; 3],
+}
+
+struct TreeBuilder<'a> {
+    keys: &'a [u64],
+    h: u32,
+    n_max: usize,
+    n_min: usize,
+    respect_n_min: bool,
+    nodes: Vec<Node>,
+    /// Photon range start of every leaf node (build only).
+    start: Vec<u32>,
+    leaves: Vec<LeafBuild>,
+    valid: Vec<LeafBuild>,
+}
+
+impl TreeBuilder<'_> {
+    fn make_leaf(&mut self, id: usize, lo: usize, hi: usize, depth: u32, ijk: [u32; 3]) {
+        let leaf = LeafBuild { node: id as u32, lo: lo as u32, hi: hi as u32, depth, ijk };
+        self.start[id] = lo as u32;
+        self.leaves.push(leaf);
+        if hi > lo {
+            self.nodes[id].link = LEAF_BIT | self.valid.len() as u32;
+            self.valid.push(leaf);
+        } else {
+            self.nodes[id].link = LEAF_BIT | NO_VALUE;
+        }
+    }
+
+    fn node(&mut self, id: usize, lo: usize, hi: usize, depth: u32, ijk: [u32; 3]) {
+        let count = hi - lo;
+        self.nodes[id].photons = count as u32;
+        // hard cap on the node count (links are 31 bits): stop splitting near it
+        let room = self.nodes.len() + 8 < NO_VALUE as usize;
+        if count == 0 || count <= self.n_max || depth >= self.h || !room {
+            return self.make_leaf(id, lo, hi, depth, ijk);
+        }
+        let shift = 3 * (self.h - depth - 1);
+        let s = &self.keys[lo..hi];
+        let mut cut = [0usize; 9];
+        cut[8] = count;
+        for (c, cut_c) in cut.iter_mut().enumerate().take(8).skip(1) {
+            *cut_c = s.partition_point(|&k| ((k >> shift) & 7) < c as u64);
+        }
+        if self.respect_n_min && (0..8).any(|c| (1..self.n_min).contains(&(cut[c + 1] - cut[c]))) {
+            return self.make_leaf(id, lo, hi, depth, ijk);
+        }
+        let first = self.nodes.len();
+        self.nodes.resize(first + 8, Node { link: 0, photons: 0 });
+        self.start.resize(first + 8, 0);
+        self.nodes[id].link = first as u32;
+        for c in 0..8u32 {
+            let cijk = [2 * ijk[0] + (c & 1), 2 * ijk[1] + ((c >> 1) & 1), 2 * ijk[2] + ((c >> 2) & 1)];
+            self.node(first + c as usize, lo + cut[c as usize], lo + cut[c as usize + 1], depth + 1, cijk);
+        }
+    }
+}
+
+/// Per-leaf scratch buffers (one set per rayon job).
+#[derive(Default)]
+struct Scratch {
+    gathered: Vec<u32>,
+    pos: Vec<Vec3>,
+    ng: Vec<Vec3>,
+    areas: Vec<OrientedArea>,
+}
+
+/// Result of one leaf estimate.
+struct LeafEstimate {
+    m: FullLeaf,
+    gathered: u32,
+    fallback: bool,
+}
+
+struct EstimateCtx<'a> {
+    view: TreeView<'a>,
+    start: &'a [u32],
+    pos: &'a [Vec3],
+    sorted: &'a [Photon],
+    settings: &'a OctreeSettings,
+    triangles: &'a [[Vec3; 3]],
+    tri_lists: &'a [Vec<u32>],
+}
+
+impl EstimateCtx<'_> {
+    /// Box gathered by a leaf and whether it is enlarged.
+    fn gather_box(&self, leaf: &LeafBuild) -> (Bounds3, bool) {
+        let s = self.view.cell_size[leaf.depth as usize];
+        let cmin = self.view.cell_min(leaf.depth, leaf.ijk);
+        let eps = self.settings.epsilon;
+        let enlarged = eps > 0.0
+            && match self.settings.enlarge {
+                Enlarge::All => true,
+                Enlarge::UnderNMin => leaf.hi - leaf.lo < self.settings.n_min,
+            };
+        if enlarged {
+            let c = cmin + Vec3::splat(0.5 * s);
+            let half = Vec3::splat(0.5 * s * (1.0 + eps));
+            (Bounds3 { min: c - half, max: c + half }, true)
+        } else {
+            (Bounds3 { min: cmin, max: cmin + Vec3::splat(s) }, false)
+        }
+    }
+
+    fn gather(&self, leaf: &LeafBuild, ebox: &Bounds3, enlarged: bool, out: &mut Vec<u32>) {
+        out.clear();
+        out.extend(leaf.lo..leaf.hi);
+        if !enlarged {
+            return;
+        }
+        self.view.visit(ebox.min, ebox.max, |node, depth, ijk, _| {
+            let n = self.view.nodes[node as usize];
+            if node == leaf.node || n.photons == 0 {
+                return;
+            }
+            let lo = self.start[node as usize];
+            let hi = lo + n.photons;
+            let cmin = self.view.cell_min(depth, ijk);
+            let cmax = cmin + Vec3::splat(self.view.cell_size[depth as usize]);
+            if cmin.cmpge(ebox.min).all() && cmax.cmple(ebox.max).all() {
+                out.extend(lo..hi);
+            } else {
+                for i in lo..hi {
+                    let p = self.pos[i as usize];
+                    if p.cmpge(ebox.min).all() && p.cmplt(ebox.max).all() {
+                        out.push(i);
+                    }
+                }
+            }
+        });
+    }
+
+    fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch) -> LeafEstimate {
+        let (ebox, enlarged) = self.gather_box(leaf);
+        let mut gathered = std::mem::take(&mut sc.gathered);
+        self.gather(leaf, &ebox, enlarged, &mut gathered);
+        let edge = ebox.extent().x as f64;
+        let inv_da = 1.0 / (edge * edge);
+        let min_cos = self.settings.min_cos;
+        let mut estimator = self.settings.estimator;
+        let mut fallback = false;
+        let mut lit_total = 0.0f32;
+        if estimator == Estimator::GeometryArea {
+            sc.pos.clear();
+            sc.ng.clear();
+            for &i in &gathered {
+                sc.pos.push(self.pos[i as usize]);
+                sc.ng.push(self.sorted[i as usize].ng);
+            }
+            let ids = self.tri_lists.get(value).map(Vec::as_slice).unwrap_or(&[]);
+            lit_areas(self.triangles, ids, &ebox, &sc.pos, &sc.ng, &mut sc.areas);
+            lit_total = sc.areas.iter().map(|a| a.area).sum();
+            if !(lit_total > 0.0) {
+                estimator = Estimator::Cosine;
+                fallback = true;
+            }
+        }
+        let mut acc = [[0.0f64; 9]; 6];
+        for &i in &gathered {
+            let ph = &self.sorted[i as usize];
+            let w = ph.wi;
+            let wgt = match estimator {
+                Estimator::Paper => inv_da,
+                Estimator::Cosine => inv_da / w.dot(ph.ng).abs().max(min_cos) as f64,
+                Estimator::GeometryArea => 1.0 / projected_lit_area(&sc.areas, w).max(min_cos * lit_total) as f64,
+            };
+            let wd = [w.x as f64 * wgt, w.y as f64 * wgt, w.z as f64 * wgt];
+            let c = [ph.power.x as f64, ph.power.y as f64, ph.power.z as f64];
+            for a in 0..3 {
+                let k = if w[a] > 0.0 {
+                    2 * a
+                } else if w[a] < 0.0 {
+                    2 * a + 1
+                } else {
+                    continue;
+                };
+                let m = &mut acc[k];
+                for (j, cj) in c.iter().enumerate() {
+                    for (r, wr) in wd.iter().enumerate() {
+                        m[3 * j + r] += wr * cj;
+                    }
+                }
+            }
+        }
+        let n = gathered.len() as u32;
+        sc.gathered = gathered;
+        let mut m = [Mat3::ZERO; 6];
+        for (mk, ak) in m.iter_mut().zip(&acc) {
+            *mk = Mat3::from_cols_array(&ak.map(|v| v as f32));
+        }
+        LeafEstimate { m, gathered: n, fallback }
+    }
+}
+
+/// Triangle lists per valid leaf (by value index), filtered down the tree by bounding box
+/// against the `(1+ε)`-enlarged cells.
+fn distribute_triangles(view: &TreeView, tri_bounds: &[Bounds3], eps: f32, n_valid: usize) -> Vec<Vec<u32>> {
+    fn enlarged(view: &TreeView, depth: u32, ijk: [u32; 3], eps: f32) -> Bounds3 {
+        let s = view.cell_size[depth as usize];
+        let c = view.cell_min(depth, ijk) + Vec3::splat(0.5 * s);
+        let half = Vec3::splat(0.5 * s * (1.0 + eps));
+        Bounds3 { min: c - half, max: c + half }
+    }
+    fn overlaps(a: &Bounds3, b: &Bounds3) -> bool {
+        a.min.cmple(b.max).all() && b.min.cmple(a.max).all()
+    }
+    fn rec(
+        view: &TreeView,
+        tb: &[Bounds3],
+        eps: f32,
+        node: u32,
+        depth: u32,
+        ijk: [u32; 3],
+        ids: &[u32],
+    ) -> Vec<(u32, Vec<u32>)> {
+        let n = view.nodes[node as usize];
+        if n.is_leaf() {
+            return if n.value() != NO_VALUE { vec![(n.value(), ids.to_vec())] } else { Vec::new() };
+        }
+        let child = |c: u32| -> Vec<(u32, Vec<u32>)> {
+            let cijk = [2 * ijk[0] + (c & 1), 2 * ijk[1] + ((c >> 1) & 1), 2 * ijk[2] + ((c >> 2) & 1)];
+            let eb = enlarged(view, depth + 1, cijk, eps);
+            let sub: Vec<u32> = ids.iter().copied().filter(|&t| overlaps(&tb[t as usize], &eb)).collect();
+            if sub.is_empty() {
+                Vec::new()
+            } else {
+                rec(view, tb, eps, n.link + c, depth + 1, cijk, &sub)
+            }
+        };
+        if ids.len() > 2048 {
+            (0..8u32).into_par_iter().map(child).collect::<Vec<_>>().concat()
+        } else {
+            (0..8u32).flat_map(child).collect()
+        }
+    }
+    let root_box = enlarged(view, 0, [0; 3], eps);
+    let ids: Vec<u32> = (0..tri_bounds.len() as u32).filter(|&t| overlaps(&tri_bounds[t as usize], &root_box)).collect();
+    let mut lists = vec![Vec::new(); n_valid];
+    for (v, l) in rec(view, tri_bounds, eps, 0, 0, [0; 3], &ids) {
+        lists[v as usize] = l;
+    }
+    lists
+}
+
+pub(super) fn build(
+    photons: &[Photon],
+    bounds: Bounds3,
+    settings: &OctreeSettings,
+    geometry: Option<&[[Vec3; 3]]>,
+) -> Result<Octree, OctreeError> {
+    let t0 = Instant::now();
+    settings.validate()?;
+    if settings.estimator == Estimator::GeometryArea && geometry.is_none() {
+        return Err(OctreeError::MissingGeometry);
+    }
+    if photons.len() > u32::MAX as usize {
+        return Err(OctreeError::TooManyPhotons(photons.len()));
+    }
+    let (origin, size) = cube_of(&bounds)?;
+    let h = settings.h_max;
+    let inv_quant = ((1u64 << h) as f64 / size as f64) as f32;
+    let mut cell_size = [0.0f32; MAX_DEPTH as usize + 1];
+    for (d, cs) in cell_size.iter_mut().enumerate() {
+        *cs = size / (1u64 << d) as f32;
+    }
+
+    // 1. keys
+    let (keys, idx) = sorted_keys(photons, origin, size, inv_quant, h);
+
+    // 2. subdivision
+    let mut tb = TreeBuilder {
+        keys: &keys,
+        h,
+        n_max: settings.n_max as usize,
+        n_min: settings.n_min as usize,
+        respect_n_min: settings.split_respects_n_min,
+        nodes: vec![Node { link: 0, photons: 0 }],
+        start: vec![0],
+        leaves: Vec::new(),
+        valid: Vec::new(),
+    };
+    tb.node(0, 0, keys.len(), 0, [0; 3]);
+    let TreeBuilder { nodes, start, leaves, valid, .. } = tb;
+    drop(keys);
+
+    // sorted photon data
+    let sorted: Vec<Photon> = idx.par_iter().map(|&i| photons[i as usize]).collect();
+    let pos: Vec<Vec3> = sorted.par_iter().map(|ph| ph.p).collect();
+    drop(idx);
+
+    let view = TreeView { nodes: &nodes, origin, cell_size: &cell_size };
+
+    // 3. geometry
+    let triangles: &[[Vec3; 3]] = match settings.estimator {
+        Estimator::GeometryArea => geometry.unwrap_or(&[]),
+        _ => &[],
+    };
+    let tri_lists = if triangles.is_empty() {
+        Vec::new()
+    } else {
+        let tri_bounds: Vec<Bounds3> = triangles
+            .par_iter()
+            .map(|t| {
+                if t.iter().all(|v| v.is_finite()) {
+                    let mut b = Bounds3::EMPTY;
+                    t.iter().for_each(|&v| b.extend(v));
+                    b
+                } else {
+                    Bounds3::EMPTY // never overlaps
+                }
+            })
+            .collect();
+        distribute_triangles(&view, &tri_bounds, settings.epsilon, valid.len())
+    };
+
+    // 4. estimates
+    let ctx = EstimateCtx { view, start: &start, pos: &pos, sorted: &sorted, settings, triangles, tri_lists: &tri_lists };
+    let est: Vec<LeafEstimate> =
+        valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
+    let values = match settings.storage {
+        Storage::Compressed => LeafValues::Compressed(est.par_iter().map(|e| compress_leaf(&e.m)).collect()),
+        Storage::Full => LeafValues::Full(est.iter().map(|e| e.m).collect()),
+    };
+
+    // statistics
+    let max_depth = leaves.iter().map(|l| l.depth).max().unwrap_or(0);
+    let min_leaf_size = cell_size[max_depth as usize];
+    let mut depth_histogram = vec![0u32; h as usize + 1];
+    let (mut own, mut gath, mut cells) = (0.0f64, 0.0f64, 0.0f64);
+    for (l, e) in valid.iter().zip(&est) {
+        depth_histogram[l.depth as usize] += 1;
+        own += (l.hi - l.lo) as f64;
+        gath += e.gathered as f64;
+        cells += cell_size[l.depth as usize] as f64;
+    }
+    let nv = valid.len();
+    let mean = |s: f64| if nv > 0 { s / nv as f64 } else { 0.0 };
+    let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes();
+    let stats = OctreeStats {
+        t_build_s: 0.0,
+        bytes,
+        bytes_per_valid_leaf: if nv > 0 { bytes as f64 / nv as f64 } else { 0.0 },
+        leaves: leaves.len(),
+        valid_leaves: nv,
+        mean_photons_per_leaf: mean(own),
+        mean_gathered_photons: mean(gath),
+        mean_cell_size: mean(cells),
+        depth_histogram,
+        photons: sorted.len(),
+        photons_dropped: photons.len() - sorted.len(),
+        nodes: nodes.len(),
+        max_depth,
+        min_leaf_size,
+        geometry_fallback_leaves: est.iter().filter(|e| e.fallback).count(),
+    };
+    let mut tree = Octree {
+        origin,
+        size,
+        cell_size,
+        inv_quant,
+        h_max: h,
+        nodes,
+        values,
+        query_half: 0.5 * settings.alpha * min_leaf_size,
+        settings: settings.clone(),
+        stats,
+    };
+    tree.stats.t_build_s = t0.elapsed().as_secs_f64();
+    Ok(tree)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn morton_matches_a_bit_loop() {
+        let naive = |q: [u32; 3]| {
+            let mut k = 0u64;
+            for b in 0..21 {
+                for (a, qa) in q.iter().enumerate() {
+                    k |= (((qa >> b) & 1) as u64) << (3 * b + a);
+                }
+            }
+            k
+        };
+        let mut s = crate::sampling::Sampler::new(1, 2, 3);
+        for _ in 0..10_000 {
+            let q = [s.next_u32() & 0x1f_ffff, s.next_u32() & 0x1f_ffff, s.next_u32() & 0x1f_ffff];
+            assert_eq!(morton(q), naive(q));
+        }
+        assert_eq!(morton([0x1f_ffff; 3]), (1u64 << 63) - 1);
+    }
+
+    #[test]
+    fn cube_is_centred_and_covers_the_box() {
+        let b = Bounds3 { min: Vec3::new(-1.0, 0.0, 2.0), max: Vec3::new(3.0, 1.0, 2.5) };
+        let (o, s) = cube_of(&b).unwrap();
+        assert!(s >= 4.0 && s < 4.001);
+        assert!(o.cmple(b.min).all() && (o + Vec3::splat(s)).cmpge(b.max).all());
+        assert!(((o + Vec3::splat(0.5 * s)) - b.center()).length() < 1e-5);
+        // a point gives a small cube, an empty or NaN box an error
+        let p = Bounds3 { min: Vec3::ONE, max: Vec3::ONE };
+        assert!(cube_of(&p).unwrap().1 > 0.0);
+        assert!(cube_of(&Bounds3::EMPTY).is_err());
+        assert!(cube_of(&Bounds3 { min: Vec3::ZERO, max: Vec3::new(f32::NAN, 1.0, 1.0) }).is_err());
+    }
+}

@@ -1,0 +1,236 @@
+//! The photon-built octree of incident radiance (Pacanowski, Granier & Schlick, AFIG 2005,
+//! §3–§7 of the paper; `/work/shared/paper/METHOD.md` §3–§7).
+//!
+//! # Structure (§3)
+//! A cubic octree over the photon hit positions. A cell with more than `n_max` photons is
+//! split until `h_max`; a leaf with photons is *valid* and holds six 3x3 matrices, one per
+//! axis normal `+X, −X, +Y, −Y, +Z, −Z`; a leaf without photons is *atmospheric* and holds
+//! nothing. Each leaf gathers the photons of its cell enlarged by `1+ε` (same centre).
+//! Invariants: every kept photon belongs to exactly one leaf (cells are half-open
+//! `[min, max)` through the Morton quantisation); a leaf holds more than `n_max` photons only
+//! at depth `h_max` (or when `split_respects_n_min` refused the split).
+//!
+//! Build: Morton keys at depth `h_max`, a parallel sort of `(key, index)` (unique, hence
+//! deterministic), a top-down split over the sorted ranges, then the per-leaf estimates in
+//! parallel (each leaf sums its photons sequentially in sorted order, in f64): the result is
+//! bit-identical for any thread count.
+//!
+//! # What a matrix estimates (§4, eq. 5.1–5.4)
+//! Arvo's irradiance vector `M(x) = ∫ L(x,w) w dω`, one column per colour channel (rows x,
+//! y, z; columns r, g, b), gives the irradiance on a surface of normal `N` as `E = Mᵀ N`.
+//! The matrix of normal `±N_a` sums only photons with `±w_a > 0`, so it estimates the
+//! irradiance vector of the hemisphere around `±N_a`.
+//!
+//! Photons as a flux sample. Take a surface piece of area `A` and normal `n` in the gathering
+//! box, incident radiance `L(w)` constant over the box. The photons landing on it sample the
+//! incident flux, so for any weight `g`:
+//! `E[Σ_p Φ_p g(w_p)] = ∫_A ∫_{H(n)} L(w) (n·w) g(w) dω dA = A ∫_H L(w) cosθ g(w) dω`.
+//! - `g(w) = w / (A cos θ)` gives exactly `∫_H L(w) w dω`: hence
+//!   **`M ≈ Σ_p Φ_p w_p / (A cos θ_p)`** estimates the irradiance vector on the surface.
+//! - The paper's `g(w) = w / ΔA` ([`Estimator::Paper`], eq. 5.4) estimates instead
+//!   `(A/ΔA) ∫_H L(w) cosθ w dω`, with two biases: (i) an extra `cos θ`: the normal
+//!   irradiance comes out as `(A/ΔA) ∫ L cos²θ dω` instead of `∫ L cosθ dω`, i.e. a factor
+//!   `cos θ` for a beam at incidence θ (dark at grazing light) and `2/3` for a uniform
+//!   (diffuse) incident field; (ii) the area ratio `A/ΔA`: 1 for one plane crossing the box
+//!   parallel to a face, up to `√2` for a diagonal plane, 2 or 3 in edges and corners where
+//!   several surfaces share the box, and `≪ 1` for geometry small against the cell (the dark
+//!   front of the sphere in the paper's fig. 3).
+//! - [`Estimator::Cosine`] divides each photon by `max(|w_p·ng_p|, min_cos)` and keeps `ΔA`:
+//!   it removes (i), keeps (ii).
+//! - [`Estimator::GeometryArea`] removes both: each photon is divided by the lit projected
+//!   area `A⊥(w_p)` of the given triangles clipped to the gathering box (`geometry.rs`
+//!   derives why, and what is counted for two-sided sheets, corners and closed objects).
+//!   A valid leaf whose box contains no triangle falls back to `Cosine` (counted in
+//!   [`OctreeStats::geometry_fallback_leaves`]).
+//!
+//! # Normal interpolation (§5.2) and query (§7)
+//! `M(N) = Σ_a M_a^{s(N_a)} N_a²` (three of the six matrices), `E(N) = M(N)ᵀ N`.
+//! A query at `P` blends the leaves meeting the box `V` of side `alpha × (smallest leaf
+//! edge)` centred on `P`, weighted by the overlap volumes `γ_k`; atmospheric leaves are left
+//! out of both sums (they carry no value and must not pull the result towards zero);
+//! negative irradiance channels are clamped to 0 after the blend. The blend is `C0`: the
+//! weights are continuous in `P`.
+//!
+//! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices.
+
+mod build;
+pub mod compress;
+mod geometry;
+mod query;
+mod settings;
+#[cfg(test)]
+mod tests;
+
+pub use settings::{Enlarge, Estimator, OctreeSettings, Storage, MAX_DEPTH};
+
+use crate::math::Bounds3;
+use compress::{CompressedLeaf, FullLeaf};
+use glam::Vec3;
+use serde::Serialize;
+
+/// Errors of the octree build.
+#[derive(Debug, thiserror::Error)]
+pub enum OctreeError {
+    #[error("invalid octree settings: {0}")]
+    InvalidSettings(String),
+    #[error("invalid octree bounds: {0}")]
+    InvalidBounds(String),
+    #[error("the geometry_area estimator needs the scene triangles, none were given")]
+    MissingGeometry,
+    #[error("too many photons for one octree: {0} (at most {max})", max = u32::MAX)]
+    TooManyPhotons(usize),
+}
+
+/// Statistics of a built octree (the paper's tables 1 and 3).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct OctreeStats {
+    /// Build time (sorting, subdivision, estimates, compression), seconds (`t_c`).
+    pub t_build_s: f64,
+    /// Bytes of the structure as stored: nodes + leaf values (`F_m`).
+    pub bytes: usize,
+    /// `bytes / valid_leaves`.
+    pub bytes_per_valid_leaf: f64,
+    /// All leaves, atmospheric included.
+    pub leaves: usize,
+    /// Leaves with a value (`m_v`).
+    pub valid_leaves: usize,
+    /// Mean photon count of the valid leaves' own cells (`n̄_p`).
+    pub mean_photons_per_leaf: f64,
+    /// Mean photon count gathered by a valid leaf (enlarged cell).
+    pub mean_gathered_photons: f64,
+    /// Mean edge length of the valid leaves, scene units (`s̄`).
+    pub mean_cell_size: f64,
+    /// Valid leaves per depth (index = depth, length `h_max + 1`).
+    pub depth_histogram: Vec<u32>,
+    /// Photons stored in the octree.
+    pub photons: usize,
+    /// Photons dropped: non-finite fields or outside the bounds.
+    pub photons_dropped: usize,
+    /// Octree nodes (internal + leaves).
+    pub nodes: usize,
+    /// Deepest leaf depth.
+    pub max_depth: u32,
+    /// Edge of the smallest leaf (scene units): the query box is `alpha` times it.
+    pub min_leaf_size: f32,
+    /// Valid leaves that found no triangle with `Estimator::GeometryArea` (fell back to `Cosine`).
+    pub geometry_fallback_leaves: usize,
+}
+
+/// Debug view of one leaf (for visualisation).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct LeafInfo {
+    /// The cell (not enlarged).
+    pub bounds: Bounds3,
+    pub depth: u32,
+    /// Whether the leaf holds a value (false: atmospheric).
+    pub valid: bool,
+    /// Photons in the cell (not enlarged).
+    pub photons: u32,
+}
+
+/// High bit of `Node::link`: the node is a leaf.
+const LEAF_BIT: u32 = 1 << 31;
+/// Value index of an atmospheric leaf.
+const NO_VALUE: u32 = LEAF_BIT - 1;
+
+/// One octree node, 8 bytes. Children of an internal node are 8 consecutive nodes, child
+/// `c` covering the octant `(c & 1, (c >> 1) & 1, (c >> 2) & 1)` of its parent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C)]
+struct Node {
+    /// Internal: index of the first child. Leaf: `LEAF_BIT | value index` (`NO_VALUE`: atmospheric).
+    link: u32,
+    /// Photons in the cell.
+    photons: u32,
+}
+
+impl Node {
+    #[inline]
+    fn is_leaf(self) -> bool {
+        self.link & LEAF_BIT != 0
+    }
+    #[inline]
+    fn value(self) -> u32 {
+        self.link & !LEAF_BIT
+    }
+}
+
+/// The leaf values, in the order of the valid leaves.
+#[derive(Clone, Debug)]
+enum LeafValues {
+    Compressed(Vec<CompressedLeaf>),
+    Full(Vec<FullLeaf>),
+}
+
+impl LeafValues {
+    fn bytes(&self) -> usize {
+        match self {
+            LeafValues::Compressed(v) => std::mem::size_of_val(v.as_slice()),
+            LeafValues::Full(v) => std::mem::size_of_val(v.as_slice()),
+        }
+    }
+}
+
+/// A built, read-only incident-radiance octree (`Send + Sync`).
+#[derive(Clone, Debug)]
+pub struct Octree {
+    /// Minimum corner of the root cube.
+    origin: Vec3,
+    /// Edge of the root cube.
+    size: f32,
+    /// Edge of a cell per depth, `size / 2^d`.
+    cell_size: [f32; MAX_DEPTH as usize + 1],
+    /// `2^h_max / size`: Morton quantisation scale.
+    inv_quant: f32,
+    h_max: u32,
+    nodes: Vec<Node>,
+    values: LeafValues,
+    /// Half side of the query box: `alpha * min_leaf_size / 2`.
+    query_half: f32,
+    settings: OctreeSettings,
+    stats: OctreeStats,
+}
+
+impl Octree {
+    /// Build from photons. `bounds` is made a cube (same centre, largest extent, padded by
+    /// 1e-5 of it); photons outside it or with non-finite fields are dropped (counted in the
+    /// stats). `geometry` (triangles, world space) is needed by `Estimator::GeometryArea`
+    /// and ignored otherwise.
+    pub fn build(
+        photons: &[crate::photon::Photon],
+        bounds: Bounds3,
+        settings: &OctreeSettings,
+        geometry: Option<&[[Vec3; 3]]>,
+    ) -> Result<Octree, OctreeError> {
+        build::build(photons, bounds, settings, geometry)
+    }
+
+    pub fn stats(&self) -> &OctreeStats {
+        &self.stats
+    }
+
+    pub fn settings(&self) -> &OctreeSettings {
+        &self.settings
+    }
+
+    /// The root cube.
+    pub fn bounds(&self) -> Bounds3 {
+        Bounds3 { min: self.origin, max: self.origin + Vec3::splat(self.size) }
+    }
+
+    /// Edge of the smallest leaf.
+    pub fn min_leaf_size(&self) -> f32 {
+        self.stats.min_leaf_size
+    }
+
+    /// Side of the query box (`alpha × min_leaf_size`).
+    pub fn query_size(&self) -> f32 {
+        2.0 * self.query_half
+    }
+}
+
+// The octree is shared by the render threads.
+const _: () = {
+    const fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<Octree>();
+};

@@ -1,0 +1,231 @@
+//! Queries (paper §5.2 normal interpolation, §7 overlap-volume blend) and debug accessors.
+//!
+//! A query box `V` of side `alpha × min_leaf_size` centred on `P` is intersected with the
+//! leaves by a depth-first traversal that only enters children overlapping `V` (positive
+//! volume); valid leaves add `γ_k M_k(N)` and `γ_k`, atmospheric ones nothing. No
+//! allocation: the traversal is a recursion of depth at most `h_max`.
+//!
+//! `M_k(N) = Σ_a M_{k,a}^{s(N_a)} N_a²`, `E = M(N)ᵀ N`; with compressed leaves
+//! `M ≈ D Cᵀ`, so `Mᵀ N = C (D·N)` costs one dot product per matrix.
+
+use super::compress::{decompress_matrix, tables, MATRIX_BYTES};
+use super::{LeafInfo, LeafValues, Node, Octree, NO_VALUE};
+use crate::math::{Bounds3, Color};
+use glam::{Mat3, Vec3};
+
+/// Read-only view of the node array with the cell geometry (shared by build and query).
+#[derive(Clone, Copy)]
+pub(super) struct TreeView<'a> {
+    pub nodes: &'a [Node],
+    pub origin: Vec3,
+    pub cell_size: &'a [f32; super::MAX_DEPTH as usize + 1],
+}
+
+impl TreeView<'_> {
+    #[inline]
+    pub fn cell_min(&self, depth: u32, ijk: [u32; 3]) -> Vec3 {
+        self.origin + Vec3::new(ijk[0] as f32, ijk[1] as f32, ijk[2] as f32) * self.cell_size[depth as usize]
+    }
+
+    /// Call `f(node, depth, ijk, overlap_volume)` for every leaf whose cell overlaps the box
+    /// `[qmin, qmax]` with positive volume, in depth-first child order.
+    #[inline]
+    pub fn visit<F: FnMut(u32, u32, [u32; 3], f32)>(&self, qmin: Vec3, qmax: Vec3, mut f: F) {
+        self.visit_rec(0, 0, [0; 3], qmin, qmax, &mut f);
+    }
+
+    fn visit_rec<F: FnMut(u32, u32, [u32; 3], f32)>(&self, node: u32, depth: u32, ijk: [u32; 3], qmin: Vec3, qmax: Vec3, f: &mut F) {
+        let cmin = self.cell_min(depth, ijk);
+        let cmax = cmin + Vec3::splat(self.cell_size[depth as usize]);
+        let o = cmax.min(qmax) - cmin.max(qmin);
+        if !(o.x > 0.0 && o.y > 0.0 && o.z > 0.0) {
+            return;
+        }
+        let n = self.nodes[node as usize];
+        if n.is_leaf() {
+            f(node, depth, ijk, o.x * o.y * o.z);
+            return;
+        }
+        for c in 0..8u32 {
+            let cijk = [2 * ijk[0] + (c & 1), 2 * ijk[1] + ((c >> 1) & 1), 2 * ijk[2] + ((c >> 2) & 1)];
+            self.visit_rec(n.link + c, depth + 1, cijk, qmin, qmax, f);
+        }
+    }
+}
+
+/// The three matrices (indices into the `+X, −X, +Y, −Y, +Z, −Z` order) used for normal
+/// `n`, and their weights `N_a²`.
+#[inline]
+fn selection(n: Vec3) -> ([usize; 3], [f32; 3]) {
+    let s = |v: f32, a: usize| if v >= 0.0 { 2 * a } else { 2 * a + 1 };
+    ([s(n.x, 0), s(n.y, 1), s(n.z, 2)], [n.x * n.x, n.y * n.y, n.z * n.z])
+}
+
+impl Octree {
+    #[inline]
+    pub(super) fn view(&self) -> TreeView<'_> {
+        TreeView { nodes: &self.nodes, origin: self.origin, cell_size: &self.cell_size }
+    }
+
+    /// Visit the valid leaves overlapping the query box centred on `p`: `f(value, γ)`.
+    #[inline]
+    fn visit_query<F: FnMut(usize, f32)>(&self, p: Vec3, mut f: F) {
+        let h = Vec3::splat(self.query_half);
+        let nodes = &self.nodes;
+        self.view().visit(p - h, p + h, |node, _, _, g| {
+            let v = nodes[node as usize].value();
+            if v != NO_VALUE {
+                f(v as usize, g);
+            }
+        });
+    }
+
+    /// `M_k(N)ᵀ N` of one leaf.
+    #[inline]
+    fn leaf_irradiance(&self, v: usize, n: Vec3, sel: &([usize; 3], [f32; 3])) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        match &self.values {
+            LeafValues::Compressed(c) => {
+                let t = tables();
+                let leaf = &c[v];
+                for a in 0..3 {
+                    let b = &leaf[sel.0[a] * MATRIX_BYTES..(sel.0[a] + 1) * MATRIX_BYTES];
+                    // inline decode: D·N and C
+                    let (st, ct) = (t.sin_t[b[0] as usize], t.cos_t[b[0] as usize]);
+                    let d = Vec3::new(st * t.cos_p[b[1] as usize], st * t.sin_p[b[1] as usize], ct);
+                    let f = t.exp_scale[b[5] as usize];
+                    let col = Vec3::new(b[2] as f32 + 0.5, b[3] as f32 + 0.5, b[4] as f32 + 0.5) * f;
+                    e += col * (sel.1[a] * d.dot(n));
+                }
+            }
+            LeafValues::Full(m) => {
+                let leaf = &m[v];
+                for a in 0..3 {
+                    e += (leaf[sel.0[a]].transpose() * n) * sel.1[a];
+                }
+            }
+        }
+        e
+    }
+
+    /// `M_k(N)` of one leaf.
+    #[inline]
+    fn leaf_matrix(&self, v: usize, sel: &([usize; 3], [f32; 3])) -> Mat3 {
+        let mut m = Mat3::ZERO;
+        for a in 0..3 {
+            let k = sel.0[a];
+            let mk = match &self.values {
+                LeafValues::Compressed(c) => decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
+                LeafValues::Full(f) => f[v][k],
+            };
+            m += mk * sel.1[a];
+        }
+        m
+    }
+
+    /// Irradiance (W/m², RGB) at `p` for the unit normal `n`: the §7 blend of `M_k(N)ᵀ N`,
+    /// negative channels clamped to 0. `None` when no valid leaf meets the query box (or
+    /// `p`/`n` is not finite).
+    pub fn irradiance(&self, p: Vec3, n: Vec3) -> Option<Color> {
+        if !p.is_finite() || !n.is_finite() {
+            return None;
+        }
+        let sel = selection(n);
+        let mut sum = Vec3::ZERO;
+        let mut wsum = 0.0f32;
+        self.visit_query(p, |v, g| {
+            sum += self.leaf_irradiance(v, n, &sel) * g;
+            wsum += g;
+        });
+        (wsum > 0.0).then(|| (sum / wsum).max(Vec3::ZERO))
+    }
+
+    /// The blended incident-radiance matrix `M(N)` at `p` (columns = r, g, b irradiance
+    /// vectors), for glossy shading. `None` as for [`Octree::irradiance`].
+    pub fn incident_matrix(&self, p: Vec3, n: Vec3) -> Option<Mat3> {
+        if !p.is_finite() || !n.is_finite() {
+            return None;
+        }
+        let sel = selection(n);
+        let mut sum = Mat3::ZERO;
+        let mut wsum = 0.0f32;
+        self.visit_query(p, |v, g| {
+            sum += self.leaf_matrix(v, &sel) * g;
+            wsum += g;
+        });
+        (wsum > 0.0).then(|| sum * (1.0 / wsum))
+    }
+
+    /// The six matrices of the valid leaf containing `p` (decompressed), in the order
+    /// `+X, −X, +Y, −Y, +Z, −Z`; `None` outside the cube or in an atmospheric leaf.
+    pub fn leaf_matrices(&self, p: Vec3) -> Option<[Mat3; 6]> {
+        let (node, _, _) = self.find_leaf(p)?;
+        let v = self.nodes[node as usize].value();
+        if v == NO_VALUE {
+            return None;
+        }
+        Some(match &self.values {
+            LeafValues::Compressed(c) => std::array::from_fn(|k| decompress_matrix(&c[v as usize][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES])),
+            LeafValues::Full(f) => f[v as usize],
+        })
+    }
+
+    /// Descend to the leaf whose (half-open) cell holds `p`: `(node, depth, ijk)`.
+    fn find_leaf(&self, p: Vec3) -> Option<(u32, u32, [u32; 3])> {
+        if !p.is_finite() || !self.bounds().contains(p) {
+            return None;
+        }
+        let q = super::build::quantize(p, self.origin, self.inv_quant, self.h_max);
+        let mut node = 0u32;
+        let mut depth = 0u32;
+        loop {
+            let n = self.nodes[node as usize];
+            if n.is_leaf() {
+                let s = self.h_max - depth;
+                return Some((node, depth, [q[0] >> s, q[1] >> s, q[2] >> s]));
+            }
+            let s = self.h_max - depth - 1;
+            let c = ((q[0] >> s) & 1) | (((q[1] >> s) & 1) << 1) | (((q[2] >> s) & 1) << 2);
+            node = n.link + c;
+            depth += 1;
+        }
+    }
+
+    fn info(&self, node: u32, depth: u32, ijk: [u32; 3]) -> LeafInfo {
+        let n = self.nodes[node as usize];
+        let min = self.view().cell_min(depth, ijk);
+        LeafInfo {
+            bounds: Bounds3 { min, max: min + Vec3::splat(self.cell_size[depth as usize]) },
+            depth,
+            valid: n.value() != NO_VALUE,
+            photons: n.photons,
+        }
+    }
+
+    /// The leaf containing `p` (debug / visualisation); `None` outside the root cube.
+    pub fn leaf_at(&self, p: Vec3) -> Option<LeafInfo> {
+        self.find_leaf(p).map(|(node, depth, ijk)| self.info(node, depth, ijk))
+    }
+
+    /// Every leaf, atmospheric included, in depth-first order (debug / visualisation).
+    pub fn leaf_infos(&self) -> Vec<LeafInfo> {
+        let mut out = Vec::with_capacity(self.stats.leaves);
+        let b = self.bounds();
+        self.view().visit(b.min, b.max, |node, depth, ijk, _| out.push(self.info(node, depth, ijk)));
+        out
+    }
+
+    /// Sum of the query weights `γ_k` over the valid leaves and over all leaves, for the
+    /// query box centred on `p` (tests and diagnostics).
+    pub fn query_weights(&self, p: Vec3) -> (f32, f32) {
+        let h = Vec3::splat(self.query_half);
+        let (mut valid, mut all) = (0.0f32, 0.0f32);
+        self.view().visit(p - h, p + h, |node, _, _, g| {
+            all += g;
+            if self.nodes[node as usize].value() != NO_VALUE {
+                valid += g;
+            }
+        });
+        (valid, all)
+    }
+}

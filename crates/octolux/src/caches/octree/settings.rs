@@ -1,0 +1,175 @@
+//! User settings of the incident-radiance octree and their validation (paper §3, §5, §7).
+//!
+//! Defaults are the paper's configuration where it states one (`h_max = 6`, `epsilon = 0.2`,
+//! `alpha = 1.5`, the paper's estimator, compressed storage). For the values the paper leaves
+//! open, see the field docs; every choice is a setting, never hidden.
+
+use super::OctreeError;
+use serde::{Deserialize, Serialize};
+
+/// Density estimator that turns the photons of a (possibly enlarged) cell into the six
+/// incident-radiance matrices. See the derivation in the `caches::octree` module docs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Estimator {
+    /// The paper's eq. 5.4: `M = (1/ΔA) Σ w_p C_pᵀ`, `ΔA` = area of one face of the
+    /// (enlarged) cell. Estimates `(A/ΔA) ∫ L(w) cosθ w dω`: too dark at grazing incidence.
+    #[default]
+    Paper,
+    /// Each photon divided by `max(|w_p·ng_p|, min_cos)`, `ΔA` as the paper: estimates
+    /// `(A/ΔA) ∫ L(w) w dω`, exact for one plane crossing the cell parallel to a face.
+    Cosine,
+    /// `1/cos` and `ΔA` replaced by the lit geometry inside the (enlarged) cell: each photon
+    /// is divided by the lit projected area `A⊥(w_p)` of the given triangles clipped to the
+    /// cell (the paper's own proposed fix, §7/§8). Needs the triangle list at build time.
+    GeometryArea,
+}
+
+/// How the leaf matrices are kept in memory.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Storage {
+    /// Paper §6: 6 bytes per matrix (θ/φ direction bytes + RGBE), 36 bytes per leaf.
+    #[default]
+    Compressed,
+    /// Six full 3x3 f32 matrices, 216 bytes per leaf.
+    Full,
+}
+
+/// Which leaves gather photons from the `epsilon`-enlarged cell (an open point of §3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Enlarge {
+    /// Every valid leaf uses the enlarged cell. This is the default: §3 defines `epsilon` as a
+    /// property of the cell ("virtually enlarges the cell"), fig. 3 shows it acting on the
+    /// whole image, and enlarging every leaf also overlaps neighbouring estimates, which
+    /// lowers the jumps between leaves.
+    #[default]
+    All,
+    /// Only leaves with fewer than `n_min` photons of their own are enlarged (the reading
+    /// "to gather more photons when the density is too low").
+    UnderNMin,
+}
+
+/// Settings of [`super::Octree::build`] and of its queries. Serde: every field optional.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct OctreeSettings {
+    /// Maximum depth (root = depth 0). Paper: 6. At most 21 (63-bit Morton keys).
+    pub h_max: u32,
+    /// Least photon count for a trustworthy leaf. Used by `Enlarge::UnderNMin` and by
+    /// `split_respects_n_min`. Default 32 (see `n_max`).
+    pub n_min: u32,
+    /// A cell with more than `n_max` photons is split (until `h_max`). Default 400: the
+    /// paper's table 1 reports 205 photons per valid leaf on average; a leaf crossed by one
+    /// surface ends with between about `n_max/4` (a split divides a planar set among 4
+    /// children) and `n_max` photons, whose mean is near `n_max/2`. On a synthetic
+    /// Cornell-box distribution with the paper's photon count (1834 × 205 ≈ 376k photons on
+    /// the walls) `n_max = 400` gives about 200 photons per valid leaf (test
+    /// `default_n_max_matches_table_1`).
+    pub n_max: u32,
+    /// Cell enlargement for the photon gathering: the enlarged cell has edge `(1+epsilon) s`,
+    /// same centre. Paper: 0.2 (fig. 3 also shows 0.6).
+    pub epsilon: f32,
+    /// Query box side = `alpha` × smallest leaf edge (§7). Paper: 1.5.
+    pub alpha: f32,
+    pub estimator: Estimator,
+    pub storage: Storage,
+    pub enlarge: Enlarge,
+    /// When true, a split that would leave a non-empty child with fewer than `n_min` photons
+    /// is refused (the leaf then may hold more than `n_max`). Default false: the paper says
+    /// leaves in shadow may end under `n_min`, i.e. `n_min` does not stop the subdivision.
+    pub split_respects_n_min: bool,
+    /// Lower clamp of the cosine in the `1/cos` estimators (`Cosine`, `GeometryArea`), in
+    /// (0, 1]. Default 0.1: under a diffuse incident field only `min_cos² = 1%` of the flux
+    /// arrives below it, and the clamp bounds the photon weights to 10×.
+    pub min_cos: f32,
+}
+
+impl Default for OctreeSettings {
+    fn default() -> Self {
+        OctreeSettings {
+            h_max: 6,
+            n_min: 32,
+            n_max: 400,
+            epsilon: 0.2,
+            alpha: 1.5,
+            estimator: Estimator::Paper,
+            storage: Storage::Compressed,
+            enlarge: Enlarge::All,
+            split_respects_n_min: false,
+            min_cos: 0.1,
+        }
+    }
+}
+
+/// Deepest level a 63-bit Morton key can address.
+pub const MAX_DEPTH: u32 = 21;
+
+impl OctreeSettings {
+    /// Check every field; the message names the field and the rule it breaks.
+    pub fn validate(&self) -> Result<(), OctreeError> {
+        let bad = |msg: String| Err(OctreeError::InvalidSettings(msg));
+        if self.h_max > MAX_DEPTH {
+            return bad(format!("h_max = {} is above the maximum depth {MAX_DEPTH}", self.h_max));
+        }
+        if self.n_max == 0 {
+            return bad("n_max must be at least 1".into());
+        }
+        if self.n_min > self.n_max {
+            return bad(format!("n_min = {} is above n_max = {}", self.n_min, self.n_max));
+        }
+        if !self.epsilon.is_finite() || self.epsilon < 0.0 {
+            return bad(format!("epsilon = {} must be finite and >= 0", self.epsilon));
+        }
+        if !self.alpha.is_finite() || self.alpha <= 0.0 {
+            return bad(format!("alpha = {} must be finite and > 0", self.alpha));
+        }
+        if !self.min_cos.is_finite() || self.min_cos <= 0.0 || self.min_cos > 1.0 {
+            return bad(format!("min_cos = {} must be in (0, 1]", self.min_cos));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_bad_settings_are_refused() {
+        let d = OctreeSettings::default();
+        assert!(d.validate().is_ok());
+        assert_eq!((d.h_max, d.epsilon, d.alpha), (6, 0.2, 1.5));
+        let cases: Vec<(OctreeSettings, &str)> = vec![
+            (OctreeSettings { n_min: 500, n_max: 400, ..d.clone() }, "n_min"),
+            (OctreeSettings { n_max: 0, n_min: 0, ..d.clone() }, "n_max"),
+            (OctreeSettings { h_max: 22, ..d.clone() }, "h_max"),
+            (OctreeSettings { epsilon: -0.1, ..d.clone() }, "epsilon"),
+            (OctreeSettings { epsilon: f32::NAN, ..d.clone() }, "epsilon"),
+            (OctreeSettings { alpha: 0.0, ..d.clone() }, "alpha"),
+            (OctreeSettings { alpha: f32::INFINITY, ..d.clone() }, "alpha"),
+            (OctreeSettings { alpha: f32::NAN, ..d.clone() }, "alpha"),
+            (OctreeSettings { min_cos: 0.0, ..d.clone() }, "min_cos"),
+            (OctreeSettings { min_cos: 1.5, ..d.clone() }, "min_cos"),
+        ];
+        for (s, field) in cases {
+            match s.validate() {
+                Err(OctreeError::InvalidSettings(msg)) => assert!(msg.contains(field), "{msg} should name {field}"),
+                other => panic!("{s:?} gave {other:?}"),
+            }
+        }
+        assert!(OctreeSettings { h_max: 21, ..d.clone() }.validate().is_ok());
+    }
+
+    #[test]
+    fn serde_fills_missing_fields_with_defaults() {
+        let s: OctreeSettings = serde_json::from_str(r#"{"h_max": 4, "estimator": "geometry_area", "storage": "full"}"#).unwrap();
+        assert_eq!(s.h_max, 4);
+        assert_eq!(s.estimator, Estimator::GeometryArea);
+        assert_eq!(s.storage, Storage::Full);
+        assert_eq!(s.n_max, OctreeSettings::default().n_max);
+        let back: OctreeSettings = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+        assert_eq!(back, s);
+    }
+}

@@ -1,0 +1,64 @@
+//! Integrators: closed set of rendering methods, each with one serde settings struct that
+//! serves the CLI, files and tests.
+//!
+//! Every integrator estimates the radiance arriving at the camera along a primary ray; the
+//! render loop ([`crate::render`]) handles pixels, samples and the reconstruction filter.
+
+pub mod path;
+
+use crate::math::{Color, Ray};
+use crate::prepared::Scene;
+use crate::sampling::Sampler;
+use serde::{Deserialize, Serialize};
+
+/// Counters an integrator updates while tracing (per worker, summed at the end).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq, Eq)]
+pub struct RayCounters {
+    /// Closest-hit rays (camera and continuation rays).
+    pub rays: u64,
+    /// Shadow (occlusion) rays.
+    pub shadow_rays: u64,
+}
+
+impl std::ops::AddAssign for RayCounters {
+    fn add_assign(&mut self, o: Self) {
+        self.rays += o.rays;
+        self.shadow_rays += o.shadow_rays;
+    }
+}
+
+/// A prepared integrator.
+pub enum Integrator {
+    Path(path::PathSettings),
+}
+
+impl Integrator {
+    /// Short name used in stats and the CLI.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Integrator::Path(_) => "path",
+        }
+    }
+
+    /// Radiance along a primary ray.
+    #[inline]
+    pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+        match self {
+            Integrator::Path(s) => path::li(s, scene, ray, sampler, counters),
+        }
+    }
+}
+
+/// Power heuristic (β = 2) for multiple importance sampling.
+#[inline]
+pub fn mis_power(pdf_a: f32, pdf_b: f32) -> f32 {
+    let a2 = pdf_a * pdf_a;
+    let b2 = pdf_b * pdf_b;
+    if a2 + b2 > 0.0 && a2.is_finite() {
+        a2 / (a2 + b2)
+    } else if a2.is_infinite() {
+        1.0
+    } else {
+        0.0
+    }
+}

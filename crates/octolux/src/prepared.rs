@@ -1,0 +1,311 @@
+//! The prepared scene: a [`SceneDesc`] turned into what rendering reads — one flat triangle
+//! array inside a ray-intersection backend, analytic spheres, a light set — plus the
+//! computation of a full [`SurfaceHit`] (position, normals, uv, material, emitter) from a hit.
+//!
+//! Invariant: built once by [`Scene::prepare`], then only read (shared across threads without
+//! locks).
+
+use crate::accel::{Accel, BackendKind};
+use crate::camera::Camera;
+use crate::light::LightSet;
+use crate::material::{Image, Material};
+use crate::math::{bary, offset_origin, Bounds3, Frame, Ray};
+use crate::scene::{FilmDesc, Geometry, SceneDesc, SceneError, SceneHints};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// An analytic sphere of the prepared scene.
+#[derive(Clone, Copy, Debug)]
+pub struct SphereShape {
+    pub center: Vec3,
+    pub radius: f32,
+    pub shape: u32,
+}
+
+/// Everything known about a ray–surface intersection.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub p: Vec3,
+    pub t: f32,
+    /// Geometric normal (triangle winding / sphere outward, flipped by `flip_normals`).
+    pub ng: Vec3,
+    /// Shading frame; `frame.n` is the shading normal (interpolated vertex normals when present).
+    pub frame: Frame,
+    pub uv: Vec2,
+    pub shape: u32,
+    pub material: u32,
+    /// Area light on this shape, if it emits.
+    pub light: Option<u32>,
+}
+
+impl SurfaceHit {
+    /// Origin for a ray leaving this surface in direction `d`.
+    #[inline]
+    pub fn spawn(&self, d: Vec3) -> Ray {
+        Ray::new(offset_origin(self.p, self.ng, d), d)
+    }
+    /// A segment from this surface towards a point at distance `dist` along unit `d`,
+    /// stopping short of the end point (for shadow rays).
+    #[inline]
+    pub fn spawn_to(&self, d: Vec3, dist: f32) -> Ray {
+        let o = offset_origin(self.p, self.ng, d);
+        Ray::segment(o, d, dist * (1.0 - 1e-3))
+    }
+}
+
+/// Per-shape data needed at shading time.
+#[derive(Clone, Debug)]
+struct ShapeInfo {
+    material: u32,
+    flip: bool,
+    has_normals: bool,
+    has_uvs: bool,
+    name: String,
+}
+
+/// A scene ready for rendering.
+pub struct Scene {
+    pub materials: Vec<Material>,
+    pub images: Vec<Image>,
+    pub lights: LightSet,
+    pub camera: Camera,
+    pub film: FilmDesc,
+    pub hints: SceneHints,
+    pub bounds: Bounds3,
+    accel: Accel,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    triangles: Vec<[u32; 3]>,
+    tri_shape: Vec<u32>,
+    spheres: Vec<SphereShape>,
+    shapes: Vec<ShapeInfo>,
+}
+
+impl Scene {
+    /// Validate and prepare a description; builds the intersection backend.
+    pub fn prepare(desc: SceneDesc, backend: BackendKind) -> Result<Scene, SceneError> {
+        desc.validate()?;
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let mut uvs = Vec::new();
+        let mut triangles = Vec::new();
+        let mut tri_shape = Vec::new();
+        let mut spheres = Vec::new();
+        let mut shapes = Vec::new();
+        for (si, s) in desc.shapes.iter().enumerate() {
+            let mut info = ShapeInfo { material: s.material, flip: s.flip_normals, has_normals: false, has_uvs: false, name: s.name.clone() };
+            match &s.geometry {
+                Geometry::Mesh(m) => {
+                    let base = positions.len() as u32;
+                    positions.extend_from_slice(&m.positions);
+                    info.has_normals = m.normals.is_some();
+                    info.has_uvs = m.uvs.is_some();
+                    match &m.normals {
+                        Some(n) => normals.extend_from_slice(n),
+                        None => normals.extend(std::iter::repeat_n(Vec3::ZERO, m.positions.len())),
+                    }
+                    match &m.uvs {
+                        Some(u) => uvs.extend_from_slice(u),
+                        None => uvs.extend(std::iter::repeat_n(Vec2::ZERO, m.positions.len())),
+                    }
+                    for t in &m.indices {
+                        triangles.push([t[0] + base, t[1] + base, t[2] + base]);
+                        tri_shape.push(si as u32);
+                    }
+                }
+                Geometry::Sphere { center, radius } => spheres.push(SphereShape { center: *center, radius: *radius, shape: si as u32 }),
+            }
+            shapes.push(info);
+        }
+        if triangles.is_empty() && spheres.is_empty() {
+            return Err(SceneError::Empty);
+        }
+        let bounds = desc.bounds();
+        let accel = Accel::build(&positions, &triangles, backend).map_err(|e| SceneError::Accel(e.to_string()))?;
+        let lights = LightSet::new(&desc.lights, &desc.shapes, bounds);
+        let camera = Camera::new(&desc.camera, desc.film.width, desc.film.height);
+        Ok(Scene {
+            materials: desc.materials,
+            images: desc.images,
+            lights,
+            camera,
+            film: desc.film,
+            hints: desc.hints,
+            bounds,
+            accel,
+            positions,
+            normals,
+            uvs,
+            triangles,
+            tri_shape,
+            spheres,
+            shapes,
+        })
+    }
+
+    /// Name of the intersection backend in use.
+    pub fn backend_name(&self) -> String {
+        self.accel.name()
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Change the film resolution (and the camera's aspect with it).
+    pub fn set_resolution(&mut self, width: u32, height: u32, camera: &crate::camera::CameraDesc) {
+        self.film.width = width;
+        self.film.height = height;
+        self.camera = Camera::new(camera, width, height);
+    }
+
+    /// World-space triangles of the whole scene (spheres tessellated), e.g. for geometry-area
+    /// estimates.
+    pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
+        let mut out: Vec<[Vec3; 3]> =
+            self.triangles.iter().map(|t| [self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]]).collect();
+        for s in &self.spheres {
+            let (nt, np) = (24usize, 48usize);
+            let pt = |i: usize, j: usize| {
+                let th = PI * i as f32 / nt as f32;
+                let ph = 2.0 * PI * j as f32 / np as f32;
+                s.center + s.radius * Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
+            };
+            for i in 0..nt {
+                for j in 0..np {
+                    out.push([pt(i, j), pt(i + 1, j), pt(i + 1, j + 1)]);
+                    out.push([pt(i, j), pt(i + 1, j + 1), pt(i, j + 1)]);
+                }
+            }
+        }
+        out
+    }
+
+    /// Closest hit along the ray.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {
+        let tri = self.accel.intersect(ray);
+        let mut tmax = tri.map_or(ray.tmax, |h| h.t);
+        let mut sphere_hit: Option<(usize, f32)> = None;
+        for (i, s) in self.spheres.iter().enumerate() {
+            if let Some(t) = intersect_sphere(ray, s.center, s.radius, tmax) {
+                tmax = t;
+                sphere_hit = Some((i, t));
+            }
+        }
+        if let Some((i, t)) = sphere_hit {
+            return Some(self.sphere_hit(ray, &self.spheres[i], t));
+        }
+        tri.map(|h| self.triangle_hit(ray, h.prim, h.t, Vec2::new(h.u, h.v)))
+    }
+
+    /// True when anything blocks the segment `[tmin, tmax]` of the ray.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        for s in &self.spheres {
+            if intersect_sphere(ray, s.center, s.radius, ray.tmax).is_some() {
+                return true;
+            }
+        }
+        self.accel.occluded(ray)
+    }
+
+    fn triangle_hit(&self, ray: &Ray, prim: u32, t: f32, b: Vec2) -> SurfaceHit {
+        let tri = self.triangles[prim as usize];
+        let shape = self.tri_shape[prim as usize];
+        let info = &self.shapes[shape as usize];
+        let (i0, i1, i2) = (tri[0] as usize, tri[1] as usize, tri[2] as usize);
+        let (p0, p1, p2) = (self.positions[i0], self.positions[i1], self.positions[i2]);
+        let mut ng = (p1 - p0).cross(p2 - p0).normalize();
+        let mut n = if info.has_normals {
+            let n = bary(self.normals[i0], self.normals[i1], self.normals[i2], b).normalize_or_zero();
+            if n == Vec3::ZERO {
+                ng
+            } else {
+                n
+            }
+        } else {
+            ng
+        };
+        if info.flip {
+            ng = -ng;
+            n = -n;
+        }
+        let uv = if info.has_uvs { bary(self.uvs[i0], self.uvs[i1], self.uvs[i2], b) } else { b };
+        SurfaceHit {
+            p: ray.at(t),
+            t,
+            ng,
+            frame: Frame::from_normal(n),
+            uv,
+            shape,
+            material: info.material,
+            light: self.lights.shape_light(shape),
+        }
+    }
+
+    fn sphere_hit(&self, ray: &Ray, s: &SphereShape, t: f32) -> SurfaceHit {
+        let info = &self.shapes[s.shape as usize];
+        let local = (ray.at(t) - s.center) / s.radius;
+        let local = local.normalize();
+        // Re-project onto the sphere to remove the error of the quadratic solve.
+        let p = s.center + local * s.radius;
+        let mut n = local;
+        let phi = local.y.atan2(local.x);
+        let phi = if phi < 0.0 { phi + 2.0 * PI } else { phi };
+        let uv = Vec2::new(phi / (2.0 * PI), local.z.clamp(-1.0, 1.0).acos() / PI);
+        if info.flip {
+            n = -n;
+        }
+        SurfaceHit { p, t, ng: n, frame: Frame::from_normal(n), uv, shape: s.shape, material: info.material, light: self.lights.shape_light(s.shape) }
+    }
+
+    /// Name of a shape (for messages).
+    pub fn shape_name(&self, shape: u32) -> &str {
+        &self.shapes[shape as usize].name
+    }
+}
+
+/// Nearest sphere intersection with `t` in `[ray.tmin, tmax)`.
+#[inline]
+pub fn intersect_sphere(ray: &Ray, c: Vec3, r: f32, tmax: f32) -> Option<f32> {
+    // Numerically robust form (Ray Tracing Gems, ch. 7): work relative to the centre.
+    let f = ray.o - c;
+    let a = ray.d.length_squared();
+    let b = -f.dot(ray.d);
+    let l = f + (b / a) * ray.d;
+    let disc = r * r - l.length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    let cc = f.length_squared() - r * r;
+    let q = b + b.signum() * (a * disc).sqrt();
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (cc / q, q / a) };
+    let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+    if t0 >= ray.tmin && t0 < tmax {
+        Some(t0)
+    } else if t1 >= ray.tmin && t1 < tmax {
+        Some(t1)
+    } else {
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_intersection_from_outside_and_inside() {
+        let r = Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z);
+        let t = intersect_sphere(&r, Vec3::ZERO, 1.0, f32::INFINITY).unwrap();
+        assert!((t - 4.0).abs() < 1e-5);
+        let r = Ray::new(Vec3::ZERO, Vec3::Z);
+        let t = intersect_sphere(&r, Vec3::ZERO, 2.0, f32::INFINITY).unwrap();
+        assert!((t - 2.0).abs() < 1e-5);
+        assert!(intersect_sphere(&r, Vec3::ZERO, 2.0, 1.5).is_none());
+        let miss = Ray::new(Vec3::new(0.0, 3.0, -5.0), Vec3::Z);
+        assert!(intersect_sphere(&miss, Vec3::ZERO, 1.0, f32::INFINITY).is_none());
+    }
+}
