@@ -162,7 +162,7 @@ def make_one(name: str, cfg: dict, spp: int, variant: str, threads: int | None, 
             "wall_time_s": low["render_s"],
         },
         "noise_ratio_256spp_over_self": ratio,
-        "command": (f".venv-mitsuba/bin/python tools/mitsuba/render.py {os.path.relpath(scene, REPO) if kind == 'shared' else '<tmp>/scene.xml'}"
+        "command": (f".venv-mitsuba/bin/python tools/mitsuba/render.py {scene if kind == 'shared' else '<tmp>/scene.xml'}"
                     f" -o tests/refs/{name}.exr --spp {spp} --resolution {RES}x{RES} --max-depth {depth}"
                     f" --seed {REF_SEED} --variant {variant} --sampler independent"),
         "date": datetime.date.today().isoformat(),

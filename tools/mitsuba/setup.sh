@@ -65,17 +65,22 @@ find_llvm19() {
 LLVM_SO=""
 if LLVM_SO="$(find_llvm19)"; then
     say "libLLVM 19 found: $LLVM_SO"
-elif command -v apt-get >/dev/null 2>&1 && [[ "$(id -u)" == 0 ]]; then
-    say "libLLVM 19 missing: apt-get install libllvm19"
-    if (apt-get install -y -q --no-install-recommends libllvm19 \
-        || { apt-get update -q && apt-get install -y -q --no-install-recommends libllvm19; }) >/dev/null; then
-        LLVM_SO="$(find_llvm19 || true)"
-        say "libLLVM 19 installed: ${LLVM_SO:-<not found after install>}"
-    else
-        say "apt-get install libllvm19 failed; llvm_ad_rgb unavailable"
-    fi
 else
-    say "libLLVM 19 missing and apt-get unusable (not root?); llvm_ad_rgb unavailable"
+    SUDO=""
+    if [[ "$(id -u)" != 0 ]] && command -v sudo >/dev/null 2>&1 && sudo -n true 2>/dev/null; then SUDO="sudo -n"; fi
+    if command -v apt-get >/dev/null 2>&1 && { [[ "$(id -u)" == 0 ]] || [[ -n "$SUDO" ]]; }; then
+        say "libLLVM 19 missing: apt-get install libllvm19"
+        export DEBIAN_FRONTEND=noninteractive
+        if ($SUDO apt-get install -y -q --no-install-recommends libllvm19 \
+            || { $SUDO apt-get update -q && $SUDO apt-get install -y -q --no-install-recommends libllvm19; }) >/dev/null 2>&1; then
+            LLVM_SO="$(find_llvm19 || true)"
+            say "libLLVM 19 installed: ${LLVM_SO:-<not found after install>}"
+        else
+            say "apt-get install libllvm19 failed; llvm_ad_rgb unavailable, using scalar_rgb"
+        fi
+    else
+        say "libLLVM 19 missing and apt-get unusable (not root, no sudo); llvm_ad_rgb unavailable, using scalar_rgb"
+    fi
 fi
 
 # --- 4. pick a variant that actually renders ----------------------------------------------------

@@ -8,6 +8,8 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::accel::BackendKind;
+use octolux::caches::{Estimator, Storage};
+use octolux::integrators::octree::{OctreeBuildStats, OctreeIntegrator, OctreeIntegratorSettings, OctreeView};
 use octolux::integrators::{path::PathSettings, Integrator};
 use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings, RenderStats};
@@ -36,6 +38,59 @@ enum Command {
 enum IntegratorArg {
     /// Path tracing with next-event estimation and MIS (the reference).
     Path,
+    /// The paper's ray tracer with a global and a caustic incident-radiance octree.
+    Octree,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum ViewArg {
+    /// The rendered image.
+    Render,
+    /// Irradiance from the global octree at the first diffuse/glossy hit (paper fig. 2).
+    Irradiance,
+    /// Irradiance from the global and caustic octrees.
+    IrradianceAll,
+    /// The octree's leaves (depth as colour, borders dark, atmospheric cells black).
+    Leaves,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum EstimatorArg {
+    Paper,
+    Cosine,
+    GeometryArea,
+}
+
+/// Settings of the octree integrator (defaults: the paper's configuration where it has one).
+#[derive(clap::Args)]
+struct OctreeArgs {
+    /// Photon paths emitted from the lights.
+    #[arg(long, default_value_t = 1_000_000)]
+    photons: u64,
+    /// Maximum octree depth h_max.
+    #[arg(long)]
+    h_max: Option<u32>,
+    /// Wanted least photons per leaf.
+    #[arg(long)]
+    n_min: Option<u32>,
+    /// Photons above which a cell is split.
+    #[arg(long)]
+    n_max: Option<u32>,
+    /// Cell enlargement for photon gathering.
+    #[arg(long)]
+    epsilon: Option<f32>,
+    /// Query box side in units of the smallest leaf.
+    #[arg(long)]
+    alpha: Option<f32>,
+    /// Estimator of the leaf matrices.
+    #[arg(long, value_enum)]
+    estimator: Option<EstimatorArg>,
+    /// Store full f32 matrices instead of the paper's 36-byte compressed leaves.
+    #[arg(long)]
+    uncompressed: bool,
+    /// What to write into the image.
+    #[arg(long, value_enum, default_value = "render")]
+    view: ViewArg,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -81,6 +136,8 @@ struct RenderArgs {
     /// Ray-intersection backend.
     #[arg(long, value_enum, default_value = "auto")]
     backend: BackendArg,
+    #[command(flatten)]
+    octree: OctreeArgs,
     /// Output image path; `.exr` (and `.png`, `.json` beside it).
     #[arg(short, long, default_value = "out.exr")]
     output: PathBuf,
@@ -155,6 +212,10 @@ struct StatsFile<'a> {
     samples_per_second: f64,
     rays_per_second: f64,
     render: &'a RenderStats,
+    /// Share of the render time spent in radiance-cache lookups (0 for `path`).
+    cache_query_share: f64,
+    /// Photon pass and octree statistics (the paper's tables 1 and 3), for `octree`.
+    build: Option<serde_json::Value>,
     warnings: &'a [String],
 }
 
@@ -202,10 +263,24 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     }
     let prepare_s = t1.elapsed().as_secs_f64();
     let threads = rayon::current_num_threads();
+    let mut build_stats = None;
     let (integrator, integrator_settings) = match args.integrator {
         IntegratorArg::Path => {
             let s = PathSettings { max_depth, ..Default::default() };
             (Integrator::Path(s), serde_json::to_value(s)?)
+        }
+        IntegratorArg::Octree => {
+            let s = octree_settings(&args, max_depth);
+            let value = serde_json::to_value(&s)?;
+            if !args.quiet {
+                eprintln!("octree: tracing {} photons and building the octrees ...", s.photons.photons);
+            }
+            let built = OctreeIntegrator::build(&scene, s).context("cannot build the octrees")?;
+            if !args.quiet {
+                print_octree_stats(&built.stats);
+            }
+            build_stats = Some(serde_json::to_value(&built.stats)?);
+            (Integrator::Octree(Box::new(built)), value)
         }
     };
     if !args.quiet {
@@ -224,6 +299,9 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     let settings = RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, ..Default::default() };
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((scene.film.width as u64) * (scene.film.height as u64)) };
     bar.set_style(ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+    if !args.quiet && args.integrator == IntegratorArg::Octree {
+        eprintln!("octree: view {:?}", args.octree.view);
+    }
     let progress = |done: u64, total: u64| {
         bar.set_length(total);
         bar.set_position(done.min(total));
@@ -251,6 +329,8 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         samples_per_second: rstats.samples_per_second,
         rays_per_second: rstats.rays_per_second,
         render: &rstats,
+        cache_query_share: query_share(&rstats, threads),
+        build: build_stats,
         warnings: &loaded.warnings,
     };
     write_json(&json, &stats)?;
@@ -267,6 +347,82 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// Share of the render's thread time spent in cache lookups.
+fn query_share(r: &RenderStats, threads: usize) -> f64 {
+    let thread_time_ns = r.render_s * 1e9 * threads as f64;
+    if thread_time_ns > 0.0 {
+        r.counters.cache_query_ns as f64 / thread_time_ns
+    } else {
+        0.0
+    }
+}
+
+fn octree_settings(args: &RenderArgs, max_depth: i32) -> OctreeIntegratorSettings {
+    let o = &args.octree;
+    let mut s = OctreeIntegratorSettings::default();
+    s.photons.photons = o.photons;
+    s.photons.seed = args.seed;
+    s.max_depth = if max_depth < 0 { OctreeIntegratorSettings::default().max_depth } else { max_depth };
+    for t in [&mut s.global, &mut s.caustic] {
+        if let Some(v) = o.h_max {
+            t.h_max = v;
+        }
+        if let Some(v) = o.n_min {
+            t.n_min = v;
+        }
+        if let Some(v) = o.n_max {
+            t.n_max = v;
+        }
+        if let Some(v) = o.epsilon {
+            t.epsilon = v;
+        }
+        if let Some(v) = o.alpha {
+            t.alpha = v;
+        }
+        if let Some(e) = o.estimator {
+            t.estimator = match e {
+                EstimatorArg::Paper => Estimator::Paper,
+                EstimatorArg::Cosine => Estimator::Cosine,
+                EstimatorArg::GeometryArea => Estimator::GeometryArea,
+            };
+        }
+        if o.uncompressed {
+            t.storage = Storage::Full;
+        }
+    }
+    s.view = match o.view {
+        ViewArg::Render => OctreeView::Render,
+        ViewArg::Irradiance => OctreeView::Irradiance,
+        ViewArg::IrradianceAll => OctreeView::IrradianceAll,
+        ViewArg::Leaves => OctreeView::Leaves,
+    };
+    s
+}
+
+/// Print the paper's table-1 / table-3 quantities.
+fn print_octree_stats(b: &OctreeBuildStats) {
+    eprintln!(
+        "photons: {} emitted, {} global, {} caustic, traced in {:.3} s; octrees built in {:.3} s ({:.1} M photons/s); t_c = {:.3} s",
+        b.photons_emitted,
+        b.global_photons,
+        b.caustic_photons,
+        b.t_photons_s,
+        b.t_octree_s,
+        b.build_photons_per_s * 1e-6,
+        b.t_c_s
+    );
+    let row = |name: &str, s: &octolux::caches::OctreeStats| {
+        eprintln!(
+            "  {name:8} m_v {:>7}  leaves {:>7}  n_p {:>7.1}  s {:>9.4}  F_m {:>10} B ({:.1} B/valid leaf)  depth hist {:?}",
+            s.valid_leaves, s.leaves, s.mean_photons_per_leaf, s.mean_cell_size, s.bytes, s.bytes_per_valid_leaf, s.depth_histogram
+        );
+    };
+    row("global", &b.global);
+    if let Some(c) = &b.caustic {
+        row("caustic", c);
+    }
 }
 
 fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {

@@ -17,7 +17,7 @@ use octolux::math::Color;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// sRGB transfer function (linear -> encoded), for values in [0,1].
+/// sRGB transfer function (linear -> encoded), for values in `[0, 1]`.
 #[inline]
 pub fn linear_to_srgb(v: f32) -> f32 {
     if v <= 0.003_130_8 {
@@ -27,7 +27,7 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     }
 }
 
-/// Inverse sRGB transfer function (encoded -> linear), for values in [0,1].
+/// Inverse sRGB transfer function (encoded -> linear), for values in `[0, 1]`.
 #[inline]
 pub fn srgb_to_linear(v: f32) -> f32 {
     if v <= 0.040_45 {
@@ -37,7 +37,7 @@ pub fn srgb_to_linear(v: f32) -> f32 {
     }
 }
 
-/// Encode one linear value as an 8-bit sRGB code (clamped to [0,1], NaN -> 0, rounded).
+/// Encode one linear value as an 8-bit sRGB code (clamped to `[0, 1]`, NaN -> 0, rounded).
 #[inline]
 pub fn encode_srgb8(v: f32) -> u8 {
     let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
@@ -125,7 +125,7 @@ pub fn read_exr(path: &Path) -> Result<Image, IoError> {
     }
 }
 
-/// Write an 8-bit sRGB PNG (values clamped to [0,1], atomically).
+/// Write an 8-bit sRGB PNG (values clamped to `[0, 1]`, atomically).
 pub fn write_png(path: &Path, img: &Image) -> Result<(), IoError> {
     check_image(path, img)?;
     let mut bytes = Vec::with_capacity(img.data.len() * 3);

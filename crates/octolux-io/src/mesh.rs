@@ -763,11 +763,11 @@ fn color_of(c: Option<[f32; 3]>) -> Option<Color> {
     c.map(Color::from)
 }
 
-/// Clamp a reflectance-like colour into [0,1], warning when it had to.
+/// Clamp a reflectance-like colour into `[0, 1]`, warning when it had to.
 fn clamp_unit(c: Color, what: &str, mtl: &str, warnings: &mut Vec<String>) -> Color {
     let clamped = c.clamp(Color::ZERO, Color::ONE);
     if clamped != c || !c.is_finite() {
-        warnings.push(format!("material '{mtl}': {what} {c} clamped to [0,1]"));
+        warnings.push(format!("material '{mtl}': {what} {c} clamped to [0, 1]"));
     }
     if clamped.is_finite() {
         clamped
@@ -877,7 +877,7 @@ fn framing_camera(bounds: octolux::math::Bounds3) -> CameraDesc {
 ///   black, a `RoughConductor` with eta = k = 0 and reflectance `Ks`, both with roughness
 ///   [`phong_exponent_to_alpha`]`(Ns)`; with no `Ks`, diffuse `Kd` (default
 ///   [`DEFAULT_REFLECTANCE`]). `map_Kd` replaces `Kd` by the texture (not multiplied).
-///   Colours are clamped to [0,1]. All but glass are wrapped in `TwoSided`, because meshes
+///   Colours are clamped to `[0, 1]`. All but glass are wrapped in `TwoSided`, because meshes
 ///   found in the wild often have inconsistent winding. Problems with the MTL file or its
 ///   textures are warnings, not errors.
 /// - PLY: one two-sided diffuse shape of reflectance [`DEFAULT_REFLECTANCE`].

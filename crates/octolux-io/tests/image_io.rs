@@ -30,7 +30,9 @@ fn exr_round_trip_is_bit_exact() {
     let special = [0.0f32, -0.0, 1.0, -3.5, 1e-30, 1.17e-40, 65504.0, 1e30, 0.1, std::f32::consts::PI];
     let data: Vec<Color> = (0..w * h)
         .map(|i| {
-            let f = |k: u32| special[((i * 3 + k) as usize) % special.len()] * if (i + k).is_multiple_of(4) { 1.0 } else { (i + 1) as f32 * 0.37 };
+            let f = |k: u32| {
+                special[((i * 3 + k) as usize) % special.len()] * if (i + k).is_multiple_of(4) { 1.0 } else { (i + 1) as f32 * 0.37 }
+            };
             Color::new(f(0), f(1), f(2))
         })
         .collect();

@@ -41,7 +41,7 @@ fn parameters_defaults_and_overrides() {
     let path = Path::new("/virtual/params.xml");
     // $depth is used before its <default>: an error, as in Mitsuba (document order).
     let err = load_str(PARAM_SCENE, path, &defs(&[("fov", "30")])).unwrap_err().to_string();
-    assert!(err.contains("/virtual/params.xml:5:") && err.contains("$depth"), "{err}");
+    assert!(err.contains("/virtual/params.xml:6:") && err.contains("$depth"), "{err}");
 
     let s = load_str(PARAM_SCENE, path, &defs(&[("fov", "30"), ("depth", "3")])).unwrap();
     assert_eq!(s.desc.film.width, 64, "first <default> wins over a later one");
@@ -303,4 +303,34 @@ fn emitters_and_spheres() {
     let xml = "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n<transform name=\"to_world\"><scale x=\"1\" y=\"2\"/></transform>\n</shape>\n</scene>";
     let err = load_str(xml, Path::new("/virtual/sph.xml"), &[]).unwrap_err().to_string();
     assert!(err.starts_with("/virtual/sph.xml:2:") && err.contains("uniformly"), "{err}");
+}
+
+#[test]
+fn mitsuba_05_names_are_upgraded() {
+    let xml = r#"<scene version="0.5.0">
+    <bsdf type="diffuse" id="old"><rgb name="diffuseReflectance" value="0.3"/></bsdf>
+    <bsdf type="plastic" id="shiny"><float name="intIOR" value="1.6"/><float name="extIOR" value="1.1"/></bsdf>
+    <sensor type="perspective">
+        <string name="focalLength" value="35mm"/>
+        <float name="nearClip" value="0.5"/>
+        <transform name="toWorld"><lookAt origin="0 0 0" target="0 0 1" up="0 1 0"/></transform>
+    </sensor>
+</scene>"#;
+    let s = load_str(xml, Path::new("/virtual/v05.xml"), &[]).unwrap();
+    assert_eq!(s.desc.materials[0], Material::Diffuse { reflectance: Texture::Const(Color::splat(0.3)) });
+    match s.desc.materials[1] {
+        Material::RoughPlastic { alpha, eta, .. } => {
+            assert_eq!(alpha, octolux_io::mitsuba::SMOOTH_PLASTIC_ALPHA);
+            assert!((eta - 1.6 / 1.1).abs() < 1e-6);
+        }
+        ref m => panic!("{m:?}"),
+    }
+    // 35 mm focal length: diagonal field of view 2 atan(43.27 / 70).
+    let cam = &s.desc.camera;
+    assert_eq!(cam.fov_axis, octolux::camera::FovAxis::Diagonal);
+    assert!((cam.fov_deg - 63.4399).abs() < 1e-3, "{}", cam.fov_deg);
+    assert_eq!(cam.near_clip, 0.5);
+    // Only the smooth-plastic approximation is reported.
+    assert_eq!(s.warnings.len(), 1, "{:#?}", s.warnings);
+    assert!(s.warnings[0].starts_with("/virtual/v05.xml:3:") && s.warnings[0].contains("plastic"), "{:#?}", s.warnings);
 }

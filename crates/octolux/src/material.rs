@@ -28,7 +28,9 @@
 //!   `ρ / (1 - R_int) · T(θ_i) T(θ_o) cos θ_i / (π η²)` where `T(θ)` is the tabulated
 //!   directional transmittance of the rough interface and `R_int` its hemispherical internal
 //!   reflectance (Mitsuba 3 tabulates both with Gauss–Legendre quadrature over the visible-normal
-//!   sample space, 64 entries in cos θ; so do we, cached per `(alpha, eta)`).
+//!   sample space, 64 entries in cos θ; so do we, cached per `(alpha, eta)`). `R_int` is
+//!   Mitsuba's estimate `mean_i 2 μ_i R(μ_i)` over 64 equally spaced `μ_i ∈ [0,1]`, which sits
+//!   about 1.5% below the exact hemispherical integral; we keep it for agreement.
 //!   Lobe selection weights specular by `(1 - T(θ_o))·s / (…)` with `s = mean(ks) /
 //!   (mean(kd) + mean(ks))` as in Mitsuba; for a bitmap `kd` the texel at `uv` stands in for
 //!   the bitmap mean (a sampling heuristic only: the estimate stays unbiased).
@@ -38,7 +40,7 @@ use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_p
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
-/// A linear-RGB bitmap (row 0 is the top of the image).
+/// A linear-RGB bitmap (row 0 is the top of the image, `data[row * width + column]`).
 #[derive(Clone, Debug, Default)]
 pub struct Image {
     pub width: u32,
@@ -51,7 +53,10 @@ pub struct Image {
 pub enum Texture {
     Const(Color),
     /// Index into `SceneDesc::images`; `uv_scale` multiplies the uvs (Mitsuba `to_uv` scale).
-    Bitmap { image: u32, uv_scale: Vec2 },
+    Bitmap {
+        image: u32,
+        uv_scale: Vec2,
+    },
 }
 
 /// Which kind of lobe a sample came from.
@@ -101,11 +106,12 @@ pub enum Material {
 }
 
 impl Image {
-    /// Bilinear lookup with wrap-around (Mitsuba `bitmap` defaults: repeat, bilinear);
-    /// `uv = (0,0)` is the bottom-left of the image as in Mitsuba.
+    /// Bilinear lookup with wrap-around (Mitsuba `bitmap` defaults: repeat, bilinear).
     ///
-    /// Texel centres sit at half-integer pixel coordinates (`x = u·W - 1/2`), as in Mitsuba;
-    /// `v` runs upwards, so the row read is `(1 - v)·H - 1/2` counted from the top (row 0).
+    /// Mitsuba 3's convention: `uv = (0,0)` is the top-left corner of the image (row 0) and `v`
+    /// runs downwards, texel centres at half-integer pixel coordinates (`x = u·W - 1/2`,
+    /// `y = v·H - 1/2`). Mesh loaders flip OBJ texture coordinates (`v → 1 - v`, Mitsuba's
+    /// `flip_tex_coords`), so an OBJ's `(0,0)` ends up at the bottom-left as in Mitsuba.
     /// An empty or inconsistent image, or a non-finite `uv`, reads as black.
     pub fn lookup(&self, uv: Vec2) -> Color {
         let (w, h) = (self.width as usize, self.height as usize);
@@ -113,7 +119,7 @@ impl Image {
             return Color::ZERO;
         }
         let x = uv.x * w as f32 - 0.5;
-        let y = (1.0 - uv.y) * h as f32 - 0.5;
+        let y = uv.y * h as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let ix0 = (x0 as i64).rem_euclid(w as i64) as usize;
@@ -124,15 +130,6 @@ impl Image {
         let top = at(ix0, iy0) * (1.0 - fx) + at(ix1, iy0) * fx;
         let bottom = at(ix0, iy1) * (1.0 - fx) + at(ix1, iy1) * fx;
         top * (1.0 - fy) + bottom * fy
-    }
-
-    /// Mean texel value (used for sampling heuristics only).
-    pub fn mean(&self) -> Color {
-        if self.data.is_empty() {
-            return Color::ZERO;
-        }
-        let s = self.data.iter().fold(glam::DVec3::ZERO, |a, c| a + c.as_dvec3());
-        (s / self.data.len() as f64).as_vec3()
     }
 }
 
@@ -359,7 +356,13 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
                 p0 = p1;
                 p1 = p2;
             }
-            let pn = if n == 0 { 1.0 } else if n == 1 { x } else { p1 };
+            let pn = if n == 0 {
+                1.0
+            } else if n == 1 {
+                x
+            } else {
+                p1
+            };
             let pn1 = if n == 1 { 1.0 } else { p0 };
             dp = n as f64 * (x * pn - pn1) / (x * x - 1.0);
             let dx = pn / dp;
@@ -545,7 +548,12 @@ impl Material {
                 if wo.z <= 0.0 || wi.z <= 0.0 {
                     return Color::ZERO;
                 }
-                PlasticLocal::new(images, uv, diffuse_reflectance, *specular_reflectance, *alpha, *eta, wo).eval(*specular_reflectance, *eta, wo, wi)
+                PlasticLocal::new(images, uv, diffuse_reflectance, *specular_reflectance, *alpha, *eta, wo).eval(
+                    *specular_reflectance,
+                    *eta,
+                    wo,
+                    wi,
+                )
             }
             Material::TwoSided { front, back } => {
                 if wo.z > 0.0 {
@@ -767,7 +775,12 @@ mod tests {
 
     fn rough_conductor(alpha: f32) -> Material {
         // gold-like complex IOR
-        Material::RoughConductor { alpha, eta: Color::new(0.143, 0.374, 1.442), k: Color::new(3.983, 2.385, 1.603), specular_reflectance: white(1.0) }
+        Material::RoughConductor {
+            alpha,
+            eta: Color::new(0.143, 0.374, 1.442),
+            k: Color::new(3.983, 2.385, 1.603),
+            specular_reflectance: white(1.0),
+        }
     }
 
     fn rough_plastic(alpha: f32, kd: Color) -> Material {
@@ -814,7 +827,10 @@ mod tests {
             ),
             (
                 "twosided roughplastic, front",
-                Material::TwoSided { front: Box::new(rough_plastic(0.3, white(0.5))), back: Box::new(Material::Diffuse { reflectance: Texture::Const(white(0.5)) }) },
+                Material::TwoSided {
+                    front: Box::new(rough_plastic(0.3, white(0.5))),
+                    back: Box::new(Material::Diffuse { reflectance: Texture::Const(white(0.5)) }),
+                },
                 dir(60.0, 250.0),
                 &base,
             ),
@@ -824,7 +840,8 @@ mod tests {
         for (name, m, wo, cfg) in &cases {
             let r = check_bsdf(cfg, m, &[], Vec2::ZERO, *wo);
             if !r.passed || r.pdf_integral > 1.0 + 2e-3 {
-                failures.push(format!("{name}: {} (pdf integral {:.5}, valid fraction {:.5})", r.message, r.pdf_integral, r.valid_fraction));
+                failures
+                    .push(format!("{name}: {} (pdf integral {:.5}, valid fraction {:.5})", r.message, r.pdf_integral, r.valid_fraction));
             }
             // non-absorbing lobes at moderate incidence: the pdf is normalised
             if name.starts_with("diffuse") && (r.pdf_integral - 1.0).abs() > 1e-3 {
@@ -957,7 +974,11 @@ mod tests {
     #[test]
     fn thin_dielectric_includes_interreflections() {
         let eta = 1.5f32;
-        let m = Material::ThinDielectric { eta, specular_reflectance: Color::new(1.0, 0.5, 0.25), specular_transmittance: Color::new(0.5, 1.0, 1.0) };
+        let m = Material::ThinDielectric {
+            eta,
+            specular_reflectance: Color::new(1.0, 0.5, 0.25),
+            specular_transmittance: Color::new(0.5, 1.0, 1.0),
+        };
         let r0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
         // R' = R + T²R/(1-R²) = 2R/(1+R)
         let r_thin = 2.0 * r0 / (1.0 + r0);
@@ -1026,7 +1047,11 @@ mod tests {
             assert!((s.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
         }
         assert!(none.sample(&[], Vec2::ZERO, -Vec3::Z, 0.3, Vec2::ZERO).is_none(), "one-sided");
-        let gold = Material::Conductor { eta: Color::new(0.143, 0.374, 1.442), k: Color::new(3.983, 2.385, 1.603), specular_reflectance: white(1.0) };
+        let gold = Material::Conductor {
+            eta: Color::new(0.143, 0.374, 1.442),
+            k: Color::new(3.983, 2.385, 1.603),
+            specular_reflectance: white(1.0),
+        };
         let s = gold.sample(&[], Vec2::ZERO, Vec3::Z, 0.0, Vec2::ZERO).unwrap();
         assert!(s.weight.x > s.weight.z, "gold reflects red more than blue: {}", s.weight);
     }
@@ -1164,18 +1189,25 @@ mod tests {
         }
         // internal reflectance of a nearly smooth interface: Mitsuba's estimate, the mean over
         // 64 equally spaced μ ∈ [0,1] of 2 μ F(μ, 1/η) ...
-        let mitsuba: f64 = (0..64).map(|i| {
-            let mu = (i as f32 / 63.0).max(1e-6);
-            2.0 * (mu * fresnel_dielectric(mu, 1.0 / eta).0) as f64
-        }).sum::<f64>() / 64.0;
+        let mitsuba: f64 = (0..64)
+            .map(|i| {
+                let mu = (i as f32 / 63.0).max(1e-6);
+                2.0 * (mu * fresnel_dielectric(mu, 1.0 / eta).0) as f64
+            })
+            .sum::<f64>()
+            / 64.0;
         assert!((t.internal_reflectance as f64 - mitsuba).abs() < 2e-3, "{} vs {mitsuba}", t.internal_reflectance);
         // ... which is within 2% of the exact hemispherical value 1 - (1 - Fdr_ext)/η²,
         // Fdr_ext = 2 ∫ F(μ, η) μ dμ
         let (x, w) = gauss_legendre(200);
-        let fdr_ext: f64 = x.iter().zip(&w).map(|(x, w)| {
-            let mu = 0.5 * x + 0.5;
-            w * 0.5 * 2.0 * fresnel_dielectric(mu as f32, eta).0 as f64 * mu
-        }).sum();
+        let fdr_ext: f64 = x
+            .iter()
+            .zip(&w)
+            .map(|(x, w)| {
+                let mu = 0.5 * x + 0.5;
+                w * 0.5 * 2.0 * fresnel_dielectric(mu as f32, eta).0 as f64 * mu
+            })
+            .sum();
         let exact = 1.0 - (1.0 - fdr_ext) / (eta * eta) as f64;
         assert!((t.internal_reflectance as f64 - exact).abs() < 0.02 * exact, "{} vs {exact}", t.internal_reflectance);
         // rougher interfaces transmit less at grazing angles, tables stay in [0,1]
@@ -1186,25 +1218,31 @@ mod tests {
     }
 
     #[test]
-    fn image_lookup_is_bilinear_with_repeat_and_v_up() {
+    fn image_lookup_is_bilinear_with_repeat_and_mitsuba_v() {
         // 2x2 image: row 0 (top) = red, green; row 1 (bottom) = blue, white
         let im = Image { width: 2, height: 2, data: vec![Color::X, Color::Y, Color::Z, Color::ONE] };
         let near = |a: Color, b: Color| (a - b).abs().max_element() < 1e-5;
-        assert!(near(im.lookup(Vec2::new(0.25, 0.75)), Color::X), "top-left texel centre");
-        assert!(near(im.lookup(Vec2::new(0.75, 0.75)), Color::Y));
-        assert!(near(im.lookup(Vec2::new(0.25, 0.25)), Color::Z), "bottom-left texel centre");
-        assert!(near(im.lookup(Vec2::new(0.75, 0.25)), Color::ONE));
-        // halfway between the two top texels
-        assert!(near(im.lookup(Vec2::new(0.5, 0.75)), Color::new(0.5, 0.5, 0.0)));
+        assert!(near(im.lookup(Vec2::new(0.25, 0.25)), Color::X), "v = 0 is the top row");
+        assert!(near(im.lookup(Vec2::new(0.75, 0.25)), Color::Y));
+        assert!(near(im.lookup(Vec2::new(0.25, 0.75)), Color::Z), "bottom-left texel centre");
+        assert!(near(im.lookup(Vec2::new(0.75, 0.75)), Color::ONE));
+        // halfway between the two top texels, and between the two left texels
+        assert!(near(im.lookup(Vec2::new(0.5, 0.25)), Color::new(0.5, 0.5, 0.0)));
+        assert!(near(im.lookup(Vec2::new(0.25, 0.5)), Color::new(0.5, 0.0, 0.5)));
         // repeat wrap: the image corner blends all four texels, and uv is periodic
         assert!(near(im.lookup(Vec2::ZERO), Color::splat(0.5)));
+        assert!(near(im.lookup(Vec2::new(0.5, 0.0)), Color::splat(0.5)));
         let uv = Vec2::new(0.3, 0.6);
         assert!(near(im.lookup(uv + Vec2::new(1.0, -2.0)), im.lookup(uv)));
         assert!(near(im.lookup(uv + Vec2::new(-3.0, 5.0)), im.lookup(uv)));
         assert_eq!(Image::default().lookup(uv), Color::ZERO);
+        assert_eq!(im.lookup(Vec2::new(f32::NAN, 0.0)), Color::ZERO);
+        // a non-square image: column index from u, row index from v
+        let wide = Image { width: 4, height: 1, data: vec![Color::ZERO, Color::X, Color::Y, Color::Z] };
+        assert!(near(wide.lookup(Vec2::new(0.375, 0.5)), Color::X) && near(wide.lookup(Vec2::new(0.875, 0.9)), Color::Z));
         // textures go through the uv scale
         let tex = Texture::Bitmap { image: 0, uv_scale: Vec2::splat(2.0) };
-        assert!(near(tex.eval(std::slice::from_ref(&im), Vec2::new(0.125, 0.375)), Color::X));
+        assert!(near(tex.eval(std::slice::from_ref(&im), Vec2::new(0.125, 0.125)), Color::X));
     }
 
     #[test]
@@ -1213,11 +1251,21 @@ mod tests {
         assert!(Material::Diffuse { reflectance: Texture::Const(Color::new(-0.1, 0.0, 0.0)) }.validate(0).is_err());
         assert!(Material::Diffuse { reflectance: Texture::Bitmap { image: 1, uv_scale: Vec2::ONE } }.validate(1).is_err());
         assert!(Material::Diffuse { reflectance: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE } }.validate(1).is_ok());
-        assert!(Material::Dielectric { eta: f32::NAN, specular_reflectance: white(1.0), specular_transmittance: white(1.0) }.validate(0).is_err());
+        assert!(Material::Dielectric { eta: f32::NAN, specular_reflectance: white(1.0), specular_transmittance: white(1.0) }
+            .validate(0)
+            .is_err());
         assert!(rough_plastic(-0.1, white(0.5)).validate(0).is_err());
-        let matched = Material::RoughPlastic { diffuse_reflectance: Texture::Const(white(0.5)), specular_reflectance: white(1.0), alpha: 0.1, eta: 1.0 };
+        let matched = Material::RoughPlastic {
+            diffuse_reflectance: Texture::Const(white(0.5)),
+            specular_reflectance: white(1.0),
+            alpha: 0.1,
+            eta: 1.0,
+        };
         assert!(matched.validate(0).is_err());
-        let nested = Material::TwoSided { front: Box::new(rough_conductor(0.2)), back: Box::new(Material::Conductor { eta: white(f32::INFINITY), k: white(0.0), specular_reflectance: white(1.0) }) };
+        let nested = Material::TwoSided {
+            front: Box::new(rough_conductor(0.2)),
+            back: Box::new(Material::Conductor { eta: white(f32::INFINITY), k: white(0.0), specular_reflectance: white(1.0) }),
+        };
         assert!(nested.validate(0).is_err());
         assert!(nested.has_smooth_lobe());
     }

@@ -155,7 +155,13 @@ pub fn chi2_sf(statistic: f64, dof: usize) -> f64 {
 /// `sample` returns a point of the domain, or `None` when the routine produced nothing;
 /// `pdf` is the claimed density with respect to `dx dy`. A sample outside the domain or not
 /// finite fails the test.
-pub fn chi2_2d(cfg: &Chi2Config, lo: Vec2, hi: Vec2, mut sample: impl FnMut(&mut Sampler) -> Option<Vec2>, pdf: impl Fn(Vec2) -> f64) -> Chi2Outcome {
+pub fn chi2_2d(
+    cfg: &Chi2Config,
+    lo: Vec2,
+    hi: Vec2,
+    mut sample: impl FnMut(&mut Sampler) -> Option<Vec2>,
+    pdf: impl Fn(Vec2) -> f64,
+) -> Chi2Outcome {
     let (nx, ny) = (cfg.bins_x.max(1), cfg.bins_y.max(1));
     let s = (cfg.subdiv.max(2) + 1) & !1;
     let (lo64, hi64) = (lo.as_dvec2(), hi.as_dvec2());
@@ -194,7 +200,8 @@ pub fn chi2_2d(cfg: &Chi2Config, lo: Vec2, hi: Vec2, mut sample: impl FnMut(&mut
         }
     }
     let pdf_integral: f64 = expected_mass.iter().sum();
-    let mut out = Chi2Outcome { statistic: 0.0, dof: 0, p_value: 0.0, pdf_integral, valid_fraction: 0.0, passed: false, message: String::new() };
+    let mut out =
+        Chi2Outcome { statistic: 0.0, dof: 0, p_value: 0.0, pdf_integral, valid_fraction: 0.0, passed: false, message: String::new() };
     if !pdf_integral.is_finite() || expected_mass.iter().any(|&m| m < 0.0) {
         out.message = format!("the pdf is negative or not finite somewhere (integral {pdf_integral})");
         return out;

@@ -1,8 +1,8 @@
 //! Mitsuba XML scene loader: Mitsuba 3 syntax and the 0.5/0.6 dialect of most research scenes
 //! (root `version` < 2.0.0, camelCase parameter names), producing a [`SceneDesc`].
 //!
-//! Stages: [`tree`] reads the file(s) and applies the scene-language directives (`$param`,
-//! `<default>`, `<include>`, `<path>`, dialect upgrade); [`props`] gives typed, use-tracked
+//! Stages: `tree` reads the file(s) and applies the scene-language directives (`$param`,
+//! `<default>`, `<include>`, `<path>`, dialect upgrade); `props` gives typed, use-tracked
 //! access to a plugin's parameters; this module turns plugins into octolux descriptions.
 //!
 //! Conventions and choices (each departure from Mitsuba is reported as one warning naming the
@@ -13,7 +13,7 @@
 //!   spot `cutoff_angle` 20° and `beam_width` 3/4 of it, emitter intensities 1.
 //! - A shape without a bsdf gets Mitsuba's default `diffuse` (0.5). Top-level bsdfs are
 //!   instantiated in document order, so material indices follow the file.
-//! - `conductor` presets use Mitsuba 3's RGB eta/k values ([`spectra`]); `"none"` (and the
+//! - `conductor` presets use Mitsuba 3's RGB eta/k values (module `spectra`); `"none"` (and the
 //!   default) is a perfect mirror, stored as `eta = k = 0` (octolux's convention).
 //! - Only the GGX microfacet distribution exists: `beckmann` (Mitsuba's default for
 //!   `roughconductor` and `roughplastic`) is replaced by GGX with the same alpha, with a warning.
@@ -215,9 +215,6 @@ impl<'t> Builder<'t> {
         }
         let cam = &mut self.desc.camera;
         cam.to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
-        if cam.to_world.determinant().abs() < 1e-12 {
-            return Err(e.loc.error(format!("{}: to_world is singular", e.describe())));
-        }
         let fov = p.float("fov")?;
         let focal = p.get("focal_length").map(|f| (f.target.attr("value").unwrap_or("").to_string(), f.target));
         match (fov, focal) {
@@ -258,6 +255,7 @@ impl<'t> Builder<'t> {
         if cam.near_clip < 0.0 {
             return Err(e.loc.error(format!("{}: near_clip {} must not be negative", e.describe(), cam.near_clip)));
         }
+        cam.validate().map_err(|msg| e.loc.error(format!("{}: {msg}", e.describe())))?;
         // Accepted without effect: the far plane lies beyond every scene we render, and the
         // focus settings only matter for thin lenses, which are not supported.
         p.accept(&["far_clip", "focus_distance", "aperture_radius", "shutter_open", "shutter_close"]);
@@ -461,6 +459,7 @@ impl<'t> Builder<'t> {
             return Ok(i);
         }
         let m = self.material(e)?;
+        m.validate(self.desc.images.len()).map_err(|msg| e.loc.error(format!("{}: {msg}", e.describe())))?;
         self.desc.materials.push(m);
         let i = (self.desc.materials.len() - 1) as u32;
         self.materials.insert(key, i);
@@ -705,7 +704,7 @@ impl<'t> Builder<'t> {
                         .loc
                         .error(format!("{}: to_world of a sphere may only rotate, translate and scale uniformly", e.describe())));
                 }
-                if !(r > 0.0 && r.is_finite()) {
+                if !(r > 0.0 && r.is_finite() && m.w_axis.is_finite()) {
                     return Err(e.loc.error(format!("{}: the sphere radius {r} must be positive", e.describe())));
                 }
                 Geometry::Sphere { center: m.w_axis.truncate(), radius: r }
@@ -751,7 +750,11 @@ impl<'t> Builder<'t> {
                         return Err(em.loc.error(format!("{} has more than one area emitter", e.describe())));
                     }
                     let ep = self.props(em)?;
-                    emission = Some(self.color_param(&ep, "radiance", ColorKind::Unbounded, 1.0)?);
+                    let radiance = self.color_param(&ep, "radiance", ColorKind::Unbounded, 1.0)?;
+                    if !radiance.is_finite() {
+                        return Err(em.loc.error(format!("{}: radiance {radiance} is not finite", em.describe())));
+                    }
+                    emission = Some(radiance);
                     ep.accept(&["sampling_weight"]);
                     ep.finish(&mut self.warnings);
                 }
@@ -849,6 +852,7 @@ impl<'t> Builder<'t> {
                 return Ok(());
             }
         };
+        light.validate().map_err(|msg| e.loc.error(format!("{}: {msg}", e.describe())))?;
         p.finish(&mut self.warnings);
         self.desc.lights.push(light);
         Ok(())

@@ -186,8 +186,16 @@ fn parse_hex(e: &Elem, s: &str) -> Result<Color, IoError> {
 }
 
 /// Parse a colour value element (`rgb`, `srgb`, `spectrum` without type, `float`, `integer`);
-/// `warnings` receives a note when a spectrum had to be clamped.
+/// `warnings` receives a note when a spectrum had to be clamped. Negative values are errors.
 pub(crate) fn parse_color(e: &Elem, kind: ColorKind, warnings: &mut Vec<String>) -> Result<Color, IoError> {
+    let c = parse_color_unchecked(e, kind, warnings)?;
+    if c.min_element() < 0.0 {
+        return Err(e.loc.error(format!("{}: colour {c} has a negative component", e.describe())));
+    }
+    Ok(c)
+}
+
+fn parse_color_unchecked(e: &Elem, kind: ColorKind, warnings: &mut Vec<String>) -> Result<Color, IoError> {
     match e.tag.as_str() {
         "rgb" | "srgb" => {
             let s = e.req_attr("value")?;
@@ -389,7 +397,11 @@ impl<'t> Props<'t> {
         let Some(p) = self.get(name) else { return Ok(None) };
         let e = p.target;
         if is_value(e) {
-            if e.tag == "blackbody" || e.tag == "string" || e.tag == "boolean" {
+            if e.tag == "blackbody" {
+                warnings.push(e.warning("blackbody spectra are not supported in RGB; the parameter keeps its default"));
+                return Ok(None);
+            }
+            if e.tag == "string" || e.tag == "boolean" {
                 return Err(p.elem.loc.error(format!(
                     "parameter \"{name}\" of {} must be a colour, not <{}>",
                     self.owner.describe(),
@@ -470,5 +482,10 @@ mod tests {
         let c = parse_color(&op("spectrum", &[("value", "0.25")]), ColorKind::Bounded, &mut w).unwrap();
         assert_eq!(c, Color::splat(0.25));
         assert!(parse_color(&op("spectrum", &[("value", "500:1, 400:1")]), ColorKind::Bounded, &mut w).is_err());
+        assert!(parse_color(&op("rgb", &[("value", "0.5, -0.1, 0.2")]), ColorKind::Bounded, &mut w).is_err());
+        // A sampled spectrum: 0.5 everywhere is a grey of luminance 0.5.
+        let c = parse_color(&op("spectrum", &[("value", "360:0.5, 830:0.5")]), ColorKind::Bounded, &mut w).unwrap();
+        assert!((octolux::math::luminance(c) - 0.5).abs() < 2e-3, "{c}");
+        assert!(w.is_empty(), "{w:?}");
     }
 }

@@ -107,10 +107,10 @@ pub(crate) fn read_str(text: &str, path: &Path, defines: &[(String, String)], wa
     let file = Rc::new(path.to_path_buf());
     let mut out = Vec::new();
     b.document(text, &file, None, 0, &mut out)?;
-    let root = match out.len() {
-        1 => out.pop().expect("one element"),
-        _ => return Err(IoError::invalid(path, "the document has no root element")),
-    };
+    if out.len() != 1 {
+        return Err(IoError::invalid(path, "the document has no root element"));
+    }
+    let root = out.remove(0);
     if root.tag != "scene" {
         return Err(root.loc.error(format!("the root element must be <scene>, not <{}>", root.tag)));
     }

@@ -366,9 +366,11 @@ pub(super) fn build(
         *cs = size / (1u64 << d) as f32;
     }
 
+    eprintln!("TIMING keys {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
     // 1. keys
     let (keys, idx) = sorted_keys(photons, origin, size, inv_quant, h);
 
+    eprintln!("TIMING sort {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
     // 2. subdivision
     let mut tb = TreeBuilder {
         keys: &keys,
@@ -385,11 +387,13 @@ pub(super) fn build(
     let TreeBuilder { nodes, start, leaves, valid, .. } = tb;
     drop(keys);
 
+    eprintln!("TIMING tree {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
     // sorted photon data
     let sorted: Vec<Photon> = idx.par_iter().map(|&i| photons[i as usize]).collect();
     let pos: Vec<Vec3> = sorted.par_iter().map(|ph| ph.p).collect();
     drop(idx);
 
+    eprintln!("TIMING gather {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
     let view = TreeView { nodes: &nodes, origin, cell_size: &cell_size };
 
     // 3. geometry
@@ -415,15 +419,18 @@ pub(super) fn build(
         distribute_triangles(&view, &tri_bounds, settings.epsilon, valid.len())
     };
 
+    eprintln!("TIMING geom {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
     // 4. estimates
     let ctx = EstimateCtx { view, start: &start, pos: &pos, sorted: &sorted, settings, triangles, tri_lists: &tri_lists };
     let est: Vec<LeafEstimate> =
         valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
+    eprintln!("TIMING estimate {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
     let values = match settings.storage {
         Storage::Compressed => LeafValues::Compressed(est.par_iter().map(|e| compress_leaf(&e.m)).collect()),
         Storage::Full => LeafValues::Full(est.iter().map(|e| e.m).collect()),
     };
 
+    eprintln!("TIMING compress {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
     // statistics
     let max_depth = leaves.iter().map(|l| l.depth).max().unwrap_or(0);
     let min_leaf_size = cell_size[max_depth as usize];

@@ -491,3 +491,13 @@ fn default_n_max_matches_table_1() {
     eprintln!("{}", serde_json::to_string(st).unwrap());
     assert!((150.0..260.0).contains(&st.mean_photons_per_leaf), "{st:?}");
 }
+
+#[test]
+#[ignore]
+fn timing_probe() {
+    let photons = cornell_photons(1_000_000, 1);
+    for _ in 0..3 {
+        let t = Octree::build(&photons, unit_cube(), &OctreeSettings::default(), None).unwrap();
+        eprintln!("total {:.1} ms", t.stats().t_build_s * 1e3);
+    }
+}
