@@ -73,10 +73,15 @@ fn main() {
         let diffuse = diffuse_rays(m, n);
         let shadow = shadow_rays(m, n);
         let mut backs: Vec<(String, Box<dyn Fn(&Ray) -> u32>, Box<dyn Fn(&Ray) -> bool>)> = Vec::new();
+        let only = std::env::var("ONLY").unwrap_or_default();
         for kind in [BackendKind::Embree, BackendKind::Bvh] {
+            if only == "bvh" && kind == BackendKind::Embree { continue; }
+            if only == "embree" && kind == BackendKind::Bvh { continue; }
             let t0 = Instant::now();
             let a = std::sync::Arc::new(Accel::build(&m.vertices, &m.triangles, kind).unwrap());
             eprintln!("{name}: {} build {:.3}s", a.name(), t0.elapsed().as_secs_f64());
+            if let Accel::Bvh(b) = &*a { eprintln!("  nodes/blocks {:?} tris {}", b.counts(), m.triangles.len());
+                for (k, rays) in [&primary[..], &diffuse[..]].into_iter().enumerate() { let mut st = [0u64; 2]; for r in rays { b.tmp_stats(r, &mut st); } eprintln!("  kind {k}: nodes/ray {:.1} blocks/ray {:.1}", st[0] as f64 / rays.len() as f64, st[1] as f64 / rays.len() as f64); } }
             let a2 = a.clone();
             backs.push((a.name(), Box::new(move |r| a.intersect(r).map_or(0, |h| h.prim & 1)), Box::new(move |r| a2.occluded(r))));
         }

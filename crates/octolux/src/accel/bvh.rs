@@ -1,4 +1,4 @@
-//! Pure-Rust fallback: a 4-wide BVH with 4-triangle leaf blocks, built with binned SAH.
+//! Pure-Rust fallback: a 4- or 8-wide BVH with 4-triangle leaf blocks, built with binned SAH.
 //!
 //! Layout (struct-of-arrays so that one SIMD op handles four boxes or four triangles; `glam::Vec4`
 //! maps to SSE on x86-64 and to scalar code elsewhere):
@@ -37,11 +37,11 @@ use std::mem::MaybeUninit;
 
 /// Most triangles in one leaf (4 blocks of 4).
 pub const MAX_LEAF_TRIS: usize = 16;
-/// Below this depth (in BVH4 levels) the builder uses SAH; deeper it splits at object medians.
-pub const MAX_SAH_DEPTH: usize = 24;
-/// Traversal stack entries: 3 per level is the bound for ordered traversal of a 4-wide tree
-/// (`MAX_SAH_DEPTH` SAH levels plus at most 16 median levels for < 2^32 triangles).
-const STACK_SIZE: usize = 3 * (MAX_SAH_DEPTH + 17) + 1;
+/// Below this depth (in tree levels) the builder uses SAH; deeper it splits at object medians,
+/// always splitting the most populated candidate, so every level at least halves the count.
+pub const MAX_SAH_DEPTH: usize = 16;
+/// Tree levels bounded by `MAX_SAH_DEPTH` SAH levels plus 32 median levels (< 2^32 triangles).
+const MAX_DEPTH: usize = MAX_SAH_DEPTH + 33;
 const LEAF_BIT: u32 = 1 << 31;
 const EMPTY: u32 = u32::MAX;
 const NUM_BINS: usize = 32;
@@ -53,35 +53,40 @@ const TRAV_COST: f32 = 0.5;
 const NEAR_SCALE: f32 = 1.0 - 3.0 * f32::EPSILON * 0.5;
 const FAR_SCALE: f32 = 1.0 + 3.0 * f32::EPSILON * 0.5;
 
-/// Four child boxes (SoA) and their child words.
+/// `4 * H` child boxes (SoA, `H` groups of four lanes) and their child words.
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug)]
-struct Node4 {
+struct Node<const H: usize> {
     /// `[min_x, max_x, min_y, max_y, min_z, max_z]`, one lane per child.
-    b: [Vec4; 6],
-    child: [u32; 4],
+    b: [[Vec4; H]; 6],
+    child: [[u32; 4]; H],
 }
 
-impl Node4 {
-    const EMPTY: Node4 = Node4 {
+impl<const H: usize> Node<H> {
+    const EMPTY: Self = Node {
         b: [
-            Vec4::splat(f32::INFINITY),
-            Vec4::splat(f32::NEG_INFINITY),
-            Vec4::splat(f32::INFINITY),
-            Vec4::splat(f32::NEG_INFINITY),
-            Vec4::splat(f32::INFINITY),
-            Vec4::splat(f32::NEG_INFINITY),
+            [Vec4::splat(f32::INFINITY); H],
+            [Vec4::splat(f32::NEG_INFINITY); H],
+            [Vec4::splat(f32::INFINITY); H],
+            [Vec4::splat(f32::NEG_INFINITY); H],
+            [Vec4::splat(f32::INFINITY); H],
+            [Vec4::splat(f32::NEG_INFINITY); H],
         ],
-        child: [EMPTY; 4],
+        child: [[EMPTY; 4]; H],
     };
 
     fn set_child(&mut self, k: usize, b: &Aabb, word: u32) {
         let (lo, hi) = (b.lo.to_array(), b.hi.to_array());
         for axis in 0..3 {
-            self.b[2 * axis][k] = lo[axis];
-            self.b[2 * axis + 1][k] = hi[axis];
+            self.b[2 * axis][k / 4][k % 4] = lo[axis];
+            self.b[2 * axis + 1][k / 4][k % 4] = hi[axis];
         }
-        self.child[k] = word;
+        self.child[k / 4][k % 4] = word;
+    }
+
+    #[inline(always)]
+    fn child(&self, k: usize) -> u32 {
+        self.child[k / 4][k % 4]
     }
 }
 
@@ -136,12 +141,17 @@ impl PrimRef {
     }
 }
 
-/// The 4-wide BVH.
-#[derive(Debug, Default)]
-pub struct Bvh4 {
-    nodes: Vec<Node4>,
+/// A BVH with `4 * H` children per node (`H = 1`: BVH4, `H = 2`: BVH8).
+#[derive(Debug)]
+pub struct Bvh<const H: usize> {
+    nodes: Vec<Node<H>>,
     tris: Vec<Tri4>,
 }
+
+/// 4-wide BVH.
+pub type Bvh4 = Bvh<1>;
+/// 8-wide BVH (two 4-lane halves per node).
+pub type Bvh8 = Bvh<2>;
 
 /// Per-ray constants for the traversal.
 struct RayData {
@@ -186,19 +196,26 @@ impl RayData {
         }
     }
 
-    /// Slab test against the four child boxes; returns the hit mask and the entry distances.
+    /// Slab test against the child boxes; returns the hit mask (bit `k` for child `k`) and
+    /// the entry distances.
     #[inline(always)]
-    fn hit_node(&self, n: &Node4, tmax: f32) -> (u32, Vec4) {
+    fn hit_node<const H: usize>(&self, n: &Node<H>, tmax: f32) -> (u32, [Vec4; H]) {
         let [nx, ny, nz] = self.near;
-        let tnx = (n.b[nx] - self.o[0]) * self.inv[0];
-        let tny = (n.b[ny] - self.o[1]) * self.inv[1];
-        let tnz = (n.b[nz] - self.o[2]) * self.inv[2];
-        let tfx = (n.b[nx ^ 1] - self.o[0]) * self.inv[0];
-        let tfy = (n.b[ny ^ 1] - self.o[1]) * self.inv[1];
-        let tfz = (n.b[nz ^ 1] - self.o[2]) * self.inv[2];
-        let tn = tnx.max(tny).max(tnz.max(Vec4::splat(self.tmin))) * NEAR_SCALE;
-        let tf = tfx.min(tfy).min(tfz.min(Vec4::splat(tmax))) * FAR_SCALE;
-        (tn.cmple(tf).bitmask(), tn)
+        let mut mask = 0;
+        let mut tns = [Vec4::ZERO; H];
+        for h in 0..H {
+            let tnx = (n.b[nx][h] - self.o[0]) * self.inv[0];
+            let tny = (n.b[ny][h] - self.o[1]) * self.inv[1];
+            let tnz = (n.b[nz][h] - self.o[2]) * self.inv[2];
+            let tfx = (n.b[nx ^ 1][h] - self.o[0]) * self.inv[0];
+            let tfy = (n.b[ny ^ 1][h] - self.o[1]) * self.inv[1];
+            let tfz = (n.b[nz ^ 1][h] - self.o[2]) * self.inv[2];
+            let tn = tnx.max(tny).max(tnz.max(Vec4::splat(self.tmin))) * NEAR_SCALE;
+            let tf = tfx.min(tfy).min(tfz.min(Vec4::splat(tmax))) * FAR_SCALE;
+            mask |= tn.cmple(tf).bitmask() << (4 * h);
+            tns[h] = tn;
+        }
+        (mask, tns)
     }
 
     /// Intersect four triangles: returns the lane mask of hits with `t` in `[tmin, tmax]`,
@@ -255,30 +272,90 @@ struct StackItem {
     t: f32,
 }
 
-impl Bvh4 {
+/// Ordered traversal pushes at most `4H - 1` entries per level.
+struct Stack<const H: usize> {
+    items: [[MaybeUninit<StackItem>; MAX_DEPTH]; 8],
+    sp: usize,
+}
+
+impl<const H: usize> Stack<H> {
+    #[inline(always)]
+    fn new() -> Self {
+        // 8 rows of MAX_DEPTH >= (4H - 1) * MAX_DEPTH + 1 entries for H <= 2.
+        const { assert!(H <= 2) };
+        Stack { items: [[MaybeUninit::uninit(); MAX_DEPTH]; 8], sp: 0 }
+    }
+    #[inline(always)]
+    fn push(&mut self, it: StackItem) {
+        self.items[self.sp / MAX_DEPTH][self.sp % MAX_DEPTH].write(it);
+        self.sp += 1;
+    }
+    #[inline(always)]
+    fn pop(&mut self) -> Option<StackItem> {
+        if self.sp == 0 {
+            return None;
+        }
+        self.sp -= 1;
+        // SAFETY: every entry below `sp` was written by `push`.
+        Some(unsafe { self.items[self.sp / MAX_DEPTH][self.sp % MAX_DEPTH].assume_init() })
+    }
+
+    /// Order the hit children (two or more) by entry distance, push all but the nearest
+    /// (farthest first) and return the nearest.
+    #[inline(always)]
+    fn push_sorted(&mut self, node: &Node<H>, mask: u32, tn: &[Vec4; H]) -> u32 {
+        let mut ta = [0.0f32; 8];
+        for h in 0..H {
+            ta[4 * h..4 * h + 4].copy_from_slice(&tn[h].to_array());
+        }
+        let mut items = [StackItem { node: 0, t: 0.0 }; 8];
+        let mut n = 0;
+        let mut m = mask;
+        while m != 0 {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            // Insertion sort, descending by t.
+            let it = StackItem { node: node.child(k), t: ta[k] };
+            let mut j = n;
+            while j > 0 && items[j - 1].t < it.t {
+                items[j] = items[j - 1];
+                j -= 1;
+            }
+            items[j] = it;
+            n += 1;
+        }
+        for it in &items[..n - 1] {
+            self.push(*it);
+        }
+        items[n - 1].node
+    }
+}
+
+impl<const H: usize> Bvh<H> {
     /// Build from validated input (every index `< vertices.len()`, finite vertices).
-    pub fn build(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Bvh4 {
+    pub fn build(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Self {
+        let mut bvh = Bvh { nodes: Vec::new(), tris: Vec::new() };
         if triangles.is_empty() {
-            return Bvh4::default();
+            return bvh;
         }
         let mut prims: Vec<PrimRef> = triangles
             .par_iter()
             .enumerate()
             .map(|(i, t)| {
-                let (a, b, c) = (Vec3A::from(vertices[t[0] as usize]), Vec3A::from(vertices[t[1] as usize]), Vec3A::from(vertices[t[2] as usize]));
+                let [a, b, c] = t.map(|k| Vec3A::from(vertices[k as usize]));
                 PrimRef { lo: a.min(b).min(c), hi: a.max(b).max(c), idx: i as u32 }
             })
             .collect();
         let (bounds, cbounds) = range_bounds(&prims);
-        let root = build_inner(&mut prims, 0, bounds, cbounds, 0);
-        let mut bvh = Bvh4 { nodes: Vec::new(), tris: Vec::with_capacity(triangles.len() / 3) };
+        let root = build_inner(&mut prims, 0, bounds, cbounds, 0, 4 * H);
+        bvh.tris.reserve(triangles.len() / 3);
         bvh.flatten(&root, &prims, vertices, triangles);
         bvh.nodes.shrink_to_fit();
         bvh.tris.shrink_to_fit();
         bvh
     }
 
-    /// Number of BVH4 nodes and 4-triangle blocks (for stats and tests).
+    /// Number of nodes and of 4-triangle blocks (for stats and tests).
     pub fn counts(&self) -> (usize, usize) {
         (self.nodes.len(), self.tris.len())
     }
@@ -288,7 +365,7 @@ impl Bvh4 {
             unreachable!("flatten is called on inner nodes only");
         };
         let idx = self.nodes.len();
-        self.nodes.push(Node4::EMPTY);
+        self.nodes.push(Node::EMPTY);
         for (k, (bounds, child)) in children.iter().enumerate() {
             let word = match child {
                 BuildNode::Leaf { start, count } => {
@@ -306,6 +383,13 @@ impl Bvh4 {
         idx as u32
     }
 
+    #[inline(always)]
+    fn leaf_blocks(&self, word: u32) -> &[Tri4] {
+        let first = ((word & !LEAF_BIT) >> 3) as usize;
+        let count = (word & 7) as usize + 1;
+        &self.tris[first..first + count]
+    }
+
     /// Closest hit with `t` in `[ray.tmin, ray.tmax]`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<TriHit> {
@@ -315,26 +399,19 @@ impl Bvh4 {
         let r = RayData::new(ray);
         let mut tmax = ray.tmax;
         let mut hit: Option<TriHit> = None;
-        let mut stack = [MaybeUninit::<StackItem>::uninit(); STACK_SIZE];
-        let mut sp = 0usize;
+        let mut stack = Stack::<H>::new();
         let mut cur = 0u32;
         loop {
             if cur & LEAF_BIT == 0 {
                 let node = &self.nodes[cur as usize];
                 let (mask, tn) = r.hit_node(node, tmax);
                 if mask != 0 {
-                    if mask & (mask - 1) == 0 {
-                        cur = node.child[mask.trailing_zeros() as usize];
-                        continue;
-                    }
-                    cur = push_sorted(node, mask, tn, &mut stack, &mut sp);
+                    cur = if mask & (mask - 1) == 0 { node.child(mask.trailing_zeros() as usize) } else { stack.push_sorted(node, mask, &tn) };
                     continue;
                 }
             } else {
-                let first = ((cur & !LEAF_BIT) >> 3) as usize;
-                let count = (cur & 7) as usize + 1;
-                for tri in &self.tris[first..first + count] {
-                    let (mask, t, u, v, s) = r.hit_tri4(tri, tmax);
+                for tri in self.leaf_blocks(cur) {
+                    let (mask, t, v, w, det) = r.hit_tri4(tri, tmax);
                     if mask != 0 {
                         let ta = t.to_array();
                         let mut lane = mask.trailing_zeros() as usize;
@@ -347,22 +424,20 @@ impl Bvh4 {
                             m &= m - 1;
                         }
                         tmax = ta[lane];
-                        let (u, v, s) = (u.to_array()[lane], v.to_array()[lane], s.to_array()[lane]);
-                        hit = Some(TriHit { t: tmax, prim: tri.prim[lane], u: u / s, v: v / s });
+                        let det = det.to_array()[lane];
+                        hit = Some(TriHit { t: tmax, prim: tri.prim[lane], u: v.to_array()[lane] / det, v: w.to_array()[lane] / det });
                     }
                 }
             }
             // Pop the next subtree that may still hold a closer hit.
             loop {
-                if sp == 0 {
-                    return hit;
-                }
-                sp -= 1;
-                // SAFETY: entries below `sp` were written by `push_sorted`.
-                let it = unsafe { stack[sp].assume_init() };
-                if it.t <= tmax {
-                    cur = it.node;
-                    break;
+                match stack.pop() {
+                    None => return hit,
+                    Some(it) if it.t <= tmax => {
+                        cur = it.node;
+                        break;
+                    }
+                    Some(_) => {}
                 }
             }
         }
@@ -376,66 +451,29 @@ impl Bvh4 {
         }
         let r = RayData::new(ray);
         let tmax = ray.tmax;
-        let mut stack = [MaybeUninit::<StackItem>::uninit(); STACK_SIZE];
-        let mut sp = 0usize;
+        let mut stack = Stack::<H>::new();
         let mut cur = 0u32;
         loop {
             if cur & LEAF_BIT == 0 {
                 let node = &self.nodes[cur as usize];
                 let (mask, tn) = r.hit_node(node, tmax);
                 if mask != 0 {
-                    if mask & (mask - 1) == 0 {
-                        cur = node.child[mask.trailing_zeros() as usize];
-                        continue;
-                    }
-                    cur = push_sorted(node, mask, tn, &mut stack, &mut sp);
+                    cur = if mask & (mask - 1) == 0 { node.child(mask.trailing_zeros() as usize) } else { stack.push_sorted(node, mask, &tn) };
                     continue;
                 }
             } else {
-                let first = ((cur & !LEAF_BIT) >> 3) as usize;
-                let count = (cur & 7) as usize + 1;
-                for tri in &self.tris[first..first + count] {
+                for tri in self.leaf_blocks(cur) {
                     if r.hit_tri4(tri, tmax).0 != 0 {
                         return true;
                     }
                 }
             }
-            if sp == 0 {
-                return false;
+            match stack.pop() {
+                None => return false,
+                Some(it) => cur = it.node,
             }
-            sp -= 1;
-            // SAFETY: entries below `sp` were written by `push_sorted`.
-            cur = unsafe { stack[sp].assume_init() }.node;
         }
     }
-}
-
-/// Order the hit children (2 to 4) by entry distance, push all but the nearest (farthest
-/// first) and return the nearest.
-#[inline(always)]
-fn push_sorted(node: &Node4, mask: u32, tn: Vec4, stack: &mut [MaybeUninit<StackItem>; STACK_SIZE], sp: &mut usize) -> u32 {
-    let ta = tn.to_array();
-    let mut items = [StackItem { node: 0, t: 0.0 }; 4];
-    let mut n = 0;
-    let mut m = mask;
-    while m != 0 {
-        let k = m.trailing_zeros() as usize;
-        m &= m - 1;
-        // Insertion sort, descending by t.
-        let it = StackItem { node: node.child[k], t: ta[k] };
-        let mut j = n;
-        while j > 0 && items[j - 1].t < it.t {
-            items[j] = items[j - 1];
-            j -= 1;
-        }
-        items[j] = it;
-        n += 1;
-    }
-    for it in &items[..n - 1] {
-        stack[*sp].write(*it);
-        *sp += 1;
-    }
-    items[n - 1].node
 }
 
 fn make_tri4(chunk: &[PrimRef], vertices: &[Vec3], triangles: &[[u32; 3]]) -> Tri4 {
@@ -605,15 +643,14 @@ fn partition(prims: &mut [PrimRef], plan: SplitPlan) -> usize {
 }
 
 /// Build one BVH4 node over `prims` (which start at global index `offset`).
-fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb, depth: usize) -> BuildNode {
+fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb, depth: usize, width: usize) -> BuildNode {
     let root_plan = plan(prims, &bounds, &cbounds, depth);
     let mut cands = vec![Cand { start: 0, end: prims.len(), bounds, cbounds, plan: root_plan }];
-    while cands.len() < 4 {
-        // Split the splittable candidate with the largest surface area.
-        let Some(k) = (0..cands.len())
-            .filter(|&k| cands[k].plan.is_some())
-            .max_by(|&a, &b| cands[a].bounds.half_area().total_cmp(&cands[b].bounds.half_area()))
-        else {
+    while cands.len() < width {
+        // Split the splittable candidate with the largest surface area (SAH levels) or with
+        // the most triangles (median levels, to bound the depth).
+        let key = |c: &Cand| if depth >= MAX_SAH_DEPTH { (c.end - c.start) as f32 } else { c.bounds.half_area() };
+        let Some(k) = (0..cands.len()).filter(|&k| cands[k].plan.is_some()).max_by(|&a, &b| key(&cands[a]).total_cmp(&key(&cands[b]))) else {
             break;
         };
         let c = &cands[k];
@@ -639,7 +676,7 @@ fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb
         let node = if c.plan.is_none() {
             BuildNode::Leaf { start: offset + c.start, count: c.end - c.start }
         } else {
-            build_inner(slice, offset + c.start, c.bounds, c.cbounds, depth + 1)
+            build_inner(slice, offset + c.start, c.bounds, c.cbounds, depth + 1, width)
         };
         (c.bounds, node)
     };

@@ -2,8 +2,8 @@
 //!
 //! Steps, each deterministic whatever the thread count:
 //! 1. Morton keys of the photon positions at depth `h_max` (21 bits per axis at most),
-//!    packed with the photon index into one `u64` (`h_max ≤ 10`) or `u128`, and sorted in
-//!    parallel (the packed values are unique, so an unstable sort has one result).
+//!    packed with the photon index into one `u64` (`h_max ≤ 10`) or `u128`, and sorted by a
+//!    parallel stable LSD radix sort on the key bits only (2 passes of 9 bits at `h_max = 6`).
 //! 2. Top-down subdivision over the sorted ranges: the children of a node are 8 contiguous
 //!    sub-ranges found by binary search on the next 3 key bits (sequential; the node count is
 //!    about `photons / n_max`).
@@ -69,8 +69,92 @@ fn cube_of(b: &Bounds3) -> Result<(Vec3, f32), OctreeError> {
     Ok((c - Vec3::splat(0.5 * edge), edge))
 }
 
+/// Elements of the radix sort: the sort key is read from bit `shift` up.
+trait RadixKey: Copy + Send + Sync {
+    fn bits(&self, shift: u32) -> u64;
+}
+
+impl RadixKey for u64 {
+    #[inline]
+    fn bits(&self, shift: u32) -> u64 {
+        *self >> shift
+    }
+}
+
+impl RadixKey for u128 {
+    #[inline]
+    fn bits(&self, shift: u32) -> u64 {
+        (*self >> shift) as u64
+    }
+}
+
+/// Raw output pointer shared by the scatter jobs of [`radix_sort`].
+#[derive(Clone, Copy)]
+struct ScatterPtr<T>(*mut T);
+// SAFETY: the jobs write disjoint index ranges (see `radix_sort`), never read.
+unsafe impl<T: Send> Send for ScatterPtr<T> {}
+unsafe impl<T: Send> Sync for ScatterPtr<T> {}
+impl<T> ScatterPtr<T> {
+    #[inline]
+    fn get(self) -> *mut T {
+        self.0
+    }
+}
+
+/// Stable parallel LSD radix sort of `v` by its bits `[lo_bit, hi_bit)` (digits of at most
+/// 11 bits). Stable, hence one result whatever the chunking or the thread count.
+fn radix_sort<T: RadixKey>(mut v: Vec<T>, lo_bit: u32, hi_bit: u32) -> Vec<T> {
+    let total = hi_bit.saturating_sub(lo_bit);
+    let n = v.len();
+    if total == 0 || n < 2 {
+        return v;
+    }
+    let passes = total.div_ceil(11);
+    let digit = total.div_ceil(passes);
+    let nb = 1usize << digit;
+    let mask = (nb - 1) as u64;
+    let chunk = n.div_ceil(4 * rayon::current_num_threads()).max(1 << 15);
+    let mut tmp = v.clone();
+    for pass in 0..passes {
+        let shift = lo_bit + pass * digit;
+        let mut offs: Vec<Vec<u32>> = v
+            .par_chunks(chunk)
+            .map(|c| {
+                let mut h = vec![0u32; nb];
+                for x in c {
+                    h[(x.bits(shift) & mask) as usize] += 1;
+                }
+                h
+            })
+            .collect();
+        // counts -> start offsets, bucket-major then chunk order (stability)
+        let mut sum = 0u32;
+        for b in 0..nb {
+            for o in offs.iter_mut() {
+                let k = o[b];
+                o[b] = sum;
+                sum += k;
+            }
+        }
+        debug_assert_eq!(sum as usize, n);
+        let dst = ScatterPtr(tmp.as_mut_ptr());
+        v.par_chunks(chunk).zip(offs.par_iter_mut()).for_each(|(c, off)| {
+            for x in c {
+                let b = (x.bits(shift) & mask) as usize;
+                // SAFETY: `off[b]` walks the range reserved for (this chunk, bucket b); the
+                // ranges of all (chunk, bucket) pairs are disjoint and tile `0..n`, and
+                // `tmp.len() == n`, so every write is in bounds and written once.
+                unsafe { dst.get().add(off[b] as usize).write(*x) };
+                off[b] += 1;
+            }
+        });
+        std::mem::swap(&mut v, &mut tmp);
+    }
+    v
+}
+
 /// Sorted Morton keys (at depth `h`) and the matching photon indices; photons with
-/// non-finite fields or outside the cube are left out.
+/// non-finite fields or outside the cube are left out. Ties keep the photon order.
 fn sorted_keys(photons: &[Photon], origin: Vec3, size: f32, inv_quant: f32, h: u32) -> (Vec<u64>, Vec<u32>) {
     let hi = origin + Vec3::splat(size);
     let key_of = move |ph: &Photon| -> Option<u64> {
@@ -80,14 +164,14 @@ fn sorted_keys(photons: &[Photon], origin: Vec3, size: f32, inv_quant: f32, h: u
         Some(morton(quantize(ph.p, origin, inv_quant, h)))
     };
     if 3 * h <= 32 {
-        let mut packed: Vec<u64> =
+        let packed: Vec<u64> =
             photons.par_iter().enumerate().filter_map(|(i, ph)| key_of(ph).map(|k| (k << 32) | i as u64)).collect();
-        packed.par_sort_unstable();
+        let packed = radix_sort(packed, 32, 32 + 3 * h);
         packed.par_iter().map(|&v| (v >> 32, v as u32)).unzip()
     } else {
-        let mut packed: Vec<u128> =
+        let packed: Vec<u128> =
             photons.par_iter().enumerate().filter_map(|(i, ph)| key_of(ph).map(|k| ((k as u128) << 32) | i as u128)).collect();
-        packed.par_sort_unstable();
+        let packed = radix_sort(packed, 32, 32 + 3 * h);
         packed.par_iter().map(|&v| ((v >> 32) as u64, v as u32)).unzip()
     }
 }
@@ -499,6 +583,21 @@ mod tests {
             assert_eq!(morton(q), naive(q));
         }
         assert_eq!(morton([0x1f_ffff; 3]), (1u64 << 63) - 1);
+    }
+
+    #[test]
+    fn radix_sort_matches_a_comparison_sort() {
+        let mut s = crate::sampling::Sampler::new(4, 5, 6);
+        for (n, bits) in [(0usize, 18u32), (1, 18), (1000, 18), (300_000, 18), (100_000, 30), (70_000, 5)] {
+            let v: Vec<u64> = (0..n).map(|i| ((s.next_u32() as u64 & ((1 << bits) - 1)) << 32) | i as u64).collect();
+            let mut expect = v.clone();
+            expect.sort_unstable();
+            assert_eq!(radix_sort(v, 32, 32 + bits), expect);
+        }
+        let v: Vec<u128> = (0..200_000u128).map(|i| (((s.next_u32() as u128) << 31 ^ s.next_u32() as u128) << 32) | i).collect();
+        let mut expect = v.clone();
+        expect.sort_unstable();
+        assert_eq!(radix_sort(v, 32, 32 + 63), expect);
     }
 
     #[test]

@@ -28,27 +28,49 @@ impl TreeView<'_> {
     }
 
     /// Call `f(node, depth, ijk, overlap_volume)` for every leaf whose cell overlaps the box
-    /// `[qmin, qmax]` with positive volume, in depth-first child order.
+    /// `[qmin, qmax]` with positive volume, in depth-first child order. Only children that
+    /// overlap the box are entered (one comparison per axis against the node's centre).
     #[inline]
     pub fn visit<F: FnMut(u32, u32, [u32; 3], f32)>(&self, qmin: Vec3, qmax: Vec3, mut f: F) {
-        self.visit_rec(0, 0, [0; 3], qmin, qmax, &mut f);
+        let cmin = self.origin;
+        let cmax = cmin + Vec3::splat(self.cell_size[0]);
+        if qmin.cmplt(cmax).all() && qmax.cmpgt(cmin).all() {
+            self.visit_rec(0, 0, [0; 3], cmin, qmin, qmax, &mut f);
+        }
     }
 
-    fn visit_rec<F: FnMut(u32, u32, [u32; 3], f32)>(&self, node: u32, depth: u32, ijk: [u32; 3], qmin: Vec3, qmax: Vec3, f: &mut F) {
-        let cmin = self.cell_min(depth, ijk);
-        let cmax = cmin + Vec3::splat(self.cell_size[depth as usize]);
-        let o = cmax.min(qmax) - cmin.max(qmin);
-        if !(o.x > 0.0 && o.y > 0.0 && o.z > 0.0) {
-            return;
-        }
+    /// `cmin` = `cell_min(depth, ijk)`; the caller checked the positive overlap.
+    #[allow(clippy::too_many_arguments)]
+    fn visit_rec<F: FnMut(u32, u32, [u32; 3], f32)>(
+        &self,
+        node: u32,
+        depth: u32,
+        ijk: [u32; 3],
+        cmin: Vec3,
+        qmin: Vec3,
+        qmax: Vec3,
+        f: &mut F,
+    ) {
         let n = self.nodes[node as usize];
         if n.is_leaf() {
+            let cmax = cmin + Vec3::splat(self.cell_size[depth as usize]);
+            let o = cmax.min(qmax) - cmin.max(qmin);
             f(node, depth, ijk, o.x * o.y * o.z);
             return;
         }
+        // the centre, computed as the upper children's minimum corner
+        let mid = self.cell_min(depth + 1, [2 * ijk[0] + 1, 2 * ijk[1] + 1, 2 * ijk[2] + 1]);
+        let lo = qmin.cmplt(mid);
+        let hi = qmax.cmpgt(mid);
+        let (lo, hi) = ([lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z]);
         for c in 0..8u32 {
-            let cijk = [2 * ijk[0] + (c & 1), 2 * ijk[1] + ((c >> 1) & 1), 2 * ijk[2] + ((c >> 2) & 1)];
-            self.visit_rec(n.link + c, depth + 1, cijk, qmin, qmax, f);
+            let b = [c & 1, (c >> 1) & 1, (c >> 2) & 1];
+            if !(0..3).all(|a| if b[a] == 1 { hi[a] } else { lo[a] }) {
+                continue;
+            }
+            let cijk = [2 * ijk[0] + b[0], 2 * ijk[1] + b[1], 2 * ijk[2] + b[2]];
+            let ccmin = self.cell_min(depth + 1, cijk);
+            self.visit_rec(n.link + c, depth + 1, cijk, ccmin, qmin, qmax, f);
         }
     }
 }
