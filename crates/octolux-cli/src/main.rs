@@ -32,6 +32,13 @@ enum Command {
     Export(ExportArgs),
     /// List the built-in scenes.
     Scenes,
+    /// Compare an image with a reference: relMSE, RMSE and channel means (JSON on stdout).
+    Compare {
+        /// The image to judge (EXR).
+        image: PathBuf,
+        /// The reference (EXR).
+        reference: PathBuf,
+    },
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -446,6 +453,14 @@ fn main() -> Result<()> {
     match cli.command {
         Command::Render(a) => cmd_render(a),
         Command::Export(a) => cmd_export(a),
+        Command::Compare { image, reference } => {
+            let a = octolux_io::image_io::read_exr(&image).with_context(|| format!("cannot read {}", image.display()))?;
+            let r = octolux_io::image_io::read_exr(&reference).with_context(|| format!("cannot read {}", reference.display()))?;
+            let e = octolux::metrics::compare(&a, &r)
+                .with_context(|| format!("{} is {}x{} but {} is {}x{}", image.display(), a.width, a.height, reference.display(), r.width, r.height))?;
+            println!("{}", serde_json::to_string_pretty(&e)?);
+            Ok(())
+        }
         Command::Scenes => {
             for n in octolux_io::builtin::NAMES {
                 println!("{n}");

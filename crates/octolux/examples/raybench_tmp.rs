@@ -81,9 +81,16 @@ fn main() {
             let a = std::sync::Arc::new(Accel::build(&m.vertices, &m.triangles, kind).unwrap());
             eprintln!("{name}: {} build {:.3}s", a.name(), t0.elapsed().as_secs_f64());
             if let Accel::Bvh(b) = &*a { eprintln!("  nodes/blocks {:?} tris {}", b.counts(), m.triangles.len());
-                for (k, rays) in [&primary[..], &diffuse[..]].into_iter().enumerate() { let mut st = [0u64; 2]; for r in rays { b.tmp_stats(r, &mut st); } eprintln!("  kind {k}: nodes/ray {:.1} blocks/ray {:.1}", st[0] as f64 / rays.len() as f64, st[1] as f64 / rays.len() as f64); } }
+}
             let a2 = a.clone();
             backs.push((a.name(), Box::new(move |r| a.intersect(r).map_or(0, |h| h.prim & 1)), Box::new(move |r| a2.occluded(r))));
+        }
+        if only != "embree" {
+            let t0 = Instant::now();
+            let o = std::sync::Arc::new(octolux::accel::bvh::Bvh8::build(&m.vertices, &m.triangles));
+            eprintln!("{name}: bvh8 build {:.3}s counts {:?} fill {:?}", t0.elapsed().as_secs_f64(), o.counts(), o.tmp_fill());
+            let o2 = o.clone();
+            backs.push(("bvh8".into(), Box::new(move |r| o.intersect(r).map_or(0, |h| h.prim & 1)), Box::new(move |r| o2.occluded(r))));
         }
         if with_obvhs {
             let t0 = Instant::now();
@@ -92,18 +99,26 @@ fn main() {
             let o2 = o.clone();
             backs.push(("obvhs".into(), Box::new(move |r| o.intersect(r)), Box::new(move |r| o2.occluded(r))));
         }
-        let mut best = vec![[f64::INFINITY; 3]; backs.len()];
+        // Per chunk of 1024 rays, the minimum time over `reps` runs; summed over chunks.
+        const CH: usize = 1024;
+        let nch = n / CH;
+        let mut best = vec![[[f64::INFINITY; 3]; 4096]; backs.len()];
         for _ in 0..reps {
             for (bi, (_, isect, occ)) in backs.iter().enumerate() {
                 for (k, rays) in [&primary[..], &diffuse[..], &shadow[..]].into_iter().enumerate() {
-                    let t0 = Instant::now();
-                    let mut acc = 0u32;
-                    if k == 2 { for r in rays { acc += occ(black_box(r)) as u32; } } else { for r in rays { acc += isect(black_box(r)); } }
-                    black_box(acc);
-                    best[bi][k] = best[bi][k].min(t0.elapsed().as_secs_f64());
+                    for c in 0..nch {
+                        let rays = &rays[c * CH..(c + 1) * CH];
+                        let t0 = Instant::now();
+                        let mut acc = 0u32;
+                        if k == 2 { for r in rays { acc += occ(black_box(r)) as u32; } } else { for r in rays { acc += isect(black_box(r)); } }
+                        black_box(acc);
+                        best[bi][c][k] = best[bi][c][k].min(t0.elapsed().as_secs_f64());
+                    }
                 }
             }
         }
+        let best: Vec<[f64; 3]> = best.iter().map(|b| { let mut s = [0.0; 3]; for c in 0..nch { for k in 0..3 { s[k] += b[c][k]; } } s }).collect();
+        let n = nch * CH;
         for (bi, (nm, _, _)) in backs.iter().enumerate() {
             let mr: Vec<String> = best[bi].iter().map(|t| format!("{:6.2}", n as f64 / t / 1e6)).collect();
             println!("{name:5} {nm:22} Mrays/s primary/diffuse/shadow: {}", mr.join(" "));

@@ -10,6 +10,7 @@ pub mod integrators;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod metrics;
 pub mod photon;
 pub mod photon_pass;
 pub mod prepared;

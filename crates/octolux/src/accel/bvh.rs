@@ -40,8 +40,12 @@ pub const MAX_LEAF_TRIS: usize = 16;
 /// Below this depth (in tree levels) the builder uses SAH; deeper it splits at object medians,
 /// always splitting the most populated candidate, so every level at least halves the count.
 pub const MAX_SAH_DEPTH: usize = 16;
-/// Tree levels bounded by `MAX_SAH_DEPTH` SAH levels plus 32 median levels (< 2^32 triangles).
-const MAX_DEPTH: usize = MAX_SAH_DEPTH + 33;
+/// Tree levels: at most `MAX_SAH_DEPTH` SAH levels, then median levels, each of which divides
+/// the triangle count by at least 4 (the most populated candidate is halved until there are
+/// four or eight), so at most 16 more for < 2^32 triangles.
+const MAX_DEPTH: usize = MAX_SAH_DEPTH + 17;
+/// Ordered traversal pushes at most `4H - 1 <= 7` entries per level.
+const STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
 const LEAF_BIT: u32 = 1 << 31;
 const EMPTY: u32 = u32::MAX;
 const NUM_BINS: usize = 32;
@@ -272,22 +276,23 @@ struct StackItem {
     t: f32,
 }
 
-/// Ordered traversal pushes at most `4H - 1` entries per level.
+/// Traversal stack (uninitialised storage; `sp` entries are valid).
 struct Stack<const H: usize> {
-    items: [[MaybeUninit<StackItem>; MAX_DEPTH]; 8],
+    items: [MaybeUninit<StackItem>; STACK_SIZE],
     sp: usize,
 }
 
 impl<const H: usize> Stack<H> {
     #[inline(always)]
     fn new() -> Self {
-        // 8 rows of MAX_DEPTH >= (4H - 1) * MAX_DEPTH + 1 entries for H <= 2.
-        const { assert!(H <= 2) };
-        Stack { items: [[MaybeUninit::uninit(); MAX_DEPTH]; 8], sp: 0 }
+        const { assert!(H == 1 || H == 2) };
+        // SAFETY: an array of `MaybeUninit` needs no initialisation. (`[MaybeUninit::uninit(); N]`
+        // makes rustc emit a memset of the whole array on every call.)
+        Stack { items: unsafe { MaybeUninit::<[MaybeUninit<StackItem>; STACK_SIZE]>::uninit().assume_init() }, sp: 0 }
     }
     #[inline(always)]
     fn push(&mut self, it: StackItem) {
-        self.items[self.sp / MAX_DEPTH][self.sp % MAX_DEPTH].write(it);
+        self.items[self.sp].write(it);
         self.sp += 1;
     }
     #[inline(always)]
@@ -297,7 +302,7 @@ impl<const H: usize> Stack<H> {
         }
         self.sp -= 1;
         // SAFETY: every entry below `sp` was written by `push`.
-        Some(unsafe { self.items[self.sp / MAX_DEPTH][self.sp % MAX_DEPTH].assume_init() })
+        Some(unsafe { self.items[self.sp].assume_init() })
     }
 
     /// Order the hit children (two or more) by entry distance, push all but the nearest
@@ -358,6 +363,12 @@ impl<const H: usize> Bvh<H> {
     /// Number of nodes and of 4-triangle blocks (for stats and tests).
     pub fn counts(&self) -> (usize, usize) {
         (self.nodes.len(), self.tris.len())
+    }
+    pub fn tmp_fill(&self) -> (usize, usize, usize) {
+        let mut used = 0; let mut leaves = 0; let mut lanes = 0;
+        for n in &self.nodes { for k in 0..4 * H { let c = n.child(k); if c != EMPTY { used += 1; if c & LEAF_BIT != 0 { leaves += 1; } } } }
+        for t in &self.tris { let _ = t; lanes += 4; }
+        (used, leaves, lanes)
     }
 
     fn flatten(&mut self, node: &BuildNode, prims: &[PrimRef], vertices: &[Vec3], triangles: &[[u32; 3]]) -> u32 {
@@ -604,9 +615,9 @@ fn plan(prims: &[PrimRef], bounds: &Aabb, cbounds: &Aabb, depth: usize) -> Optio
     if !best.0.is_finite() {
         return (n > MAX_LEAF_TRIS).then_some(SplitPlan::Median { axis: axis_largest });
     }
-    let split_cost = TRAV_COST + best.0 / area;
+    let split_cost = tmp_env("TRAV", TRAV_COST) + best.0 / area;
     let leaf_cost = blocks(n);
-    if n <= MAX_LEAF_TRIS && leaf_cost <= split_cost {
+    if n <= tmp_env("MAXLEAF", MAX_LEAF_TRIS as f32) as usize && leaf_cost <= split_cost {
         return None;
     }
     let (_, axis, bin) = best;
@@ -688,3 +699,5 @@ fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb
 fn prims_len(parts: &[(&Cand, &mut [PrimRef])]) -> usize {
     parts.iter().map(|(_, s)| s.len()).sum()
 }
+
+fn tmp_env(k: &str, d: f32) -> f32 { std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d) }

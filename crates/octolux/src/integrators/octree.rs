@@ -59,11 +59,16 @@ pub struct OctreeIntegratorSettings {
 }
 
 impl Default for OctreeIntegratorSettings {
+    /// The paper's octree configuration, except the estimator: `GeometryArea` (the paper's own
+    /// proposed fix) is the default because it measured closest to the path-traced reference
+    /// (cornell-box 128², 64 spp, 1M photons, relMSE vs Mitsuba 3: paper 8.2e-3 — 8% too dark —,
+    /// cosine 1.4e-3, geometry-area 8.5e-4; `--estimator paper` restores the paper's).
     fn default() -> Self {
+        let tree = OctreeSettings { estimator: crate::caches::Estimator::GeometryArea, ..OctreeSettings::default() };
         OctreeIntegratorSettings {
             photons: PhotonSettings::default(),
-            global: OctreeSettings::default(),
-            caustic: OctreeSettings::default(),
+            global: tree.clone(),
+            caustic: tree,
             max_depth: 16,
             view: OctreeView::Render,
         }

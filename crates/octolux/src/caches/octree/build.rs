@@ -1,9 +1,9 @@
 //! Octree construction (paper §3) and the per-leaf density estimates (§4, eq. 5.4).
 //!
 //! Steps, each deterministic whatever the thread count:
-//! 1. Morton keys of the photon positions at depth `h_max` (21 bits per axis at most),
-//!    packed with the photon index into one `u64` (`h_max ≤ 10`) or `u128`, and sorted by a
-//!    parallel stable LSD radix sort on the key bits only (2 passes of 9 bits at `h_max = 6`).
+//! 1. Morton keys of the photon positions at depth `h_max` (21 bits per axis at most); the
+//!    photon records themselves are sorted by a parallel stable LSD radix sort on the key
+//!    bits only (2 passes of 10 bits at `h_max = 6`), so ties keep the input order.
 //! 2. Top-down subdivision over the sorted ranges: the children of a node are 8 contiguous
 //!    sub-ranges found by binary search on the next 3 key bits (sequential; the node count is
 //!    about `photons / n_max`).
@@ -20,7 +20,7 @@ use super::settings::{Enlarge, Estimator, Storage, MAX_DEPTH};
 use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, LEAF_BIT, NO_VALUE};
 use crate::math::Bounds3;
 use crate::photon::Photon;
-use glam::{Mat3, Vec3};
+use glam::{DVec3, Mat3, Vec3, Vec3A};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -81,11 +81,72 @@ impl RadixKey for u64 {
     }
 }
 
-impl RadixKey for u128 {
+/// What the radix sort orders: a Morton key at depth `h_max` (bit `3 h_max` flags a dropped
+/// photon, which sorts last) and a photon index. Sorting `(key, index)` then gathering the
+/// photons once is cheaper than sorting whole photon records (less memory touched).
+trait SortItem: RadixKey {
+    /// First bit of the key.
+    const KEY_SHIFT: u32;
+    fn new(key: u64, index: u32) -> Self;
+    fn key(&self) -> u64;
+    fn index(&self) -> u32;
+}
+
+/// `key << 32 | index`, for `3 h_max + 1 <= 32`.
+impl SortItem for u64 {
+    const KEY_SHIFT: u32 = 32;
+    #[inline]
+    fn new(key: u64, index: u32) -> Self {
+        (key << 32) | index as u64
+    }
+    #[inline]
+    fn key(&self) -> u64 {
+        *self >> 32
+    }
+    #[inline]
+    fn index(&self) -> u32 {
+        *self as u32
+    }
+}
+
+/// Key and index side by side, for deep trees.
+#[derive(Clone, Copy, Debug)]
+struct KeyIdx {
+    key: u64,
+    idx: u32,
+}
+
+impl RadixKey for KeyIdx {
     #[inline]
     fn bits(&self, shift: u32) -> u64 {
-        (*self >> shift) as u64
+        self.key >> shift
     }
+}
+
+impl SortItem for KeyIdx {
+    const KEY_SHIFT: u32 = 0;
+    #[inline]
+    fn new(key: u64, idx: u32) -> Self {
+        KeyIdx { key, idx }
+    }
+    #[inline]
+    fn key(&self) -> u64 {
+        self.key
+    }
+    #[inline]
+    fn index(&self) -> u32 {
+        self.idx
+    }
+}
+
+/// A photon as the estimates read it, in sorted order (36 bytes). For `Estimator::Cosine`
+/// `w` already carries the `1 / max(|w·ng|, min_cos)` weight (same direction and sign).
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+struct SRec {
+    p: Vec3,
+    w: Vec3,
+    c: Vec3,
 }
 
 /// Raw output pointer shared by the scatter jobs of [`radix_sort`].
@@ -153,27 +214,23 @@ fn radix_sort<T: RadixKey>(mut v: Vec<T>, lo_bit: u32, hi_bit: u32) -> Vec<T> {
     v
 }
 
-/// Sorted Morton keys (at depth `h`) and the matching photon indices; photons with
-/// non-finite fields or outside the cube are left out. Ties keep the photon order.
-fn sorted_keys(photons: &[Photon], origin: Vec3, size: f32, inv_quant: f32, h: u32) -> (Vec<u64>, Vec<u32>) {
+/// Morton keys at depth `h` with photon indices, sorted (stable: ties keep the photon
+/// order); dropped photons (non-finite fields, outside the cube) are cut off.
+fn sorted_items<T: SortItem>(photons: &[Photon], origin: Vec3, size: f32, inv_quant: f32, h: u32) -> Vec<T> {
     let hi = origin + Vec3::splat(size);
-    let key_of = move |ph: &Photon| -> Option<u64> {
-        if !ph.is_finite() || !ph.p.cmpge(origin).all() || !ph.p.cmple(hi).all() {
-            return None;
-        }
-        Some(morton(quantize(ph.p, origin, inv_quant, h)))
-    };
-    if 3 * h <= 32 {
-        let packed: Vec<u64> =
-            photons.par_iter().enumerate().filter_map(|(i, ph)| key_of(ph).map(|k| (k << 32) | i as u64)).collect();
-        let packed = radix_sort(packed, 32, 32 + 3 * h);
-        packed.par_iter().map(|&v| (v >> 32, v as u32)).unzip()
-    } else {
-        let packed: Vec<u128> =
-            photons.par_iter().enumerate().filter_map(|(i, ph)| key_of(ph).map(|k| ((k as u128) << 32) | i as u128)).collect();
-        let packed = radix_sort(packed, 32, 32 + 3 * h);
-        packed.par_iter().map(|&v| ((v >> 32) as u64, v as u32)).unzip()
-    }
+    let flag = 3 * h;
+    let items: Vec<T> = photons
+        .par_iter()
+        .enumerate()
+        .map(|(i, ph)| {
+            let ok = ph.is_finite() && ph.p.cmpge(origin).all() && ph.p.cmple(hi).all();
+            T::new(if ok { morton(quantize(ph.p, origin, inv_quant, h)) } else { 1u64 << flag }, i as u32)
+        })
+        .collect();
+    let mut items = radix_sort(items, T::KEY_SHIFT, T::KEY_SHIFT + flag + 1);
+    let n = items.partition_point(|r| (r.key() >> flag) & 1 == 0);
+    items.truncate(n);
+    items
 }
 
 /// A leaf during the build.
@@ -187,8 +244,8 @@ struct LeafBuild {
     ijk: [u32; 3],
 }
 
-struct TreeBuilder<'a> {
-    keys: &'a [u64],
+struct TreeBuilder<'a, T> {
+    items: &'a [T],
     h: u32,
     n_max: usize,
     n_min: usize,
@@ -200,7 +257,7 @@ struct TreeBuilder<'a> {
     valid: Vec<LeafBuild>,
 }
 
-impl TreeBuilder<'_> {
+impl<T: SortItem> TreeBuilder<'_, T> {
     fn make_leaf(&mut self, id: usize, lo: usize, hi: usize, depth: u32, ijk: [u32; 3]) {
         let leaf = LeafBuild { node: id as u32, lo: lo as u32, hi: hi as u32, depth, ijk };
         self.start[id] = lo as u32;
@@ -222,11 +279,11 @@ impl TreeBuilder<'_> {
             return self.make_leaf(id, lo, hi, depth, ijk);
         }
         let shift = 3 * (self.h - depth - 1);
-        let s = &self.keys[lo..hi];
+        let s = &self.items[lo..hi];
         let mut cut = [0usize; 9];
         cut[8] = count;
         for (c, cut_c) in cut.iter_mut().enumerate().take(8).skip(1) {
-            *cut_c = s.partition_point(|&k| ((k >> shift) & 7) < c as u64);
+            *cut_c = s.partition_point(|r| ((r.key() >> shift) & 7) < c as u64);
         }
         if self.respect_n_min && (0..8).any(|c| (1..self.n_min).contains(&(cut[c + 1] - cut[c]))) {
             return self.make_leaf(id, lo, hi, depth, ijk);
@@ -245,7 +302,10 @@ impl TreeBuilder<'_> {
 /// Per-leaf scratch buffers (one set per rayon job).
 #[derive(Default)]
 struct Scratch {
-    gathered: Vec<u32>,
+    /// Gathered photon ranges `[lo, hi)` (own cell and neighbours inside the box).
+    segs: Vec<(u32, u32)>,
+    /// Gathered single photons (from neighbours cut by the box).
+    singles: Vec<u32>,
     pos: Vec<Vec3>,
     ng: Vec<Vec3>,
     areas: Vec<OrientedArea>,
@@ -261,11 +321,67 @@ struct LeafEstimate {
 struct EstimateCtx<'a> {
     view: TreeView<'a>,
     start: &'a [u32],
-    pos: &'a [Vec3],
-    sorted: &'a [Photon],
+    recs: &'a [SRec],
+    ng: &'a [Vec3],
     settings: &'a OctreeSettings,
     triangles: &'a [[Vec3; 3]],
     tri_lists: &'a [Vec<u32>],
+}
+
+/// Six 3x3 sums: f32 blocks of at most `BLOCK` photons flushed into f64 totals, so that
+/// the rounding error does not grow with the photon count of a leaf.
+struct Accumulator {
+    block: [[Vec3A; 3]; 6],
+    total: [[DVec3; 3]; 6],
+    count: u32,
+}
+
+impl Accumulator {
+    const BLOCK: u32 = 64;
+
+    fn new() -> Self {
+        Accumulator { block: [[Vec3A::ZERO; 3]; 6], total: [[DVec3::ZERO; 3]; 6], count: 0 }
+    }
+
+    fn flush(&mut self) {
+        for (t, b) in self.total.iter_mut().zip(self.block.iter_mut()) {
+            for (tc, bc) in t.iter_mut().zip(b.iter_mut()) {
+                *tc += DVec3::from(Vec3::from(*bc));
+                *bc = Vec3A::ZERO;
+            }
+        }
+        self.count = 0;
+    }
+
+    /// Add `(w · weight) cᵀ` to the matrix of each axis whose sign class `w` belongs to.
+    #[inline(always)]
+    fn add(&mut self, w: Vec3, c: Vec3, weight: f32) {
+        let wd = Vec3A::from(w) * weight;
+        let cols = [wd * c.x, wd * c.y, wd * c.z];
+        for a in 0..3 {
+            let wa = w[a];
+            if wa == 0.0 {
+                continue;
+            }
+            let m = &mut self.block[2 * a + (wa < 0.0) as usize];
+            m[0] += cols[0];
+            m[1] += cols[1];
+            m[2] += cols[2];
+        }
+        self.count += 1;
+        if self.count == Self::BLOCK {
+            self.flush();
+        }
+    }
+
+    fn finish(mut self) -> FullLeaf {
+        self.flush();
+        let mut m = [Mat3::ZERO; 6];
+        for (mk, t) in m.iter_mut().zip(&self.total) {
+            *mk = Mat3::from_cols(t[0].as_vec3(), t[1].as_vec3(), t[2].as_vec3());
+        }
+        m
+    }
 }
 
 impl EstimateCtx<'_> {
@@ -288,13 +404,17 @@ impl EstimateCtx<'_> {
         }
     }
 
-    fn gather(&self, leaf: &LeafBuild, ebox: &Bounds3, enlarged: bool, out: &mut Vec<u32>) {
-        out.clear();
-        out.extend(leaf.lo..leaf.hi);
+    /// The photons inside the gathering box: the own range, whole ranges of neighbours
+    /// inside the box, single photons of neighbours cut by it (half-open box test).
+    fn gather(&self, leaf: &LeafBuild, ebox: &Bounds3, enlarged: bool, segs: &mut Vec<(u32, u32)>, singles: &mut Vec<u32>) {
+        segs.clear();
+        singles.clear();
+        segs.push((leaf.lo, leaf.hi));
         if !enlarged {
             return;
         }
-        self.view.visit(ebox.min, ebox.max, |node, depth, ijk, _| {
+        let (emin, emax) = (ebox.min, ebox.max);
+        self.view.visit(emin, emax, |node, depth, ijk, _| {
             let n = self.view.nodes[node as usize];
             if node == leaf.node || n.photons == 0 {
                 return;
@@ -303,35 +423,44 @@ impl EstimateCtx<'_> {
             let hi = lo + n.photons;
             let cmin = self.view.cell_min(depth, ijk);
             let cmax = cmin + Vec3::splat(self.view.cell_size[depth as usize]);
-            if cmin.cmpge(ebox.min).all() && cmax.cmple(ebox.max).all() {
-                out.extend(lo..hi);
+            if cmin.cmpge(emin).all() && cmax.cmple(emax).all() {
+                segs.push((lo, hi));
             } else {
-                for i in lo..hi {
-                    let p = self.pos[i as usize];
-                    if p.cmpge(ebox.min).all() && p.cmplt(ebox.max).all() {
-                        out.push(i);
-                    }
+                // branchless compaction
+                let base = singles.len();
+                singles.resize(base + n.photons as usize, 0);
+                let out = &mut singles[base..];
+                let recs = &self.recs[lo as usize..hi as usize];
+                let mut k = 0usize;
+                for (i, r) in (lo..hi).zip(recs) {
+                    let p = r.p;
+                    out[k] = i;
+                    let inside = (p.x >= emin.x) & (p.x < emax.x) & (p.y >= emin.y) & (p.y < emax.y) & (p.z >= emin.z) & (p.z < emax.z);
+                    k += inside as usize;
                 }
+                singles.truncate(base + k);
             }
         });
     }
 
     fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch) -> LeafEstimate {
         let (ebox, enlarged) = self.gather_box(leaf);
-        let mut gathered = std::mem::take(&mut sc.gathered);
-        self.gather(leaf, &ebox, enlarged, &mut gathered);
-        let edge = ebox.extent().x as f64;
+        self.gather(leaf, &ebox, enlarged, &mut sc.segs, &mut sc.singles);
+        let photons = sc.segs.iter().map(|&(lo, hi)| (lo..hi).len()).sum::<usize>() + sc.singles.len();
+        let edge = ebox.extent().x;
         let inv_da = 1.0 / (edge * edge);
         let min_cos = self.settings.min_cos;
         let mut estimator = self.settings.estimator;
         let mut fallback = false;
         let mut lit_total = 0.0f32;
+        let recs = self.recs;
         if estimator == Estimator::GeometryArea {
             sc.pos.clear();
             sc.ng.clear();
-            for &i in &gathered {
-                sc.pos.push(self.pos[i as usize]);
-                sc.ng.push(self.sorted[i as usize].ng);
+            let all = sc.segs.iter().flat_map(|&(lo, hi)| lo..hi).chain(sc.singles.iter().copied());
+            for i in all {
+                sc.pos.push(recs[i as usize].p);
+                sc.ng.push(self.ng[i as usize]);
             }
             let ids = self.tri_lists.get(value).map(Vec::as_slice).unwrap_or(&[]);
             lit_areas(self.triangles, ids, &ebox, &sc.pos, &sc.ng, &mut sc.areas);
@@ -341,40 +470,23 @@ impl EstimateCtx<'_> {
                 fallback = true;
             }
         }
-        let mut acc = [[0.0f64; 9]; 6];
-        for &i in &gathered {
-            let ph = &self.sorted[i as usize];
-            let w = ph.wi;
-            let wgt = match estimator {
-                Estimator::Paper => inv_da,
-                Estimator::Cosine => inv_da / w.dot(ph.ng).abs().max(min_cos) as f64,
-                Estimator::GeometryArea => 1.0 / projected_lit_area(&sc.areas, w).max(min_cos * lit_total) as f64,
+        let areas = &sc.areas;
+        let mut acc = Accumulator::new();
+        let mut add = |i: u32| {
+            let r = &recs[i as usize];
+            let w = r.w;
+            let weight = match estimator {
+                // `w` carries the cosine weight
+                Estimator::Paper | Estimator::Cosine => inv_da,
+                Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total),
             };
-            let wd = [w.x as f64 * wgt, w.y as f64 * wgt, w.z as f64 * wgt];
-            let c = [ph.power.x as f64, ph.power.y as f64, ph.power.z as f64];
-            for a in 0..3 {
-                let k = if w[a] > 0.0 {
-                    2 * a
-                } else if w[a] < 0.0 {
-                    2 * a + 1
-                } else {
-                    continue;
-                };
-                let m = &mut acc[k];
-                for (j, cj) in c.iter().enumerate() {
-                    for (r, wr) in wd.iter().enumerate() {
-                        m[3 * j + r] += wr * cj;
-                    }
-                }
-            }
+            acc.add(w, r.c, weight);
+        };
+        for &(lo, hi) in &sc.segs {
+            (lo..hi).for_each(&mut add);
         }
-        let n = gathered.len() as u32;
-        sc.gathered = gathered;
-        let mut m = [Mat3::ZERO; 6];
-        for (mk, ak) in m.iter_mut().zip(&acc) {
-            *mk = Mat3::from_cols_array(&ak.map(|v| v as f32));
-        }
-        LeafEstimate { m, gathered: n, fallback }
+        sc.singles.iter().for_each(|&i| add(i));
+        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback }
     }
 }
 
@@ -428,6 +540,50 @@ fn distribute_triangles(view: &TreeView, tri_bounds: &[Bounds3], eps: f32, n_val
     lists
 }
 
+/// Output of [`sort_and_split`]: nodes, leaf range starts, leaves, valid leaves, sorted
+/// photons, sorted normals (only for `Estimator::GeometryArea`).
+type Split = (Vec<Node>, Vec<u32>, Vec<LeafBuild>, Vec<LeafBuild>, Vec<SRec>, Vec<Vec3>);
+
+/// Steps 1-2: sort, subdivide, gather the photons in sorted order.
+fn sort_and_split<T: SortItem>(photons: &[Photon], origin: Vec3, size: f32, inv_quant: f32, settings: &OctreeSettings) -> Split {
+    let h = settings.h_max;
+    let t0 = Instant::now();
+    let items: Vec<T> = sorted_items(photons, origin, size, inv_quant, h);
+    eprintln!("TIMING sort {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
+    let mut tb = TreeBuilder {
+        items: &items,
+        h,
+        n_max: settings.n_max as usize,
+        n_min: settings.n_min as usize,
+        respect_n_min: settings.split_respects_n_min,
+        nodes: vec![Node { link: 0, photons: 0 }],
+        start: vec![0],
+        leaves: Vec::new(),
+        valid: Vec::new(),
+    };
+    tb.node(0, 0, items.len(), 0, [0; 3]);
+    let TreeBuilder { nodes, start, leaves, valid, .. } = tb;
+    eprintln!("TIMING tree {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
+    let min_cos = settings.min_cos;
+    let estimator = settings.estimator;
+    let recs: Vec<SRec> = items
+        .par_iter()
+        .map(|it| {
+            let ph = &photons[it.index() as usize];
+            let w = match estimator {
+                Estimator::Cosine => ph.wi / ph.wi.dot(ph.ng).abs().max(min_cos),
+                Estimator::Paper | Estimator::GeometryArea => ph.wi,
+            };
+            SRec { p: ph.p, w, c: ph.power }
+        })
+        .collect();
+    let ng = match estimator {
+        Estimator::GeometryArea => items.par_iter().map(|it| photons[it.index() as usize].ng).collect(),
+        Estimator::Paper | Estimator::Cosine => Vec::new(),
+    };
+    (nodes, start, leaves, valid, recs, ng)
+}
+
 pub(super) fn build(
     photons: &[Photon],
     bounds: Bounds3,
@@ -451,33 +607,15 @@ pub(super) fn build(
     }
 
     eprintln!("TIMING keys {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
-    // 1. keys
-    let (keys, idx) = sorted_keys(photons, origin, size, inv_quant, h);
-
-    eprintln!("TIMING sort {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
-    // 2. subdivision
-    let mut tb = TreeBuilder {
-        keys: &keys,
-        h,
-        n_max: settings.n_max as usize,
-        n_min: settings.n_min as usize,
-        respect_n_min: settings.split_respects_n_min,
-        nodes: vec![Node { link: 0, photons: 0 }],
-        start: vec![0],
-        leaves: Vec::new(),
-        valid: Vec::new(),
+    // 1.-2. sort and subdivision
+    let (nodes, start, leaves, valid, recs, ng) = if 3 * h < 32 {
+        sort_and_split::<u64>(photons, origin, size, inv_quant, settings)
+    } else {
+        sort_and_split::<KeyIdx>(photons, origin, size, inv_quant, settings)
     };
-    tb.node(0, 0, keys.len(), 0, [0; 3]);
-    let TreeBuilder { nodes, start, leaves, valid, .. } = tb;
-    drop(keys);
-
-    eprintln!("TIMING tree {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
-    // sorted photon data
-    let sorted: Vec<Photon> = idx.par_iter().map(|&i| photons[i as usize]).collect();
-    let pos: Vec<Vec3> = sorted.par_iter().map(|ph| ph.p).collect();
-    drop(idx);
-
+    let n_kept = recs.len();
     eprintln!("TIMING gather {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
+
     let view = TreeView { nodes: &nodes, origin, cell_size: &cell_size };
 
     // 3. geometry
@@ -505,7 +643,7 @@ pub(super) fn build(
 
     eprintln!("TIMING geom {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
     // 4. estimates
-    let ctx = EstimateCtx { view, start: &start, pos: &pos, sorted: &sorted, settings, triangles, tri_lists: &tri_lists };
+    let ctx = EstimateCtx { view, start: &start, recs: &recs, ng: &ng, settings, triangles, tri_lists: &tri_lists };
     let est: Vec<LeafEstimate> =
         valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
     eprintln!("TIMING estimate {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
@@ -539,8 +677,8 @@ pub(super) fn build(
         mean_gathered_photons: mean(gath),
         mean_cell_size: mean(cells),
         depth_histogram,
-        photons: sorted.len(),
-        photons_dropped: photons.len() - sorted.len(),
+        photons: n_kept,
+        photons_dropped: photons.len() - n_kept,
         nodes: nodes.len(),
         max_depth,
         min_leaf_size,
@@ -594,10 +732,11 @@ mod tests {
             expect.sort_unstable();
             assert_eq!(radix_sort(v, 32, 32 + bits), expect);
         }
-        let v: Vec<u128> = (0..200_000u128).map(|i| (((s.next_u32() as u128) << 31 ^ s.next_u32() as u128) << 32) | i).collect();
+        // 64-bit keys (6 passes), index order kept for ties
+        let v: Vec<u64> = (0..200_000u64).map(|_| ((s.next_u32() as u64) << 32) | s.next_u32() as u64).collect();
         let mut expect = v.clone();
         expect.sort_unstable();
-        assert_eq!(radix_sort(v, 32, 32 + 63), expect);
+        assert_eq!(radix_sort(v, 0, 64), expect);
     }
 
     #[test]

@@ -495,9 +495,18 @@ fn default_n_max_matches_table_1() {
 #[test]
 #[ignore]
 fn timing_probe() {
-    let photons = cornell_photons(1_000_000, 1);
-    for _ in 0..3 {
-        let t = Octree::build(&photons, unit_cube(), &OctreeSettings::default(), None).unwrap();
-        eprintln!("total {:.1} ms", t.stats().t_build_s * 1e3);
+    fn cpu_s() -> f64 {
+        let st = std::fs::read_to_string("/proc/self/stat").unwrap();
+        let f: Vec<&str> = st.rsplit(')').next().unwrap().split_whitespace().collect();
+        (f[11].parse::<f64>().unwrap() + f[12].parse::<f64>().unwrap()) / 100.0
     }
+    let photons = cornell_photons(1_000_000, 1);
+    let reps = 10;
+    let c0 = cpu_s();
+    let w0 = std::time::Instant::now();
+    for _ in 0..reps {
+        let t = Octree::build(&photons, unit_cube(), &OctreeSettings::default(), None).unwrap();
+        std::hint::black_box(t);
+    }
+    eprintln!("per build: wall {:.1} ms, cpu {:.1} ms", w0.elapsed().as_secs_f64() * 1e3 / reps as f64, (cpu_s() - c0) * 1e3 / reps as f64);
 }
