@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -48,27 +49,47 @@ def run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, cwd=REPO, text=True, stdout=subprocess.PIPE, **kw)
 
 
-def octolux_speed(binary: str, scene: str, spp: int, res: str, depth: int, threads: int, tmp: str) -> dict:
+def children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def octolux_speed(binary: str, scene: str, spp: int, res: str, depth: int, threads: int, tmp: str,
+                  verbose: bool) -> dict:
     out = os.path.join(tmp, "x.exr")
+    c0 = children_cpu()
     p = run([binary, "render", scene, "--integrator", "path", "--spp", str(spp), "--resolution", res,
-             "--max-depth", str(depth), "--threads", str(threads), "--quiet", "-o", out])
+             "--max-depth", str(depth), "--threads", str(threads), "--quiet", "-o", out],
+            stderr=None if verbose else subprocess.DEVNULL)
+    cpu = children_cpu() - c0
     if p.returncode != 0:
         raise RuntimeError(f"octolux exited with {p.returncode}")
     with open(os.path.join(tmp, "x.json")) as f:
         stats = json.load(f)
-    return {"samples_per_second": float(stats["samples_per_second"]), "stats": stats}
+    sps = float(stats["samples_per_second"])
+    t = stats.get("timings", {})
+    # CPU time of the render phase, estimated as the process's CPU time scaled by render_s / total_s.
+    cpu_render = cpu * t["render_s"] / t["total_s"] if t.get("total_s") else cpu
+    samples = sps * t["render_s"] if t.get("render_s") else None
+    return {"samples_per_second": sps, "samples_per_cpu_second": samples / cpu_render if samples and cpu_render > 0 else None,
+            "stats": stats}
 
 
-def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, threads: int) -> dict:
+def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, threads: int, verbose: bool) -> dict:
     cmd = [MI_PY, MI_RENDER, xml, "--variant", variant, "--spp", str(spp), "--resolution", res,
            "--max-depth", str(depth), "--threads", str(threads), "--sampler", "independent", "--quiet",
            "--passes", "1"]
     if not variant.startswith("scalar"):
         cmd += ["--warmup", "--warmup-spp", "1"]
-    p = run(cmd, stderr=subprocess.DEVNULL)
+    p = run(cmd, stderr=None if verbose else subprocess.DEVNULL)
     if p.returncode != 0:
         raise RuntimeError(f"render.py ({variant}) exited with {p.returncode}")
     return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def med(values):
+    v = [x for x in values if x]
+    return statistics.median(v) if v else None
 
 
 def main(argv=None) -> int:
@@ -85,6 +106,7 @@ def main(argv=None) -> int:
     ap.add_argument("--skip-octolux", action="store_true")
     ap.add_argument("--skip-mitsuba", action="store_true")
     ap.add_argument("--json", help="also write all results here")
+    ap.add_argument("--verbose", action="store_true", help="show the renderers' stderr")
     args = ap.parse_args(argv)
 
     cases = []
@@ -105,6 +127,7 @@ def main(argv=None) -> int:
         sys.exit(f"{MI_PY} missing: run tools/mitsuba/setup.sh")
 
     results = []
+    load0 = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="octolux-ptspeed-") as tmp:
         exported: dict[int, str] = {}
 
@@ -126,10 +149,12 @@ def main(argv=None) -> int:
             if not args.skip_octolux:
                 try:
                     runs = [octolux_speed(args.octolux, "cornell-box" if scene == "cornell-box" else BITTERLI,
-                                          args.spp, args.resolution, depth, args.threads, tmp)
+                                          args.spp, args.resolution, depth, args.threads, tmp, args.verbose)
                             for _ in range(args.repeat)]
                     row["octolux"] = {"spp": args.spp,
-                                      "samples_per_second": statistics.median(r["samples_per_second"] for r in runs)}
+                                      "samples_per_second": statistics.median(r["samples_per_second"] for r in runs),
+                                      "samples_per_cpu_second": med(r["samples_per_cpu_second"] for r in runs),
+                                      "all_samples_per_second": [r["samples_per_second"] for r in runs]}
                 except Exception as e:  # keep going: report what worked
                     log(f"octolux {scene}:{depth} failed: {e}")
                     row["octolux"] = {"error": str(e)}
@@ -137,9 +162,12 @@ def main(argv=None) -> int:
                 spp = spp_scalar if v.startswith("scalar") else args.spp
                 try:
                     xml = mitsuba_xml(scene, depth)
-                    runs = [mitsuba_speed(xml, v, spp, args.resolution, depth, args.threads) for _ in range(args.repeat)]
+                    runs = [mitsuba_speed(xml, v, spp, args.resolution, depth, args.threads, args.verbose)
+                            for _ in range(args.repeat)]
                     row[v] = {"spp": spp,
                               "samples_per_second": statistics.median(r["samples_per_second"] for r in runs),
+                              "samples_per_cpu_second": med(r.get("samples_per_cpu_second") for r in runs),
+                              "all_samples_per_second": [r["samples_per_second"] for r in runs],
                               "mean_rgb": runs[0]["mean_rgb"], "threads": runs[0]["threads"],
                               "mitsuba_version": runs[0]["mitsuba_version"]}
                 except Exception as e:
@@ -165,9 +193,24 @@ def main(argv=None) -> int:
             ratio = f"{o / m:.2f}x" if (o and m) else "-"
             line += f" {(f'{m / 1e6:.3f}' if m else 'failed'):>17s} {ratio:>11s}"
         print(line)
+    # The same per CPU-second of the render (x threads): less sensitive to other load on the machine.
+    print(f"# per CPU-second x {args.threads} (estimate of an otherwise idle machine; load average was "
+          f"{load0[0]:.2f} at start, {os.getloadavg()[0]:.2f} at end)")
+    print(head)
+    for row in results:
+        o = (row.get("octolux") or {}).get("samples_per_cpu_second")
+        o = o * args.threads if o else None
+        line = f"{row['scene']:12s} {row['max_depth']:5d} {(f'{o / 1e6:.3f}' if o else '-'):>13s}"
+        for v in variants:
+            m = (row.get(v) or {}).get("samples_per_cpu_second")
+            m = m * args.threads if m else None
+            ratio = f"{o / m:.2f}x" if (o and m) else "-"
+            line += f" {(f'{m / 1e6:.3f}' if m else 'failed'):>17s} {ratio:>11s}"
+        print(line)
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"args": vars(args), "results": results}, f, indent=2)
+            json.dump({"args": vars(args), "loadavg_start": load0, "loadavg_end": os.getloadavg(),
+                       "results": results}, f, indent=2)
     return 0
 
 

@@ -69,6 +69,18 @@ def sha256(path: str) -> str:
     return h.hexdigest()
 
 
+def export_digest(xml: str) -> str:
+    """sha256 over the exported XML and every file in meshes/ beside it (sorted by name)."""
+    h = hashlib.sha256()
+    d = os.path.dirname(xml)
+    files = [xml] + sorted(os.path.join(r, f) for r, _, fs in os.walk(os.path.join(d, "meshes")) for f in fs)
+    for path in files:
+        h.update(os.path.relpath(path, d).encode() + b"\0")
+        with open(path, "rb") as f:
+            h.update(f.read())
+    return h.hexdigest()
+
+
 def export_builtin(name: str, out_dir: str, max_depth: int, octolux: str | None) -> tuple[str, str]:
     xml = os.path.join(out_dir, "scene.xml")
     if octolux:
@@ -80,6 +92,16 @@ def export_builtin(name: str, out_dir: str, max_depth: int, octolux: str | None)
     subprocess.run(cmd, cwd=REPO, check=True)
     shown = " ".join(["cargo", "run", "--release", "-p", "octolux-cli", "--"] + cmd[cmd.index("export"):])
     return xml, shown.replace(xml, "<tmp>/scene.xml")
+
+
+def git_head() -> str | None:
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, text=True, capture_output=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", "crates"], cwd=REPO, text=True,
+                               capture_output=True).stdout.strip()
+        return head + (" (crates/ modified)" if dirty else "") if head else None
+    except OSError:
+        return None
 
 
 def render(scene: str, out: str, spp: int, seed: int, max_depth: int, variant: str, threads: int | None) -> dict:
@@ -131,6 +153,8 @@ def make_one(name: str, cfg: dict, spp: int, variant: str, threads: int | None, 
         "sha256": sha256(ref_path),
         "source_scene": source_desc,
         "export_command": export_cmd,
+        "export_sha256": export_digest(scene) if export_cmd else None,
+        "octolux_git_head": git_head() if export_cmd else None,
         "renderer": "Mitsuba 3 (pip package `mitsuba`)",
         "mitsuba_version": ref["mitsuba_version"],
         "drjit_version": ref["drjit_version"],

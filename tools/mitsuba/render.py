@@ -396,11 +396,13 @@ def main(argv=None) -> int:
         warm_s = time.perf_counter() - t0
 
     t0 = time.perf_counter()
+    c0 = time.process_time()
     acc = None
     for i, n in enumerate(per):
         a = render_pass(seed_of(i), n).astype(np.float64) * n
         acc = a if acc is None else acc + a
     render_s = time.perf_counter() - t0
+    render_cpu_s = time.process_time() - c0
     img = (acc / spp).astype(np.float32)[..., :3]
 
     if args.output:
@@ -427,7 +429,9 @@ def main(argv=None) -> int:
         "load_s": round(load_s, 4),
         "warmup_s": None if warm_s is None else round(warm_s, 4),
         "render_s": round(render_s, 4),
+        "render_cpu_s": round(render_cpu_s, 4),
         "samples_per_second": w * h * spp / render_s,
+        "samples_per_cpu_second": w * h * spp / render_cpu_s if render_cpu_s > 0 else None,
         "mean_rgb": [float(x) for x in img.reshape(-1, 3).astype(np.float64).mean(axis=0)],
         "finite": bool(np.isfinite(img).all()),
         "patch_notes": info["notes"],

@@ -98,6 +98,12 @@ struct OctreeArgs {
     /// What to write into the image.
     #[arg(long, value_enum, default_value = "render")]
     view: ViewArg,
+    /// h_max of the caustic octree (default: the integrator's).
+    #[arg(long)]
+    caustic_h_max: Option<u32>,
+    /// n_max of the caustic octree (default: the integrator's).
+    #[arg(long)]
+    caustic_n_max: Option<u32>,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -398,6 +404,13 @@ fn octree_settings(args: &RenderArgs, max_depth: i32) -> OctreeIntegratorSetting
         if o.uncompressed {
             t.storage = Storage::Full;
         }
+    }
+    if let Some(v) = o.caustic_h_max {
+        s.caustic.h_max = v;
+    }
+    if let Some(v) = o.caustic_n_max {
+        s.caustic.n_max = v;
+        s.caustic.n_min = s.caustic.n_min.min(v);
     }
     s.view = match o.view {
         ViewArg::Render => OctreeView::Render,

@@ -119,8 +119,7 @@ fn trace_one(scene: &Scene, settings: &PhotonSettings, index: u64, inv_n: f32, g
     // Bounces so far, and whether all of them were specular.
     let mut bounces = 0u32;
     let mut all_specular = true;
-    loop {
-        let Some(hit) = scene.intersect(&ray) else { break };
+    while let Some(hit) = scene.intersect(&ray) {
         let wi = -ray.d;
         if bounces > 0 {
             let ng = if hit.ng.dot(wi) >= 0.0 { hit.ng } else { -hit.ng };

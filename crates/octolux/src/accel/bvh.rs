@@ -305,10 +305,25 @@ impl<const H: usize> Stack<H> {
         Some(unsafe { self.items[self.sp].assume_init() })
     }
 
+    /// Any-hit order (as Embree's occlusion traversal): push all hit children but the first
+    /// (two or more), unsorted, and return the first.
+    #[inline(always)]
+    fn push_any(&mut self, node: &Node<H>, mask: u32, prefetch: impl Fn(u32)) -> u32 {
+        let first = node.child(mask.trailing_zeros() as usize);
+        let mut m = mask & (mask - 1);
+        while m != 0 {
+            let w = node.child(m.trailing_zeros() as usize);
+            m &= m - 1;
+            prefetch(w);
+            self.push(StackItem { node: w, t: 0.0 });
+        }
+        first
+    }
+
     /// Order the hit children (two or more) by entry distance, push all but the nearest
     /// (farthest first) and return the nearest.
     #[inline(always)]
-    fn push_sorted(&mut self, node: &Node<H>, mask: u32, tn: &[Vec4; H]) -> u32 {
+    fn push_sorted(&mut self, node: &Node<H>, mask: u32, tn: &[Vec4; H], prefetch: impl Fn(u32)) -> u32 {
         let mut ta = [0.0f32; 8];
         for h in 0..H {
             ta[4 * h..4 * h + 4].copy_from_slice(&tn[h].to_array());
@@ -330,6 +345,7 @@ impl<const H: usize> Stack<H> {
             n += 1;
         }
         for it in &items[..n - 1] {
+            prefetch(it.node);
             self.push(*it);
         }
         items[n - 1].node
@@ -364,12 +380,6 @@ impl<const H: usize> Bvh<H> {
     pub fn counts(&self) -> (usize, usize) {
         (self.nodes.len(), self.tris.len())
     }
-    pub fn tmp_fill(&self) -> (usize, usize, usize) {
-        let mut used = 0; let mut leaves = 0; let mut lanes = 0;
-        for n in &self.nodes { for k in 0..4 * H { let c = n.child(k); if c != EMPTY { used += 1; if c & LEAF_BIT != 0 { leaves += 1; } } } }
-        for t in &self.tris { let _ = t; lanes += 4; }
-        (used, leaves, lanes)
-    }
 
     fn flatten(&mut self, node: &BuildNode, prims: &[PrimRef], vertices: &[Vec3], triangles: &[[u32; 3]]) -> u32 {
         let BuildNode::Inner(children) = node else {
@@ -392,6 +402,26 @@ impl<const H: usize> Bvh<H> {
             self.nodes[idx].set_child(k, bounds, word);
         }
         idx as u32
+    }
+
+    /// Hint the cache to load a child that was pushed on the stack (it is likely visited soon).
+    #[inline(always)]
+    fn prefetch(&self, word: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let (p, bytes) = if word & LEAF_BIT == 0 {
+                (self.nodes.as_ptr().wrapping_add(word as usize) as *const i8, std::mem::size_of::<Node<H>>())
+            } else {
+                (self.tris.as_ptr().wrapping_add(((word & !LEAF_BIT) >> 3) as usize) as *const i8, std::mem::size_of::<Tri4>())
+            };
+            let mut off = 0;
+            while off < bytes {
+                // SAFETY: prefetching has no architectural effect, whatever the address.
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(off)) };
+                off += 64;
+            }
+        }
     }
 
     #[inline(always)]
@@ -417,7 +447,7 @@ impl<const H: usize> Bvh<H> {
                 let node = &self.nodes[cur as usize];
                 let (mask, tn) = r.hit_node(node, tmax);
                 if mask != 0 {
-                    cur = if mask & (mask - 1) == 0 { node.child(mask.trailing_zeros() as usize) } else { stack.push_sorted(node, mask, &tn) };
+                    cur = if mask & (mask - 1) == 0 { node.child(mask.trailing_zeros() as usize) } else { stack.push_sorted(node, mask, &tn, |w| self.prefetch(w)) };
                     continue;
                 }
             } else {
@@ -467,9 +497,9 @@ impl<const H: usize> Bvh<H> {
         loop {
             if cur & LEAF_BIT == 0 {
                 let node = &self.nodes[cur as usize];
-                let (mask, tn) = r.hit_node(node, tmax);
+                let (mask, _) = r.hit_node(node, tmax);
                 if mask != 0 {
-                    cur = if mask & (mask - 1) == 0 { node.child(mask.trailing_zeros() as usize) } else { stack.push_sorted(node, mask, &tn) };
+                    cur = if mask & (mask - 1) == 0 { node.child(mask.trailing_zeros() as usize) } else { stack.push_any(node, mask, |w| self.prefetch(w)) };
                     continue;
                 }
             } else {
@@ -615,9 +645,9 @@ fn plan(prims: &[PrimRef], bounds: &Aabb, cbounds: &Aabb, depth: usize) -> Optio
     if !best.0.is_finite() {
         return (n > MAX_LEAF_TRIS).then_some(SplitPlan::Median { axis: axis_largest });
     }
-    let split_cost = tmp_env("TRAV", TRAV_COST) + best.0 / area;
+    let split_cost = TRAV_COST + best.0 / area;
     let leaf_cost = blocks(n);
-    if n <= tmp_env("MAXLEAF", MAX_LEAF_TRIS as f32) as usize && leaf_cost <= split_cost {
+    if n <= MAX_LEAF_TRIS && leaf_cost <= split_cost {
         return None;
     }
     let (_, axis, bin) = best;
@@ -699,5 +729,3 @@ fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb
 fn prims_len(parts: &[(&Cand, &mut [PrimRef])]) -> usize {
     parts.iter().map(|(_, s)| s.len()).sum()
 }
-
-fn tmp_env(k: &str, d: f32) -> f32 { std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d) }

@@ -1,9 +1,10 @@
 //! Embree 3 backend, loaded at run time with `libloading` so that octolux builds and runs on
 //! machines without Embree.
 //!
-//! The shared library is looked up once per process: first the path in `OCTOLUX_EMBREE_LIB`
-//! (if set), then `libembree3.so.3`, then `libembree3.so` (macOS: `libembree3.dylib`, Windows:
-//! `embree3.dll`). The library is never unloaded (it lives in a process-wide `OnceLock`).
+//! The shared library is looked up once per process: the path in `OCTOLUX_EMBREE_LIB` if that
+//! is set (and only it), else `libembree3.so.3`, then `libembree3.so` (macOS:
+//! `libembree3.dylib`, Windows: `embree3.dll`). The library is never unloaded (it lives in a
+//! process-wide `OnceLock`).
 //!
 //! All triangles go into one `RTC_GEOMETRY_TYPE_TRIANGLE` geometry, so Embree's `primID` is the
 //! global triangle index and its `(u, v)` follow the octolux convention
@@ -149,13 +150,13 @@ struct Api {
     _lib: Library,
 }
 
-/// Candidate library names, in the order they are tried.
+/// Candidate library names, in the order they are tried. A non-empty `OCTOLUX_EMBREE_LIB` is
+/// the only candidate (an explicit choice; a wrong path makes Embree unavailable).
 fn candidate_paths() -> Vec<String> {
     let mut v = Vec::new();
-    if let Ok(p) = std::env::var("OCTOLUX_EMBREE_LIB") {
-        if !p.is_empty() {
-            v.push(p);
-        }
+    if let Some(p) = std::env::var_os("OCTOLUX_EMBREE_LIB").filter(|p| !p.is_empty()) {
+        v.push(p.to_string_lossy().into_owned());
+        return v;
     }
     if cfg!(target_os = "macos") {
         v.extend(["libembree3.dylib".to_string(), "libembree3.3.dylib".to_string()]);

@@ -4,6 +4,9 @@
 //!   (AFIG 2005, §3–§7): six 3x3 irradiance-vector matrices per leaf, compressed to 36
 //!   bytes, queried with an overlap-volume blend.
 
+pub mod christensen;
+pub mod kdtree;
 pub mod octree;
+pub mod ward;
 
 pub use octree::{Enlarge, Estimator, LeafInfo, Octree, OctreeError, OctreeSettings, OctreeStats, Storage};

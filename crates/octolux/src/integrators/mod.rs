@@ -6,6 +6,8 @@
 
 pub mod octree;
 pub mod path;
+pub mod photonmap;
+pub mod ward;
 
 use crate::math::{Color, Ray};
 use crate::prepared::Scene;
@@ -40,6 +42,10 @@ pub enum Integrator {
     Path(path::PathSettings),
     /// The paper's ray tracer over a built global + caustic octree.
     Octree(Box<octree::OctreeIntegrator>),
+    /// Jensen's photon map with final gathering (baseline).
+    PhotonMap(Box<photonmap::PhotonMapIntegrator>),
+    /// Ward's irradiance cache with photon-computed samples (baseline).
+    Ward(Box<ward::WardIntegrator>),
 }
 
 impl Integrator {
@@ -48,6 +54,8 @@ impl Integrator {
         match self {
             Integrator::Path(_) => "path",
             Integrator::Octree(_) => "octree",
+            Integrator::PhotonMap(_) => "photonmap",
+            Integrator::Ward(_) => "ward",
         }
     }
 
@@ -57,6 +65,8 @@ impl Integrator {
         match self {
             Integrator::Path(s) => path::li(s, scene, ray, sampler, counters),
             Integrator::Octree(o) => o.li(scene, ray, sampler, counters),
+            Integrator::PhotonMap(o) => o.li(scene, ray, sampler, counters),
+            Integrator::Ward(o) => o.li(scene, ray, sampler, counters),
         }
     }
 }

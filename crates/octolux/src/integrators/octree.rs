@@ -58,6 +58,14 @@ pub struct OctreeIntegratorSettings {
     pub view: OctreeView,
 }
 
+/// Caustics are sharp, so the caustic octree is finer than the global one. Measured on
+/// cornell-spheres (128², 64 spp, 1M photons, relMSE vs Mitsuba 3): caustic (h_max, n_max) =
+/// (6, 400) as the global tree 3.2e-2 — 95% of it in the 1% of pixels around the glass sphere's
+/// caustic —, (8, 100) 4.0e-3, (10, 50) 2.9e-3, (10, 20) 3.1e-3 (noisier).
+pub const CAUSTIC_H_MAX: u32 = 10;
+/// See [`CAUSTIC_H_MAX`].
+pub const CAUSTIC_N_MAX: u32 = 50;
+
 impl Default for OctreeIntegratorSettings {
     /// The paper's octree configuration, except the estimator: `GeometryArea` (the paper's own
     /// proposed fix) is the default because it measured closest to the path-traced reference
@@ -68,7 +76,7 @@ impl Default for OctreeIntegratorSettings {
         OctreeIntegratorSettings {
             photons: PhotonSettings::default(),
             global: tree.clone(),
-            caustic: tree,
+            caustic: OctreeSettings { h_max: CAUSTIC_H_MAX, n_max: CAUSTIC_N_MAX, ..tree },
             max_depth: 16,
             view: OctreeView::Render,
         }

@@ -2,8 +2,7 @@
 //!
 //! Steps, each deterministic whatever the thread count:
 //! 1. Morton keys of the photon positions at depth `h_max` (21 bits per axis at most); the
-//!    photon records themselves are sorted by a parallel stable LSD radix sort on the key
-//!    bits only (2 passes of 10 bits at `h_max = 6`), so ties keep the input order.
+//!    photons, as compact records, are sorted by key (`sort.rs`: stable, parallel).
 //! 2. Top-down subdivision over the sorted ranges: the children of a node are 8 contiguous
 //!    sub-ranges found by binary search on the next 3 key bits (sequential; the node count is
 //!    about `photons / n_max`).
@@ -17,6 +16,7 @@ use super::compress::{compress_leaf, FullLeaf};
 use super::geometry::{lit_areas, projected_lit_area, OrientedArea};
 use super::query::TreeView;
 use super::settings::{Enlarge, Estimator, Storage, MAX_DEPTH};
+use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg};
 use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, LEAF_BIT, NO_VALUE};
 use crate::math::Bounds3;
 use crate::photon::Photon;
@@ -69,170 +69,6 @@ fn cube_of(b: &Bounds3) -> Result<(Vec3, f32), OctreeError> {
     Ok((c - Vec3::splat(0.5 * edge), edge))
 }
 
-/// Elements of the radix sort: the sort key is read from bit `shift` up.
-trait RadixKey: Copy + Send + Sync {
-    fn bits(&self, shift: u32) -> u64;
-}
-
-impl RadixKey for u64 {
-    #[inline]
-    fn bits(&self, shift: u32) -> u64 {
-        *self >> shift
-    }
-}
-
-/// What the radix sort orders: a Morton key at depth `h_max` (bit `3 h_max` flags a dropped
-/// photon, which sorts last) and a photon index. Sorting `(key, index)` then gathering the
-/// photons once is cheaper than sorting whole photon records (less memory touched).
-trait SortItem: RadixKey {
-    /// First bit of the key.
-    const KEY_SHIFT: u32;
-    fn new(key: u64, index: u32) -> Self;
-    fn key(&self) -> u64;
-    fn index(&self) -> u32;
-}
-
-/// `key << 32 | index`, for `3 h_max + 1 <= 32`.
-impl SortItem for u64 {
-    const KEY_SHIFT: u32 = 32;
-    #[inline]
-    fn new(key: u64, index: u32) -> Self {
-        (key << 32) | index as u64
-    }
-    #[inline]
-    fn key(&self) -> u64 {
-        *self >> 32
-    }
-    #[inline]
-    fn index(&self) -> u32 {
-        *self as u32
-    }
-}
-
-/// Key and index side by side, for deep trees.
-#[derive(Clone, Copy, Debug)]
-struct KeyIdx {
-    key: u64,
-    idx: u32,
-}
-
-impl RadixKey for KeyIdx {
-    #[inline]
-    fn bits(&self, shift: u32) -> u64 {
-        self.key >> shift
-    }
-}
-
-impl SortItem for KeyIdx {
-    const KEY_SHIFT: u32 = 0;
-    #[inline]
-    fn new(key: u64, idx: u32) -> Self {
-        KeyIdx { key, idx }
-    }
-    #[inline]
-    fn key(&self) -> u64 {
-        self.key
-    }
-    #[inline]
-    fn index(&self) -> u32 {
-        self.idx
-    }
-}
-
-/// A photon as the estimates read it, in sorted order (36 bytes). For `Estimator::Cosine`
-/// `w` already carries the `1 / max(|w·ng|, min_cos)` weight (same direction and sign).
-#[derive(Clone, Copy, Debug)]
-#[repr(C)]
-struct SRec {
-    p: Vec3,
-    w: Vec3,
-    c: Vec3,
-}
-
-/// Raw output pointer shared by the scatter jobs of [`radix_sort`].
-#[derive(Clone, Copy)]
-struct ScatterPtr<T>(*mut T);
-// SAFETY: the jobs write disjoint index ranges (see `radix_sort`), never read.
-unsafe impl<T: Send> Send for ScatterPtr<T> {}
-unsafe impl<T: Send> Sync for ScatterPtr<T> {}
-impl<T> ScatterPtr<T> {
-    #[inline]
-    fn get(self) -> *mut T {
-        self.0
-    }
-}
-
-/// Stable parallel LSD radix sort of `v` by its bits `[lo_bit, hi_bit)` (digits of at most
-/// 11 bits). Stable, hence one result whatever the chunking or the thread count.
-fn radix_sort<T: RadixKey>(mut v: Vec<T>, lo_bit: u32, hi_bit: u32) -> Vec<T> {
-    let total = hi_bit.saturating_sub(lo_bit);
-    let n = v.len();
-    if total == 0 || n < 2 {
-        return v;
-    }
-    let passes = total.div_ceil(11);
-    let digit = total.div_ceil(passes);
-    let nb = 1usize << digit;
-    let mask = (nb - 1) as u64;
-    let chunk = n.div_ceil(4 * rayon::current_num_threads()).max(1 << 15);
-    let mut tmp = v.clone();
-    for pass in 0..passes {
-        let shift = lo_bit + pass * digit;
-        let mut offs: Vec<Vec<u32>> = v
-            .par_chunks(chunk)
-            .map(|c| {
-                let mut h = vec![0u32; nb];
-                for x in c {
-                    h[(x.bits(shift) & mask) as usize] += 1;
-                }
-                h
-            })
-            .collect();
-        // counts -> start offsets, bucket-major then chunk order (stability)
-        let mut sum = 0u32;
-        for b in 0..nb {
-            for o in offs.iter_mut() {
-                let k = o[b];
-                o[b] = sum;
-                sum += k;
-            }
-        }
-        debug_assert_eq!(sum as usize, n);
-        let dst = ScatterPtr(tmp.as_mut_ptr());
-        v.par_chunks(chunk).zip(offs.par_iter_mut()).for_each(|(c, off)| {
-            for x in c {
-                let b = (x.bits(shift) & mask) as usize;
-                // SAFETY: `off[b]` walks the range reserved for (this chunk, bucket b); the
-                // ranges of all (chunk, bucket) pairs are disjoint and tile `0..n`, and
-                // `tmp.len() == n`, so every write is in bounds and written once.
-                unsafe { dst.get().add(off[b] as usize).write(*x) };
-                off[b] += 1;
-            }
-        });
-        std::mem::swap(&mut v, &mut tmp);
-    }
-    v
-}
-
-/// Morton keys at depth `h` with photon indices, sorted (stable: ties keep the photon
-/// order); dropped photons (non-finite fields, outside the cube) are cut off.
-fn sorted_items<T: SortItem>(photons: &[Photon], origin: Vec3, size: f32, inv_quant: f32, h: u32) -> Vec<T> {
-    let hi = origin + Vec3::splat(size);
-    let flag = 3 * h;
-    let items: Vec<T> = photons
-        .par_iter()
-        .enumerate()
-        .map(|(i, ph)| {
-            let ok = ph.is_finite() && ph.p.cmpge(origin).all() && ph.p.cmple(hi).all();
-            T::new(if ok { morton(quantize(ph.p, origin, inv_quant, h)) } else { 1u64 << flag }, i as u32)
-        })
-        .collect();
-    let mut items = radix_sort(items, T::KEY_SHIFT, T::KEY_SHIFT + flag + 1);
-    let n = items.partition_point(|r| (r.key() >> flag) & 1 == 0);
-    items.truncate(n);
-    items
-}
-
 /// A leaf during the build.
 #[derive(Clone, Copy, Debug)]
 struct LeafBuild {
@@ -244,8 +80,9 @@ struct LeafBuild {
     ijk: [u32; 3],
 }
 
-struct TreeBuilder<'a, T> {
-    items: &'a [T],
+struct TreeBuilder<'a, R> {
+    recs: &'a [R],
+    kf: KeyFn,
     h: u32,
     n_max: usize,
     n_min: usize,
@@ -257,7 +94,7 @@ struct TreeBuilder<'a, T> {
     valid: Vec<LeafBuild>,
 }
 
-impl<T: SortItem> TreeBuilder<'_, T> {
+impl<R: PhotonRec> TreeBuilder<'_, R> {
     fn make_leaf(&mut self, id: usize, lo: usize, hi: usize, depth: u32, ijk: [u32; 3]) {
         let leaf = LeafBuild { node: id as u32, lo: lo as u32, hi: hi as u32, depth, ijk };
         self.start[id] = lo as u32;
@@ -279,11 +116,12 @@ impl<T: SortItem> TreeBuilder<'_, T> {
             return self.make_leaf(id, lo, hi, depth, ijk);
         }
         let shift = 3 * (self.h - depth - 1);
-        let s = &self.items[lo..hi];
+        let s = &self.recs[lo..hi];
+        let kf = self.kf;
         let mut cut = [0usize; 9];
         cut[8] = count;
         for (c, cut_c) in cut.iter_mut().enumerate().take(8).skip(1) {
-            *cut_c = s.partition_point(|r| ((r.key() >> shift) & 7) < c as u64);
+            *cut_c = s.partition_point(|r| ((kf.key(r.p()) >> shift) & 7) < c as u64);
         }
         if self.respect_n_min && (0..8).any(|c| (1..self.n_min).contains(&(cut[c + 1] - cut[c]))) {
             return self.make_leaf(id, lo, hi, depth, ijk);
@@ -318,11 +156,10 @@ struct LeafEstimate {
     fallback: bool,
 }
 
-struct EstimateCtx<'a> {
+struct EstimateCtx<'a, R> {
     view: TreeView<'a>,
     start: &'a [u32],
-    recs: &'a [SRec],
-    ng: &'a [Vec3],
+    recs: &'a [R],
     settings: &'a OctreeSettings,
     triangles: &'a [[Vec3; 3]],
     tri_lists: &'a [Vec<u32>],
@@ -384,7 +221,7 @@ impl Accumulator {
     }
 }
 
-impl EstimateCtx<'_> {
+impl<R: PhotonRec> EstimateCtx<'_, R> {
     /// Box gathered by a leaf and whether it is enlarged.
     fn gather_box(&self, leaf: &LeafBuild) -> (Bounds3, bool) {
         let s = self.view.cell_size[leaf.depth as usize];
@@ -433,7 +270,7 @@ impl EstimateCtx<'_> {
                 let recs = &self.recs[lo as usize..hi as usize];
                 let mut k = 0usize;
                 for (i, r) in (lo..hi).zip(recs) {
-                    let p = r.p;
+                    let p = r.p();
                     out[k] = i;
                     let inside = (p.x >= emin.x) & (p.x < emax.x) & (p.y >= emin.y) & (p.y < emax.y) & (p.z >= emin.z) & (p.z < emax.z);
                     k += inside as usize;
@@ -459,8 +296,8 @@ impl EstimateCtx<'_> {
             sc.ng.clear();
             let all = sc.segs.iter().flat_map(|&(lo, hi)| lo..hi).chain(sc.singles.iter().copied());
             for i in all {
-                sc.pos.push(recs[i as usize].p);
-                sc.ng.push(self.ng[i as usize]);
+                sc.pos.push(recs[i as usize].p());
+                sc.ng.push(recs[i as usize].ng());
             }
             let ids = self.tri_lists.get(value).map(Vec::as_slice).unwrap_or(&[]);
             lit_areas(self.triangles, ids, &ebox, &sc.pos, &sc.ng, &mut sc.areas);
@@ -474,13 +311,13 @@ impl EstimateCtx<'_> {
         let mut acc = Accumulator::new();
         let mut add = |i: u32| {
             let r = &recs[i as usize];
-            let w = r.w;
+            let w = r.w();
             let weight = match estimator {
                 // `w` carries the cosine weight
                 Estimator::Paper | Estimator::Cosine => inv_da,
                 Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total),
             };
-            acc.add(w, r.c, weight);
+            acc.add(w, r.c(), weight);
         };
         for &(lo, hi) in &sc.segs {
             (lo..hi).for_each(&mut add);
@@ -540,19 +377,19 @@ fn distribute_triangles(view: &TreeView, tri_bounds: &[Bounds3], eps: f32, n_val
     lists
 }
 
-/// Output of [`sort_and_split`]: nodes, leaf range starts, leaves, valid leaves, sorted
-/// photons, sorted normals (only for `Estimator::GeometryArea`).
-type Split = (Vec<Node>, Vec<u32>, Vec<LeafBuild>, Vec<LeafBuild>, Vec<SRec>, Vec<Vec3>);
+/// The built node array with its leaves.
+struct Tree {
+    nodes: Vec<Node>,
+    start: Vec<u32>,
+    leaves: Vec<LeafBuild>,
+    valid: Vec<LeafBuild>,
+}
 
-/// Steps 1-2: sort, subdivide, gather the photons in sorted order.
-fn sort_and_split<T: SortItem>(photons: &[Photon], origin: Vec3, size: f32, inv_quant: f32, settings: &OctreeSettings) -> Split {
-    let h = settings.h_max;
-    let t0 = Instant::now();
-    let items: Vec<T> = sorted_items(photons, origin, size, inv_quant, h);
-    eprintln!("TIMING sort {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
+fn subdivide<R: PhotonRec>(recs: &[R], kf: KeyFn, settings: &OctreeSettings) -> Tree {
     let mut tb = TreeBuilder {
-        items: &items,
-        h,
+        recs,
+        kf,
+        h: settings.h_max,
         n_max: settings.n_max as usize,
         n_min: settings.n_min as usize,
         respect_n_min: settings.split_respects_n_min,
@@ -561,27 +398,43 @@ fn sort_and_split<T: SortItem>(photons: &[Photon], origin: Vec3, size: f32, inv_
         leaves: Vec::new(),
         valid: Vec::new(),
     };
-    tb.node(0, 0, items.len(), 0, [0; 3]);
-    let TreeBuilder { nodes, start, leaves, valid, .. } = tb;
-    eprintln!("TIMING tree {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
-    let min_cos = settings.min_cos;
-    let estimator = settings.estimator;
-    let recs: Vec<SRec> = items
-        .par_iter()
-        .map(|it| {
-            let ph = &photons[it.index() as usize];
-            let w = match estimator {
-                Estimator::Cosine => ph.wi / ph.wi.dot(ph.ng).abs().max(min_cos),
-                Estimator::Paper | Estimator::GeometryArea => ph.wi,
-            };
-            SRec { p: ph.p, w, c: ph.power }
-        })
-        .collect();
-    let ng = match estimator {
-        Estimator::GeometryArea => items.par_iter().map(|it| photons[it.index() as usize].ng).collect(),
-        Estimator::Paper | Estimator::Cosine => Vec::new(),
+    tb.node(0, 0, recs.len(), 0, [0; 3]);
+    Tree { nodes: tb.nodes, start: tb.start, leaves: tb.leaves, valid: tb.valid }
+}
+
+/// Steps 2-4 on sorted photons: subdivision, triangle lists, per-leaf estimates.
+fn estimates<R: PhotonRec>(
+    recs: Vec<R>,
+    kf: KeyFn,
+    cell_size: &[f32; MAX_DEPTH as usize + 1],
+    settings: &OctreeSettings,
+    triangles: &[[Vec3; 3]],
+) -> (Tree, usize, Vec<LeafEstimate>) {
+    let origin = kf.origin;
+    let tree = subdivide(&recs, kf, settings);
+    let view = TreeView { nodes: &tree.nodes, origin, cell_size };
+    let tri_lists = if triangles.is_empty() {
+        Vec::new()
+    } else {
+        let tri_bounds: Vec<Bounds3> = triangles
+            .par_iter()
+            .map(|t| {
+                if t.iter().all(|v| v.is_finite()) {
+                    let mut b = Bounds3::EMPTY;
+                    t.iter().for_each(|&v| b.extend(v));
+                    b
+                } else {
+                    Bounds3::EMPTY // never overlaps
+                }
+            })
+            .collect();
+        distribute_triangles(&view, &tri_bounds, settings.epsilon, tree.valid.len())
     };
-    (nodes, start, leaves, valid, recs, ng)
+    let ctx = EstimateCtx { view, start: &tree.start, recs: &recs, settings, triangles, tri_lists: &tri_lists };
+    let est: Vec<LeafEstimate> =
+        tree.valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
+    let n = recs.len();
+    (tree, n, est)
 }
 
 pub(super) fn build(
@@ -606,53 +459,25 @@ pub(super) fn build(
         *cs = size / (1u64 << d) as f32;
     }
 
-    eprintln!("TIMING keys {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
-    // 1.-2. sort and subdivision
-    let (nodes, start, leaves, valid, recs, ng) = if 3 * h < 32 {
-        sort_and_split::<u64>(photons, origin, size, inv_quant, settings)
-    } else {
-        sort_and_split::<KeyIdx>(photons, origin, size, inv_quant, settings)
+    // 1.-2. sort and subdivision, 3.-4. estimates
+    let cosine_min = (settings.estimator == Estimator::Cosine).then_some(settings.min_cos);
+    let kf = KeyFn { origin, inv_quant, h };
+    let (tree, n_kept, est) = match settings.estimator {
+        Estimator::GeometryArea => {
+            let sorted = sort_photons::<RecNg>(photons, kf, size, cosine_min);
+            estimates(sorted, kf, &cell_size, settings, geometry.unwrap_or(&[]))
+        }
+        Estimator::Paper | Estimator::Cosine => {
+            let sorted = sort_photons::<Rec>(photons, kf, size, cosine_min);
+            estimates(sorted, kf, &cell_size, settings, &[])
+        }
     };
-    let n_kept = recs.len();
-    eprintln!("TIMING gather {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
-
-    let view = TreeView { nodes: &nodes, origin, cell_size: &cell_size };
-
-    // 3. geometry
-    let triangles: &[[Vec3; 3]] = match settings.estimator {
-        Estimator::GeometryArea => geometry.unwrap_or(&[]),
-        _ => &[],
-    };
-    let tri_lists = if triangles.is_empty() {
-        Vec::new()
-    } else {
-        let tri_bounds: Vec<Bounds3> = triangles
-            .par_iter()
-            .map(|t| {
-                if t.iter().all(|v| v.is_finite()) {
-                    let mut b = Bounds3::EMPTY;
-                    t.iter().for_each(|&v| b.extend(v));
-                    b
-                } else {
-                    Bounds3::EMPTY // never overlaps
-                }
-            })
-            .collect();
-        distribute_triangles(&view, &tri_bounds, settings.epsilon, valid.len())
-    };
-
-    eprintln!("TIMING geom {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
-    // 4. estimates
-    let ctx = EstimateCtx { view, start: &start, recs: &recs, ng: &ng, settings, triangles, tri_lists: &tri_lists };
-    let est: Vec<LeafEstimate> =
-        valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
-    eprintln!("TIMING estimate {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
+    let Tree { nodes, leaves, valid, .. } = tree;
     let values = match settings.storage {
         Storage::Compressed => LeafValues::Compressed(est.par_iter().map(|e| compress_leaf(&e.m)).collect()),
         Storage::Full => LeafValues::Full(est.iter().map(|e| e.m).collect()),
     };
 
-    eprintln!("TIMING compress {:.1} ms", t0.elapsed().as_secs_f64()*1e3);
     // statistics
     let max_depth = leaves.iter().map(|l| l.depth).max().unwrap_or(0);
     let min_leaf_size = cell_size[max_depth as usize];
@@ -721,22 +546,6 @@ mod tests {
             assert_eq!(morton(q), naive(q));
         }
         assert_eq!(morton([0x1f_ffff; 3]), (1u64 << 63) - 1);
-    }
-
-    #[test]
-    fn radix_sort_matches_a_comparison_sort() {
-        let mut s = crate::sampling::Sampler::new(4, 5, 6);
-        for (n, bits) in [(0usize, 18u32), (1, 18), (1000, 18), (300_000, 18), (100_000, 30), (70_000, 5)] {
-            let v: Vec<u64> = (0..n).map(|i| ((s.next_u32() as u64 & ((1 << bits) - 1)) << 32) | i as u64).collect();
-            let mut expect = v.clone();
-            expect.sort_unstable();
-            assert_eq!(radix_sort(v, 32, 32 + bits), expect);
-        }
-        // 64-bit keys (6 passes), index order kept for ties
-        let v: Vec<u64> = (0..200_000u64).map(|_| ((s.next_u32() as u64) << 32) | s.next_u32() as u64).collect();
-        let mut expect = v.clone();
-        expect.sort_unstable();
-        assert_eq!(radix_sort(v, 0, 64), expect);
     }
 
     #[test]

@@ -58,6 +58,7 @@ pub mod compress;
 mod geometry;
 mod query;
 mod settings;
+mod sort;
 #[cfg(test)]
 mod tests;
 

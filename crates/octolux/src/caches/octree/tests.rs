@@ -502,6 +502,16 @@ fn timing_probe() {
     }
     let photons = cornell_photons(1_000_000, 1);
     let reps = 10;
+    if std::env::var("ONE").is_ok() {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).use_current_thread().build().unwrap();
+        pool.install(|| {
+            for _ in 0..4 {
+                let t = Octree::build(&photons, unit_cube(), &OctreeSettings::default(), None).unwrap();
+                eprintln!("---- {:.1}", t.stats().t_build_s * 1e3);
+            }
+        });
+        return;
+    }
     let c0 = cpu_s();
     let w0 = std::time::Instant::now();
     for _ in 0..reps {
@@ -509,4 +519,42 @@ fn timing_probe() {
         std::hint::black_box(t);
     }
     eprintln!("per build: wall {:.1} ms, cpu {:.1} ms", w0.elapsed().as_secs_f64() * 1e3 / reps as f64, (cpu_s() - c0) * 1e3 / reps as f64);
+}
+
+#[test]
+#[ignore]
+fn query_probe() {
+    fn cpu_ns() -> f64 {
+        std::fs::read_to_string("/proc/thread-self/schedstat").unwrap().split_whitespace().next().unwrap().parse().unwrap()
+    }
+    let photons = cornell_photons(1_000_000, 1);
+    let t = Octree::build(&photons, unit_cube(), &OctreeSettings::default(), None).unwrap();
+    let mut s = Sampler::new(7, 0, 0);
+    let q: Vec<(Vec3, Vec3)> = (0..4096)
+        .map(|i| {
+            let axis = (i % 6) / 2;
+            let side = (i % 2) as f32;
+            let mut p = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+            p[axis] = side;
+            let mut n = Vec3::ZERO;
+            n[axis] = 1.0 - 2.0 * side;
+            (p, n)
+        })
+        .collect();
+    let mut leaves = 0usize;
+    for &(p, _) in &q {
+        t.view().visit(p - Vec3::splat(t.query_half), p + Vec3::splat(t.query_half), |_, _, _, _| leaves += 1);
+    }
+    eprintln!("mean leaves per query {:.2}", leaves as f64 / q.len() as f64);
+    let reps = 200;
+    let c0 = cpu_ns();
+    let w0 = std::time::Instant::now();
+    let mut acc = Vec3::ZERO;
+    for _ in 0..reps {
+        for &(p, n) in &q {
+            acc += t.irradiance(p, n).unwrap_or(Vec3::ZERO);
+        }
+    }
+    let nq = (reps * q.len()) as f64;
+    eprintln!("{acc:?} per query: wall {:.0} ns, cpu {:.0} ns", w0.elapsed().as_secs_f64() * 1e9 / nq, (cpu_ns() - c0) / nq);
 }

@@ -1,0 +1,502 @@
+//! Ward's irradiance cache as the paper adapted it (METHOD.md §9, "Ward, configuration A"):
+//! irradiance samples computed **from the photons** instead of by hemisphere sampling, cached
+//! with Ward's weights ([`crate::caches::ward`]), over the same ray tracer as the `octree`
+//! integrator (specular chains from the camera; at the first non-delta vertex direct light by
+//! NEE, indirect light `f(wo, n) E` from the cache, caustics from the caustic photon map).
+//!
+//! # Irradiance samples ([`WardSampleMode`])
+//! - `photons` (the paper's adaptation): `E` is the global map's density estimate at `x`
+//!   (`n_max` photons within `r_max`, [`crate::caches::kdtree`]); the validity radius `R_i` is
+//!   the radius of the disk the estimate gathered (the distance to the `n_max`-th photon, or
+//!   `r_max`): the scale on which the estimate itself is smoothed, so samples are spaced in
+//!   proportion to the photon density's resolution (dense where photons are dense).
+//! - `final_gather` (Ward 1988's own form): `E = π/N Σ L_i` over `gather_rays`
+//!   cosine-distributed rays, `L_i` the radiance leaving each gather hit (NEE there + global
+//!   and caustic radiance estimates, see `photonmap`), and `R_i` the harmonic mean distance of
+//!   the gather hits.
+//! Either way `R_i` is clamped to `[q_min / a, max_radius]`: `q_min / a` makes `q_min` the least
+//! distance between two samples on a flat surface (a sample covers its neighbourhood up to
+//! `a R_i ≥ q_min`); `max_radius` bounds the reach of samples in open space.
+//! Caustic photons are not in the cache: caustics are rendered from the caustic map.
+//!
+//! # Filling the cache deterministically
+//! Priming pass before rendering: one camera ray through the centre of each cell of a grid
+//! (`prime_resolution` columns, the film's aspect; default one per pixel), specular chains
+//! followed with a per-point sampler, the first non-delta hit taken as a point. The points are
+//! ordered coarse to fine (grid stride 2^k, 2^(k-1), …, 1) so that each batch is spread over
+//! the image, and [`WardCache::prime`] inserts samples in batches (parallel computation,
+//! in-order insertion). The render then only reads the cache; a lookup that finds it
+//! insufficient (a point the priming grid did not see, e.g. jittered inside a pixel) computes
+//! a temporary sample with the same recipe and does not store it
+//! ([`WardIntegrator::temporary_samples`] counts them). Images are identical for any
+//! thread count.
+//!
+//! `F_m` = bytes of the cache (samples, octree, index lists) + the global map (needed for
+//! temporary samples) + the caustic map (caustics).
+
+use super::photonmap::{check_max_depth, shade_irradiance, BaselineError, CacheView, PhotonMapStats, Shading, Vertex};
+use super::RayCounters;
+use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SceneLength, SettingsError};
+use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache, WardCacheStats};
+use crate::math::{Color, Ray};
+use crate::photon_pass::{trace_photons, PhotonSettings};
+use crate::prepared::Scene;
+use crate::sampling::Sampler;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// Stream of the priming pass's camera paths.
+pub(crate) const PRIME_STREAM: u64 = 0x5052_494d_45; // "PRIME"
+/// Stream of the priming pass's sample computations (final gathering).
+pub(crate) const PRIME_SAMPLE_STREAM: u64 = 0x5052_494d_46;
+
+/// How an irradiance sample is computed.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum WardSampleMode {
+    /// Photon density estimate (the paper's adaptation).
+    #[default]
+    Photons,
+    /// Hemisphere final gathering (Ward 1988).
+    FinalGather,
+}
+
+/// Settings of a Ward cache and of its priming pass (shared with `christensen`'s
+/// configuration C).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default)]
+pub struct WardCacheSettings {
+    /// Ward's accuracy `a`: a sample is valid where `w_i > 1/a`; smaller is denser.
+    pub a: f32,
+    /// Least distance between two samples (paper's table 2: 1.0 in its 559 mm scene).
+    pub q_min: SceneLength,
+    /// Largest validity radius `R_i`.
+    pub max_radius: SceneLength,
+    /// Least `Σ w_i` for the cache to be sufficient (0: Ward's rule, any valid sample).
+    pub min_weight: f32,
+    /// Columns of the priming grid (rows follow the film's aspect); `None`: the film width.
+    pub prime_resolution: Option<u32>,
+    /// Points per priming batch.
+    pub batch: u32,
+}
+
+impl Default for WardCacheSettings {
+    fn default() -> Self {
+        WardCacheSettings { a: 1.0, q_min: SceneLength::paper(1.0), max_radius: SceneLength::Relative(0.25), min_weight: 0.0, prime_resolution: None, batch: 256 }
+    }
+}
+
+impl WardCacheSettings {
+    pub fn validate(&self, prefix: &str) -> Result<(), SettingsError> {
+        let f = |name: &str| format!("{prefix}.{name}");
+        if !(self.a.is_finite() && self.a > 0.0) {
+            return Err(SettingsError::new(&f("a"), format!("the accuracy {} must be finite and positive", self.a)));
+        }
+        self.q_min.check(&f("q_min"), true)?;
+        self.max_radius.check(&f("max_radius"), false)?;
+        if !(self.min_weight.is_finite() && self.min_weight >= 0.0) {
+            return Err(SettingsError::new(&f("min_weight"), format!("{} must be finite and non-negative", self.min_weight)));
+        }
+        if self.prime_resolution == Some(0) {
+            return Err(SettingsError::new(&f("prime_resolution"), "the priming grid needs at least one column (got 0)"));
+        }
+        if self.batch == 0 {
+            return Err(SettingsError::new(&f("batch"), "a priming batch holds at least one point (got 0)"));
+        }
+        // Both lengths of the same kind compare without a scene.
+        if let (SceneLength::Relative(q), SceneLength::Relative(m)) | (SceneLength::Absolute(q), SceneLength::Absolute(m)) = (self.q_min, self.max_radius) {
+            if q / self.a > m {
+                return Err(SettingsError::new(&f("max_radius"), format!("{m} is below q_min / a = {}: no radius is allowed", q / self.a)));
+            }
+        }
+        Ok(())
+    }
+
+    /// `[R_min, R_max]` in scene units (`R_min = q_min / a`; `R_max ≥ R_min`).
+    pub fn radius_range(&self, scene_size: f32) -> (f32, f32) {
+        let lo = (self.q_min.resolve(scene_size) / self.a).max(1e-6 * scene_size);
+        (lo, self.max_radius.resolve(scene_size).max(lo))
+    }
+}
+
+/// Settings of the `ward` integrator.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(default)]
+pub struct WardSettings {
+    pub photons: PhotonSettings,
+    /// Global-map density estimate of the samples (paper's table 2: n_max 205, r_max 31).
+    pub density: DensitySettings,
+    /// Caustic-map radiance estimate.
+    pub caustic: DensitySettings,
+    pub cache: WardCacheSettings,
+    pub sample: WardSampleMode,
+    /// Rays per sample in `final_gather` mode.
+    pub gather_rays: u32,
+    /// Longest specular chain followed (vertices, Mitsuba-like; -1 unbounded).
+    pub max_depth: i32,
+    pub view: CacheView,
+}
+
+impl Default for WardSettings {
+    fn default() -> Self {
+        WardSettings {
+            photons: PhotonSettings::default(),
+            density: DensitySettings::default(),
+            caustic: DensitySettings::default(),
+            cache: WardCacheSettings::default(),
+            sample: WardSampleMode::Photons,
+            gather_rays: 64,
+            max_depth: 16,
+            view: CacheView::Render,
+        }
+    }
+}
+
+impl WardSettings {
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        if self.photons.photons == 0 {
+            return Err(SettingsError::new("photons.photons", "at least one photon must be emitted (got 0)"));
+        }
+        self.density.validate("density")?;
+        self.caustic.validate("caustic")?;
+        self.cache.validate("cache")?;
+        if self.sample == WardSampleMode::FinalGather && self.gather_rays == 0 {
+            return Err(SettingsError::new("gather_rays", "final gathering needs at least one ray (got 0)"));
+        }
+        check_max_depth(self.max_depth)
+    }
+}
+
+/// Build statistics of the `ward` integrator (the paper's tables 2 and 3).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct WardBuildStats {
+    pub photons: PhotonMapStats,
+    /// Priming points (first non-delta hits of the grid's camera rays).
+    pub prime_points: usize,
+    /// Priming pass (camera rays + samples), seconds.
+    pub t_prime_s: f64,
+    /// `t_c`: photon tracing + kd-trees + priming, seconds.
+    pub t_c_s: f64,
+    pub prime: PrimeStats,
+    pub cache: WardCacheStats,
+    /// `m_e`: samples in the cache.
+    pub m_e: usize,
+    /// Resolved `r_max` of the density estimate, and `[R_min, R_max]`, scene units.
+    pub r_max: f32,
+    pub radius_min: f32,
+    pub radius_max: f32,
+    /// `F_m`: cache + global map + caustic map, bytes.
+    pub bytes: usize,
+}
+
+/// A priming point: the first non-delta hit of a grid camera ray.
+pub(crate) struct PrimePoint {
+    pub vertex: Vertex,
+}
+
+/// Camera rays through the centres of a `columns × rows` grid (rows from the film's aspect),
+/// coarse-to-fine order, to their first non-delta hits (module docs).
+pub(crate) fn prime_points(scene: &Scene, shading: &Shading, columns: Option<u32>, seed: u64) -> Vec<PrimePoint> {
+    let (fw, fh) = (scene.film.width.max(1), scene.film.height.max(1));
+    let w = columns.unwrap_or(fw).max(1);
+    let h = ((w as f64 * fh as f64 / fw as f64).round() as u32).max(1);
+    let mut order: Vec<(u32, u32)> = Vec::with_capacity((w * h) as usize);
+    let top = w.max(h).next_power_of_two();
+    let mut stride = top;
+    while stride >= 1 {
+        for y in (0..h).step_by(stride as usize) {
+            for x in (0..w).step_by(stride as usize) {
+                if stride == top || x % (2 * stride) != 0 || y % (2 * stride) != 0 {
+                    order.push((x, y));
+                }
+            }
+        }
+        stride /= 2;
+    }
+    let (sx, sy) = (fw as f32 / w as f32, fh as f32 / h as f32);
+    order
+        .into_par_iter()
+        .map(|(x, y)| {
+            let mut sampler = Sampler::new(seed, (y as u64) * w as u64 + x as u64, PRIME_STREAM);
+            let film = Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy);
+            let (o, d, tmin) = scene.camera.generate_ray(film);
+            let ray = Ray { o, d, tmin, tmax: f32::INFINITY };
+            let mut ignored = Color::ZERO;
+            shading.first_vertex(scene, ray, &mut sampler, &mut RayCounters::default(), false, &mut ignored).map(|vertex| PrimePoint { vertex })
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// How Ward samples are computed, resolved to scene units.
+#[derive(Clone, Copy, Debug)]
+struct SampleRecipe {
+    mode: WardSampleMode,
+    gather_rays: u32,
+    radius_min: f32,
+    radius_max: f32,
+}
+
+impl SampleRecipe {
+    fn compute(&self, scene: &Scene, sh: &Shading, v: &Vertex, sampler: &mut Sampler, counters: &mut RayCounters, scratch: &mut Vec<Neighbor>) -> Option<IrradianceSample> {
+        let (e, r) = match self.mode {
+            WardSampleMode::Photons => {
+                let d = sh.irradiance_estimate(&sh.global, sh.global_density, v.hit.p, v.n, scratch, counters);
+                (d.e, d.r)
+            }
+            WardSampleMode::FinalGather => sh.gather_irradiance(scene, &v.hit, v.n, self.gather_rays, sampler, counters, scratch),
+        };
+        let r = if r.is_nan() { self.radius_max } else { r.clamp(self.radius_min, self.radius_max) };
+        let s = IrradianceSample { p: v.hit.p, n: v.n, e: e.max(Color::ZERO), r };
+        s.is_valid().then_some(s)
+    }
+}
+
+/// A built `ward` integrator: photon maps and a primed, read-only cache.
+pub struct WardIntegrator {
+    pub settings: WardSettings,
+    pub shading: Shading,
+    pub cache: WardCache,
+    pub stats: WardBuildStats,
+    recipe: SampleRecipe,
+    temporaries: AtomicU64,
+}
+
+impl WardIntegrator {
+    /// Trace the photons, build the maps, prime the cache (module docs).
+    pub fn build(scene: &Scene, settings: WardSettings) -> Result<WardIntegrator, BaselineError> {
+        settings.validate()?;
+        let maps = trace_photons(scene, &settings.photons)?;
+        let shading = Shading::new(scene, &maps, &settings.density, &settings.caustic, settings.max_depth);
+        drop(maps);
+        let size = scene_size(&scene.bounds);
+        let (radius_min, radius_max) = settings.cache.radius_range(size);
+        let recipe = SampleRecipe { mode: settings.sample, gather_rays: settings.gather_rays, radius_min, radius_max };
+        let t0 = Instant::now();
+        let seed = settings.photons.seed;
+        let points = prime_points(scene, &shading, settings.cache.prime_resolution, seed);
+        let pn: Vec<(Vec3, Vec3)> = points.iter().map(|p| (p.vertex.hit.p, p.vertex.n)).collect();
+        let mut cache = WardCache::new(scene.bounds, settings.cache.a, settings.cache.min_weight);
+        let prime = cache.prime(&pn, settings.cache.batch as usize, |i| {
+            let mut sampler = Sampler::new(seed, i as u64, PRIME_SAMPLE_STREAM);
+            let mut scratch = Vec::new();
+            recipe.compute(scene, &shading, &points[i].vertex, &mut sampler, &mut RayCounters::default(), &mut scratch)
+        });
+        let t_prime_s = t0.elapsed().as_secs_f64();
+        let cs = cache.stats();
+        let p = shading.stats.clone();
+        let stats = WardBuildStats {
+            prime_points: points.len(),
+            t_prime_s,
+            t_c_s: p.t_photons_s + p.t_kdtree_s + t_prime_s,
+            prime,
+            m_e: cs.samples,
+            r_max: shading.global_density.r_max,
+            radius_min,
+            radius_max,
+            bytes: cs.bytes + p.global_bytes + p.caustic_bytes,
+            cache: cs,
+            photons: p,
+        };
+        Ok(WardIntegrator { settings, shading, cache, stats, recipe, temporaries: AtomicU64::new(0) })
+    }
+
+    /// Temporary samples computed during rendering so far (lookups the cache could not serve).
+    pub fn temporary_samples(&self) -> u64 {
+        self.temporaries.load(Ordering::Relaxed)
+    }
+
+    /// Indirect irradiance at a vertex: the cache's interpolation, or a temporary sample.
+    fn irradiance(&self, scene: &Scene, v: &Vertex, sampler: &mut Sampler, counters: &mut RayCounters, scratch: &mut Vec<Neighbor>) -> Color {
+        let t = Instant::now();
+        let (ok, l) = self.cache.query(v.hit.p, v.n);
+        counters.cache_queries += 1;
+        counters.cache_query_ns += t.elapsed().as_nanos() as u64;
+        if ok {
+            return l.irradiance();
+        }
+        self.temporaries.fetch_add(1, Ordering::Relaxed);
+        self.recipe.compute(scene, &self.shading, v, sampler, counters, scratch).map_or(Color::ZERO, |s| s.e)
+    }
+
+    /// Radiance along a primary ray.
+    pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+        render_vertex(&self.shading, self.settings.view, scene, ray, sampler, counters, |v, s, c, scratch| self.irradiance(scene, v, s, c, scratch))
+    }
+}
+
+/// The common camera path of the irradiance-cache baselines: emission on the way, then at the
+/// first non-delta vertex direct (NEE) + `f(wo, n) E` + caustics, or the irradiance views.
+pub(crate) fn render_vertex(
+    sh: &Shading,
+    view: CacheView,
+    scene: &Scene,
+    ray: Ray,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+    irradiance: impl FnOnce(&Vertex, &mut Sampler, &mut RayCounters, &mut Vec<Neighbor>) -> Color,
+) -> Color {
+    let mut result = Color::ZERO;
+    let Some(v) = sh.first_vertex(scene, ray, sampler, counters, view == CacheView::Render, &mut result) else { return result };
+    let mut scratch = Vec::new();
+    let material = &scene.materials[v.hit.material as usize];
+    match view {
+        CacheView::Render => {
+            let mut l = sh.direct(scene, &v.hit, material, v.wo, sampler, counters);
+            let e = irradiance(&v, sampler, counters, &mut scratch);
+            l += shade_irradiance(scene, &v.hit, material, v.wo, e);
+            l += sh.caustics(scene, &v, material, &mut scratch, counters);
+            result += v.throughput * l;
+        }
+        CacheView::Irradiance | CacheView::IrradianceAll => {
+            let mut e = irradiance(&v, sampler, counters, &mut scratch);
+            if view == CacheView::IrradianceAll {
+                e += sh.caustic_irradiance(&v, &mut scratch, counters);
+            }
+            result += v.throughput * e;
+        }
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrators::photonmap::tests::box_scene;
+    use crate::integrators::Integrator;
+    use crate::render::{render, RenderSettings};
+
+    fn small(photons: u64) -> WardSettings {
+        let mut s = WardSettings::default();
+        s.photons.photons = photons;
+        s.density.n_max = 50;
+        s.caustic.n_max = 50;
+        s
+    }
+
+    #[test]
+    fn bad_settings_are_refused_with_clear_messages() {
+        let scene = box_scene(4);
+        let cases: Vec<(WardSettings, &str)> = vec![
+            (WardSettings { cache: WardCacheSettings { a: 0.0, ..Default::default() }, ..small(10) }, "cache.a"),
+            (WardSettings { cache: WardCacheSettings { a: f32::NAN, ..Default::default() }, ..small(10) }, "cache.a"),
+            (WardSettings { cache: WardCacheSettings { q_min: SceneLength::Absolute(-1.0), ..Default::default() }, ..small(10) }, "cache.q_min"),
+            (WardSettings { cache: WardCacheSettings { q_min: SceneLength::Relative(0.5), max_radius: SceneLength::Relative(0.1), ..Default::default() }, ..small(10) }, "cache.max_radius"),
+            (WardSettings { cache: WardCacheSettings { batch: 0, ..Default::default() }, ..small(10) }, "cache.batch"),
+            (WardSettings { cache: WardCacheSettings { prime_resolution: Some(0), ..Default::default() }, ..small(10) }, "cache.prime_resolution"),
+            (WardSettings { density: DensitySettings { n_max: 0, ..Default::default() }, ..small(10) }, "density.n_max"),
+            (WardSettings { sample: WardSampleMode::FinalGather, gather_rays: 0, ..small(10) }, "gather_rays"),
+            (small(0), "photons"),
+        ];
+        for (s, field) in cases {
+            let e = WardIntegrator::build(&scene, s).err().expect("refused");
+            assert!(e.to_string().contains(field), "{e} should name {field}");
+        }
+    }
+
+    /// The cache's irradiance matches the photon density estimate it interpolates, and the
+    /// render agrees with the photon map's (same photons, same direct light).
+    #[test]
+    fn cache_matches_the_density_estimate_and_spacing_holds() {
+        let scene = box_scene(32);
+        let mut s = small(100_000);
+        s.view = CacheView::Irradiance;
+        // reach a R ≈ 2 × 0.04 (n_max 50 of 230k photons), above the 0.06 grid spacing
+        s.cache.a = 2.0;
+        let w = WardIntegrator::build(&scene, s.clone()).unwrap();
+        let st = &w.stats;
+        assert!(st.m_e > 20 && st.m_e < st.prime_points, "{st:?}");
+        assert_eq!(st.prime.inserted, st.m_e);
+        // spacing: no two samples with the same normal closer than q_min
+        let q_min = s.cache.q_min.resolve(2.0);
+        let smp = w.cache.samples();
+        for (i, a) in smp.iter().enumerate() {
+            for b in &smp[i + 1..] {
+                if a.n.dot(b.n) > 0.999 {
+                    assert!(a.p.distance(b.p) >= q_min * 0.999);
+                }
+            }
+        }
+        // interpolated vs direct estimate at a coarser grid of points: no bias on average, and
+        // differences of the order of the estimates' own noise (n_max 50: ~14%)
+        let pts = prime_points(&scene, &w.shading, Some(16), 0);
+        let (mut diff, mut sum_i, mut sum_d) = (0.0f64, 0.0f64, 0.0f64);
+        let mut scratch = Vec::new();
+        for p in &pts {
+            let (ok, l) = w.cache.query(p.vertex.hit.p, p.vertex.n);
+            let direct = crate::caches::kdtree::photon_irradiance(&w.shading.global, p.vertex.hit.p, p.vertex.n, w.shading.global_density, &mut scratch).e;
+            if ok {
+                diff += (l.irradiance() - direct).abs().element_sum() as f64;
+                sum_i += l.irradiance().element_sum() as f64;
+                sum_d += direct.element_sum() as f64;
+            }
+        }
+        assert!((sum_i / sum_d - 1.0).abs() < 0.05, "interpolated / direct = {}", sum_i / sum_d);
+        assert!(diff / sum_d < 0.25, "mean relative difference {}", diff / sum_d);
+        // the render mode: a lit, finite image
+        let (img, _) = render(&scene, &Integrator::Ward(Box::new(WardIntegrator::build(&scene, WardSettings { view: CacheView::Render, ..s }).unwrap())), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
+        assert!(img.data.iter().all(|c| c.is_finite() && c.min_element() >= 0.0));
+        assert!(img.data.iter().map(|c| c.y as f64).sum::<f64>() > 0.0);
+    }
+
+    #[test]
+    fn images_are_identical_for_one_and_two_threads() {
+        let scene = box_scene(16);
+        for mode in [WardSampleMode::Photons, WardSampleMode::FinalGather] {
+            let mut s = small(20_000);
+            s.sample = mode;
+            s.gather_rays = 8;
+            s.cache.batch = 16;
+            let run = |t| {
+                rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| {
+                    let w = WardIntegrator::build(&scene, s.clone()).unwrap();
+                    let samples = w.cache.samples().to_vec();
+                    let (img, _) = render(&scene, &Integrator::Ward(Box::new(w)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
+                    (samples, img.data)
+                })
+            };
+            let (a, b) = (run(1), run(2));
+            assert!(!a.0.is_empty());
+            assert_eq!(a.0, b.0, "{mode:?}: caches differ");
+            assert_eq!(a.1, b.1, "{mode:?}: images differ");
+        }
+    }
+}
+#[cfg(test)]
+mod tmp_probe {
+    use super::*;
+    use crate::integrators::photonmap::tests::box_scene;
+    #[test]
+    fn probe() {
+        let scene = box_scene(64);
+        for a in [0.25f32, 0.5, 1.0, 2.0, 4.0] {
+            let mut s = WardSettings::default();
+            s.photons.photons = 100_000;
+            s.density.n_max = 50;
+            s.cache.a = a;
+            let w = WardIntegrator::build(&scene, s.clone()).unwrap();
+            let pts = prime_points(&scene, &w.shading, Some(16), 0);
+            let (mut diff, mut sum_i, mut sum_d, mut n) = (0.0f64, 0.0f64, 0.0f64, 0);
+            let mut scratch = Vec::new();
+            let mut worst = Vec::new();
+            for p in &pts {
+                let (ok, l) = w.cache.query(p.vertex.hit.p, p.vertex.n);
+                let direct = crate::caches::kdtree::photon_irradiance(&w.shading.global, p.vertex.hit.p, p.vertex.n, w.shading.global_density, &mut scratch).e;
+                if ok {
+                    n += 1;
+                    diff += (l.irradiance() - direct).abs().element_sum() as f64;
+                    sum_i += l.irradiance().element_sum() as f64;
+                    sum_d += direct.element_sum() as f64;
+                    worst.push(((l.irradiance().element_sum() - direct.element_sum()), p.vertex.hit.p, p.vertex.n, l.count));
+                }
+            }
+            worst.sort_by(|a, b| a.0.total_cmp(&b.0));
+            println!("a {a}: m_e {} ok {n}/{} ratio {:.3} diff {:.3} worst {:?} {:?}", w.stats.m_e, pts.len(), sum_i / sum_d, diff / sum_d, &worst[..3], &worst[worst.len()-3..]);
+        }
+    }
+}
