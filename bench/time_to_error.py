@@ -6,7 +6,7 @@ ladder of sample counts with both integrators, measures wall time (octree: photo
 build + render; taken from the stats JSON) and relMSE against the reference, interpolates each
 curve log-log at the target relMSE and prints the speed-up path_time / octree_time from this one run.
 
-Usage: bench/time_to_error.py [--target 2e-3] [--scenes cornell-box cornell-spheres] [--photons 1000000]
+Usage: bench/time_to_error.py [--targets 1e-2 5e-3 2e-3] [--scenes cornell-box cornell-spheres] [--photons 1000000]
 Needs: cargo build --release -p octolux-cli (the script builds it if missing).
 """
 from __future__ import annotations
@@ -49,7 +49,7 @@ def time_at(points: list[tuple[float, float]], target: float) -> float | None:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--target", type=float, default=2e-3)
+    ap.add_argument("--targets", type=float, nargs="+", default=[1e-2, 5e-3, 2e-3])
     ap.add_argument("--scenes", nargs="+", default=["cornell-box", "cornell-spheres"])
     ap.add_argument("--photons", type=int, default=1_000_000)
     args = ap.parse_args()
@@ -70,18 +70,19 @@ def main() -> int:
                     t, e, _ = run(scene, integ, spp, args.photons, max_depth, Path(tmp) / f"{scene}-{integ}-{spp}.exr")
                     pts.append((t, e))
                     print(f"{scene:16} {integ:7} spp {spp:5}  time {t:8.3f} s  relMSE {e:.3e}", file=sys.stderr)
-                    if e < args.target / 4:
+                    if e < min(args.targets) / 4:
                         break
                 curves[integ] = pts
-            tp, to = time_at(curves["path"], args.target), time_at(curves["octree"], args.target)
-            rows.append((scene, tp, to, min(e for _, e in curves["octree"])))
-    print(f"\nTime to relMSE {args.target:g} (128x128, vs Mitsuba 3 reference; octree includes photon tracing and build)\n")
-    print("| scene | path (s) | octree (s) | speed-up | octree's lowest relMSE |")
-    print("|---|---|---|---|---|")
-    for scene, tp, to, floor in rows:
+            for target in args.targets:
+                tp, to = time_at(curves["path"], target), time_at(curves["octree"], target)
+                rows.append((scene, target, tp, to, min(e for _, e in curves["octree"])))
+    print("\nTime to a relMSE target (128x128, vs Mitsuba 3 reference; octree includes photon tracing and build)\n")
+    print("| scene | target relMSE | path (s) | octree (s) | speed-up | octree's lowest relMSE |")
+    print("|---|---|---|---|---|---|")
+    for scene, target, tp, to, floor in rows:
         f = lambda v: "not reached" if v is None else f"{v:.2f}"
         ratio = f"{tp / to:.1f}x" if tp and to else "n/a"
-        print(f"| {scene} | {f(tp)} | {f(to)} | {ratio} | {floor:.2e} |")
+        print(f"| {scene} | {target:g} | {f(tp)} | {f(to)} | {ratio} | {floor:.2e} |")
     return 0
 
 

@@ -12,14 +12,15 @@ its own process with the same number of threads, and measures
 * time: the renderer's own clock around "produce the image from the loaded scene":
     octolux   timings.render_s + build.t_c_s (photon tracing + octree build, also reported alone)
     Mitsuba   render.py's render_s after an untimed 1-spp warm-up (JIT kernels compiled)
-    LuxCore   RenderSession.Start() .. HasDone() (BVH, PhotonGI cache build, rendering); the cache
-              build is also reported alone (from LuxCore's log)
+    LuxCore   RenderSession.Start() .. HasDone() (PhotonGI cache build, rendering) minus its
+              Embree BVH build (like the others' scene loading; reported apart); the cache build
+              is also reported alone (from LuxCore's log)
   plus the process's whole wall time and CPU time (user + system, from wait4);
 * error against one converged Mitsuba 3 reference per scene (cached): relMSE (as
   tools/mitsuba/compare.py: mean of (a-b)^2/(b^2+1e-2)), RMSE and the ratio of channel means,
   on the image without a 1-pixel border; LuxCore's image is compared one row up (it renders a
   Mitsuba-equivalent camera one pixel row lower; the best integer shift is measured and reported);
-* memory: peak RSS of the process (VmHWM, polled every 10 ms) and the size of the cache (octolux
+* memory: peak RSS of the process (GNU time's %M, else VmHWM polled every 10 ms) and the size of the cache (octolux
   build.bytes; LuxCore's "PhotonGI total memory usage").
 
 Outputs under --out (default target/peers-results/<full|quick>/): results.json (everything),
@@ -165,30 +166,47 @@ class HwmPoller:
         return self.peak
 
 
+GNU_TIME = "/usr/bin/time" if Path("/usr/bin/time").exists() else None
+
+
 def run_measured(cmd: list[str], log_path: Path) -> dict:
-    """Run cmd; stdout captured, stderr to log_path; wall time and CPU time (wait4) and peak RSS."""
+    """Run cmd; stdout captured, stderr to log_path. Wall time; CPU time (user + system) from wait4;
+    peak RSS from GNU time's %M when /usr/bin/time exists (it forks the renderer from its own small
+    image), else by polling VmHWM (HwmPoller)."""
     log_path.parent.mkdir(parents=True, exist_ok=True)
     load0 = os.getloadavg()[0]
+    rss_file = log_path.with_suffix(".rss")
+    full = ([GNU_TIME, "-f", "%M", "-o", rss_file] if GNU_TIME else []) + list(cmd)
     t0 = time.perf_counter()
     with open(log_path, "w") as lf:
         lf.write("$ " + " ".join(map(str, cmd)) + "\n")
         lf.flush()
-        p = subprocess.Popen([str(c) for c in cmd], stdout=subprocess.PIPE, stderr=lf, cwd=ROOT)
-        hwm = HwmPoller(p.pid)
+        p = subprocess.Popen([str(c) for c in full], stdout=subprocess.PIPE, stderr=lf, cwd=ROOT)
+        hwm = None if GNU_TIME else HwmPoller(p.pid)
         try:
             out = p.stdout.read().decode(errors="replace")
         finally:
             p.stdout.close()
-        hwm.sample()
+        if hwm:
+            hwm.sample()
         _, status, ru = os.wait4(p.pid, 0)
     p.returncode = os.waitstatus_to_exitcode(status)
     wall = time.perf_counter() - t0
+    peak, how = None, None
+    if hwm:
+        peak, how = hwm.finish(), "VmHWM polling"
+    else:
+        try:
+            peak, how = int(rss_file.read_text().strip().splitlines()[-1]) * 1024, "GNU time %M"
+        except (OSError, ValueError, IndexError):
+            pass
     res = {
         "rc": p.returncode,
         "stdout": out,
         "process_wall_s": wall,
         "cpu_s": ru.ru_utime + ru.ru_stime,
-        "peak_rss_bytes": hwm.finish(),
+        "peak_rss_bytes": peak,
+        "peak_rss_how": how,
         "load_avg_1m_before": load0,
         "load_avg_1m_after": os.getloadavg()[0],
     }
@@ -283,7 +301,8 @@ class Scene:
         self.hash = sha256_of(files)
 
     def prepare_dump(self) -> None:
-        d = CACHE / "dumps" / f"{self.name}-{self.res_s}-d{self.max_depth}-{self.hash[:12]}"
+        tr = sha256_of([HERE / "mi_translate.py"])[:8]  # a new translator invalidates old dumps
+        d = CACHE / "dumps" / f"{self.name}-{self.res_s}-d{self.max_depth}-{self.hash[:12]}-t{tr}"
         if not (d / "scene.json").exists():
             tmp = d.with_name(d.name + ".tmp")
             shutil.rmtree(tmp, ignore_errors=True)
@@ -404,7 +423,9 @@ def run_one(scene: Scene, renderer: str, spp: int, photons: int | None, args, ou
         r = run_measured(cmd, logp)
         j = last_json(r["stdout"])
         pg = j.get("photongi") or {}
-        rec.update({"render_s": j["render_s"], "build_s": pg.get("build_s"), "time_s": j["wall_s"],
+        accel = j.get("accel_build_s") or 0.0
+        rec.update({"render_s": j["render_s"], "build_s": pg.get("build_s"), "time_s": j["wall_s"] - accel,
+                    "accel_build_s": j.get("accel_build_s"),
                     "cache_bytes": pg.get("memory_bytes"), "pgi": j["pgi"], "spp_done": j.get("spp_done"),
                     "photongi": pg, "version": j["luxcore_version"], "start_s": j["start_s"],
                     "samples_per_second": scene.res[0] * scene.res[1] * spp / j["render_s"] if j["render_s"] else None})
@@ -412,8 +433,8 @@ def run_one(scene: Scene, renderer: str, spp: int, photons: int | None, args, ou
         shift = LUX_SHIFT
     else:
         raise ValueError(renderer)
-    rec.update({k: r[k] for k in ("process_wall_s", "cpu_s", "peak_rss_bytes", "load_avg_1m_before",
-                                  "load_avg_1m_after")})
+    rec.update({k: r[k] for k in ("process_wall_s", "cpu_s", "peak_rss_bytes", "peak_rss_how",
+                                  "load_avg_1m_before", "load_avg_1m_after")})
     img = read_image(img_path)
     ref = read_image(scene.ref)
     if img.shape != ref.shape:
@@ -482,7 +503,7 @@ def analyse(scene_runs: dict[str, list[dict]], targets: dict[str, float]) -> dic
                 "points": len(pts), "best_rel_mse": min(e for _, e in pts),
                 "cache_bytes_max": max((r.get("cache_bytes") or 0) for r in rr) or None,
                 "build_s_max": max((r.get("build_s") or 0) for r in rr) or None,
-                "peak_rss_bytes_max": max(r["peak_rss_bytes"] for r in rr),
+                "peak_rss_bytes_max": max((r["peak_rss_bytes"] or 0) for r in rr) or None,
                 "mean_ratio_last": last["mean_ratio"], "last_spp": last["spp"],
             }
         oct_t = per.get("octolux-octree", {}).get("time_to_target_s")
@@ -580,7 +601,7 @@ def markdown(results: dict) -> str:
                  f"{'–' if r.get('build_s') is None else format(r['build_s'], '.3f')} | {r['process_wall_s']:.2f} | "
                  f"{r['cpu_s']:.2f} | {r['rel_mse']:.3e} | {r['rmse']:.3e} | "
                  + "/".join(f"{x:.3f}" for x in r["mean_ratio"])
-                 + f" | {mb(r.get('cache_bytes'))} | {r['peak_rss_bytes'] / 2**20:.0f} |")
+                 + f" | {mb(r.get('cache_bytes'))} | {mb(r['peak_rss_bytes'])} |")
     L.append("")
     L.append("Versions: " + ", ".join(f"{k} {v}" for k, v in meta["versions"].items()) + ".")
     checks = [f"{r['scene']} {r['renderer']} {r['spp']} spp: best shift {r['best_shift']}"
@@ -756,7 +777,7 @@ def main(argv=None) -> int:
                     runs.append(rec)
                     log(f"   time {rec['time_s']:.3f} s" + (f" (build {rec['build_s']:.3f} s)" if rec.get("build_s") else "")
                         + f"  relMSE {rec['rel_mse']:.3e}  mean ratio {'/'.join(f'{x:.3f}' for x in rec['mean_ratio'])}"
-                        f"  RSS {rec['peak_rss_bytes'] / 2**20:.0f} MiB  load {rec['load_avg_1m_before']:.1f}")
+                        f"  RSS {mb(rec['peak_rss_bytes'])} MiB  load {rec['load_avg_1m_before']:.1f}")
                     res_json.write_text(json.dumps({"meta": {"partial": True}, "runs": runs}, indent=1))
                     if rec["time_s"] > max_run_s:
                         log(f"   {rd}: run took more than {max_run_s:.0f} s, rest of its ladder skipped")

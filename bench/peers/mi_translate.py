@@ -146,7 +146,7 @@ def main(argv=None) -> int:
     ap.add_argument("out_dir")
     ap.add_argument("--resolution", type=mi_render.parse_resolution, default=None)
     ap.add_argument("--max-depth", type=int, default=None)
-    ap.add_argument("--sphere-segments", type=int, default=256, help="longitude segments of a tessellated sphere")
+    ap.add_argument("--sphere-segments", type=int, default=128, help="longitude segments of a tessellated sphere")
     ap.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
     args = ap.parse_args(argv)
 

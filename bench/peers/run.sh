@@ -7,5 +7,5 @@
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 REPO="$(cd "$HERE/../.." && pwd)"
-"$HERE/setup.sh"
+"$HERE/setup.sh" >&2
 exec "$REPO/.venv-peers/bin/python" "$HERE/bench.py" "$@"

@@ -5,11 +5,11 @@
 //! Run: `cargo bench -p octolux --bench octree`.
 
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use glam::Vec3;
 use octolux::caches::octree::{Estimator, Octree, OctreeSettings, Storage};
 use octolux::math::Bounds3;
 use octolux::photon::Photon;
 use octolux::sampling::{around, square_to_cosine_hemisphere, Sampler};
-use glam::Vec3;
 use rayon::prelude::*;
 
 fn unit_box() -> Bounds3 {

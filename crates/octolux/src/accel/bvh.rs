@@ -447,7 +447,11 @@ impl<const H: usize> Bvh<H> {
                 let node = &self.nodes[cur as usize];
                 let (mask, tn) = r.hit_node(node, tmax);
                 if mask != 0 {
-                    cur = if mask & (mask - 1) == 0 { node.child(mask.trailing_zeros() as usize) } else { stack.push_sorted(node, mask, &tn, |w| self.prefetch(w)) };
+                    cur = if mask & (mask - 1) == 0 {
+                        node.child(mask.trailing_zeros() as usize)
+                    } else {
+                        stack.push_sorted(node, mask, &tn, |w| self.prefetch(w))
+                    };
                     continue;
                 }
             } else {
@@ -499,7 +503,11 @@ impl<const H: usize> Bvh<H> {
                 let node = &self.nodes[cur as usize];
                 let (mask, _) = r.hit_node(node, tmax);
                 if mask != 0 {
-                    cur = if mask & (mask - 1) == 0 { node.child(mask.trailing_zeros() as usize) } else { stack.push_any(node, mask, |w| self.prefetch(w)) };
+                    cur = if mask & (mask - 1) == 0 {
+                        node.child(mask.trailing_zeros() as usize)
+                    } else {
+                        stack.push_any(node, mask, |w| self.prefetch(w))
+                    };
                     continue;
                 }
             } else {
@@ -541,7 +549,10 @@ fn make_tri4(chunk: &[PrimRef], vertices: &[Vec3], triangles: &[[u32; 3]]) -> Tr
 enum BuildNode {
     Inner(Vec<(Aabb, BuildNode)>),
     /// `start` is a global index into the reordered `PrimRef` array.
-    Leaf { start: usize, count: usize },
+    Leaf {
+        start: usize,
+        count: usize,
+    },
 }
 
 /// How to split a range.
@@ -691,7 +702,8 @@ fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb
         // Split the splittable candidate with the largest surface area (SAH levels) or with
         // the most triangles (median levels, to bound the depth).
         let key = |c: &Cand| if depth >= MAX_SAH_DEPTH { (c.end - c.start) as f32 } else { c.bounds.half_area() };
-        let Some(k) = (0..cands.len()).filter(|&k| cands[k].plan.is_some()).max_by(|&a, &b| key(&cands[a]).total_cmp(&key(&cands[b]))) else {
+        let Some(k) = (0..cands.len()).filter(|&k| cands[k].plan.is_some()).max_by(|&a, &b| key(&cands[a]).total_cmp(&key(&cands[b])))
+        else {
             break;
         };
         let c = &cands[k];

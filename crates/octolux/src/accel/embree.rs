@@ -342,7 +342,16 @@ impl EmbreeAccel {
     pub fn intersect(&self, ray: &Ray) -> Option<TriHit> {
         let mut rh = RtcRayHit {
             ray: RtcRay::from_ray(ray),
-            hit: RtcHit { ng_x: 0.0, ng_y: 0.0, ng_z: 0.0, u: 0.0, v: 0.0, prim_id: 0, geom_id: RTC_INVALID_GEOMETRY_ID, inst_id: [RTC_INVALID_GEOMETRY_ID] },
+            hit: RtcHit {
+                ng_x: 0.0,
+                ng_y: 0.0,
+                ng_z: 0.0,
+                u: 0.0,
+                v: 0.0,
+                prim_id: 0,
+                geom_id: RTC_INVALID_GEOMETRY_ID,
+                inst_id: [RTC_INVALID_GEOMETRY_ID],
+            },
         };
         let mut ctx = IntersectContext::new();
         // SAFETY: committed scene, properly laid out and aligned structs.

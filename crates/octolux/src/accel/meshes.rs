@@ -122,7 +122,9 @@ pub fn displaced_icosphere(level: u32, center: Vec3, radius: f32, amp: f32, seed
 
 /// Axis-aligned box, closed, 12 triangles. `inward` flips the winding (normals point in).
 pub fn box_mesh(lo: Vec3, hi: Vec3, inward: bool) -> MeshData {
-    let c = |i: u32| Vec3::new(if i & 1 != 0 { hi.x } else { lo.x }, if i & 2 != 0 { hi.y } else { lo.y }, if i & 4 != 0 { hi.z } else { lo.z });
+    let c = |i: u32| {
+        Vec3::new(if i & 1 != 0 { hi.x } else { lo.x }, if i & 2 != 0 { hi.y } else { lo.y }, if i & 4 != 0 { hi.z } else { lo.z })
+    };
     let vertices = (0..8).map(c).collect();
     // Outward-wound faces as quads of corner indices.
     let faces = [[0u32, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];

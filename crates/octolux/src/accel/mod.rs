@@ -121,9 +121,14 @@ fn validate(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), AccelError>
         for &k in t {
             match vertices.get(k as usize) {
                 None => {
-                    return Err(AccelError::Geometry(format!("triangle {i} uses vertex {k}, but there are only {} vertices", vertices.len())))
+                    return Err(AccelError::Geometry(format!(
+                        "triangle {i} uses vertex {k}, but there are only {} vertices",
+                        vertices.len()
+                    )))
                 }
-                Some(p) if !p.is_finite() => return Err(AccelError::Geometry(format!("triangle {i} uses vertex {k} = {p}, which is not finite"))),
+                Some(p) if !p.is_finite() => {
+                    return Err(AccelError::Geometry(format!("triangle {i} uses vertex {k} = {p}, which is not finite")))
+                }
                 Some(_) => {}
             }
         }
@@ -358,7 +363,9 @@ mod tests {
             let [p0, p1, p2] = m.corners(full.prim as usize);
             let p = p0 * (1.0 - full.u - full.v) + p1 * full.u + p2 * full.v;
             assert!((p - Vec3::new(0.3, 0.2, 1.0)).length() < 1e-5, "{name}: barycentrics {full:?}");
-            for (tmin, tmax, expect) in [(1.5, f32::INFINITY, Some(2.0)), (2.5, 3.5, Some(3.0)), (0.0, 0.9, None), (3.1, 3.9, None), (4.5, 100.0, None)] {
+            for (tmin, tmax, expect) in
+                [(1.5, f32::INFINITY, Some(2.0)), (2.5, 3.5, Some(3.0)), (0.0, 0.9, None), (3.1, 3.9, None), (4.5, 100.0, None)]
+            {
                 let r = Ray { o, d, tmin, tmax };
                 let h = a.intersect(&r);
                 assert_eq!(h.map(|h| (h.t * 1e4).round() / 1e4), expect, "{name}: tmin {tmin} tmax {tmax}");
@@ -418,6 +425,49 @@ mod tests {
         } else {
             assert!(matches!(auto, Accel::Bvh(_)));
         }
+    }
+
+    /// Edges that pass through the ray within f32 rounding: when the f32 edge function is exactly
+    /// 0 but the exact value (f64 products of the f32 projected coordinates) is not, the BVH's
+    /// watertight test must follow the exact sign (Woop et al.'s f64 fallback).
+    #[test]
+    fn bvh_edge_test_uses_exact_sign_when_f32_cancels() {
+        let mut s = Sampler::new(5, 0, 0);
+        let nudge = |x: f32, k: u32| match k {
+            0 => f32::from_bits(x.to_bits() + 1),
+            1 => f32::from_bits(x.to_bits() - 1),
+            _ => x,
+        };
+        let (mut inside_cases, mut outside_cases) = (0, 0);
+        for _ in 0..200_000 {
+            let (x, y) = (0.3 + 1.4 * s.next_1d(), 0.3 + 1.4 * s.next_1d());
+            let (p, q) = (0.5 + 1.5 * s.next_1d(), 0.5 + 1.5 * s.next_1d());
+            let (bx, by) = (p * x, p * y);
+            let (cx, cy) = (nudge(-q * x, s.next_u32() % 3), nudge(-q * y, s.next_u32() % 3));
+            let u64 = cx as f64 * by as f64 - cy as f64 * bx as f64;
+            if cx * by - cy * bx != 0.0 || u64 == 0.0 {
+                continue;
+            }
+            // Third vertex well off the line BC, on the side where the other two edge functions
+            // agree in sign; the ray (origin 0, +z) is then inside iff the exact U agrees too.
+            let (ax, ay) = (-2.0 * y, 2.0 * x);
+            let v64 = ax as f64 * cy as f64 - ay as f64 * cx as f64;
+            let w64 = bx as f64 * ay as f64 - by as f64 * ax as f64;
+            assert!(v64 * w64 > 0.0);
+            let inside = u64 * v64 > 0.0;
+            let m = MeshData {
+                vertices: vec![Vec3::new(ax, ay, 1.0), Vec3::new(bx, by, 1.0), Vec3::new(cx, cy, 1.0)],
+                triangles: vec![[0, 1, 2]],
+            };
+            let hit = bvh(&m).intersect(&Ray::new(Vec3::ZERO, Vec3::Z)).is_some();
+            assert_eq!(hit, inside, "edge ({bx}, {by}) - ({cx}, {cy}): exact U = {u64:e}");
+            if inside {
+                inside_cases += 1;
+            } else {
+                outside_cases += 1;
+            }
+        }
+        assert!(inside_cases >= 3 && outside_cases >= 3, "found {inside_cases} inside and {outside_cases} outside cases");
     }
 
     /// The 4-wide variant of the BVH (not used by `Accel`) agrees with brute force too.

@@ -289,7 +289,8 @@ impl<T: KdItem> KdTree<T> {
                 let axis = self.axes[mid] as usize;
                 let diff = q[axis] - self.items[mid].position()[axis];
                 consider(mid, out);
-                let (near, far) = if diff <= 0.0 { ((lo, mid as u32), (mid as u32 + 1, hi)) } else { ((mid as u32 + 1, hi), (lo, mid as u32)) };
+                let (near, far) =
+                    if diff <= 0.0 { ((lo, mid as u32), (mid as u32 + 1, hi)) } else { ((mid as u32 + 1, hi), (lo, mid as u32)) };
                 let d2 = diff * diff;
                 if d2 <= limit(out) && far.0 < far.1 && top < stack.len() {
                     stack[top] = (far.0, far.1, d2);
@@ -395,7 +396,8 @@ mod tests {
     }
 
     fn brute(items: &[P], q: Vec3, k: usize, r: f32, f: impl Fn(&P) -> bool) -> Vec<(f32, u32)> {
-        let mut v: Vec<(f32, u32)> = items.iter().filter(|p| f(p)).map(|p| ((p.0 - q).length_squared(), p.1)).filter(|x| x.0 <= r * r).collect();
+        let mut v: Vec<(f32, u32)> =
+            items.iter().filter(|p| f(p)).map(|p| ((p.0 - q).length_squared(), p.1)).filter(|x| x.0 <= r * r).collect();
         v.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         v.truncate(k);
         v

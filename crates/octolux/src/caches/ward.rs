@@ -64,7 +64,13 @@ pub struct IrradianceSample {
 impl IrradianceSample {
     /// Finite fields, unit-ish normal, positive radius, non-negative irradiance.
     pub fn is_valid(&self) -> bool {
-        self.p.is_finite() && self.n.is_finite() && (self.n.length_squared() - 1.0).abs() < 1e-3 && self.e.is_finite() && self.e.min_element() >= 0.0 && self.r.is_finite() && self.r > 0.0
+        self.p.is_finite()
+            && self.n.is_finite()
+            && (self.n.length_squared() - 1.0).abs() < 1e-3
+            && self.e.is_finite()
+            && self.e.min_element() >= 0.0
+            && self.r.is_finite()
+            && self.r > 0.0
     }
 }
 
@@ -185,7 +191,15 @@ impl WardCache {
         };
         let a = if a.is_finite() && a > 0.0 { a } else { 0.2 };
         let min_weight = if min_weight.is_finite() { min_weight.max(0.0) } else { 0.0 };
-        WardCache { origin, size, a, min_weight, nodes: vec![Node { children: NO_CHILDREN, reach: 0.0, samples: Vec::new() }], samples: Vec::new(), max_depth: 0 }
+        WardCache {
+            origin,
+            size,
+            a,
+            min_weight,
+            nodes: vec![Node { children: NO_CHILDREN, reach: 0.0, samples: Vec::new() }],
+            samples: Vec::new(),
+            max_depth: 0,
+        }
     }
 
     /// The accuracy `a`.
@@ -327,7 +341,8 @@ impl WardCache {
     /// Statistics (sizes, bytes).
     pub fn stats(&self) -> WardCacheStats {
         let index_bytes: usize = self.nodes.iter().map(|n| n.samples.len() * std::mem::size_of::<u32>()).sum();
-        let mean_radius = if self.samples.is_empty() { 0.0 } else { self.samples.iter().map(|s| s.r as f64).sum::<f64>() / self.samples.len() as f64 };
+        let mean_radius =
+            if self.samples.is_empty() { 0.0 } else { self.samples.iter().map(|s| s.r as f64).sum::<f64>() / self.samples.len() as f64 };
         WardCacheStats {
             samples: self.samples.len(),
             nodes: self.nodes.len(),

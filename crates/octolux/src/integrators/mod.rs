@@ -4,6 +4,7 @@
 //! Every integrator estimates the radiance arriving at the camera along a primary ray; the
 //! render loop ([`crate::render`]) handles pixels, samples and the reconstruction filter.
 
+pub mod christensen;
 pub mod octree;
 pub mod path;
 pub mod photonmap;
@@ -46,6 +47,8 @@ pub enum Integrator {
     PhotonMap(Box<photonmap::PhotonMapIntegrator>),
     /// Ward's irradiance cache with photon-computed samples (baseline).
     Ward(Box<ward::WardIntegrator>),
+    /// Christensen's precomputed irradiance photons, optionally with a Ward cache (baseline).
+    Christensen(Box<christensen::ChristensenIntegrator>),
 }
 
 impl Integrator {
@@ -56,6 +59,7 @@ impl Integrator {
             Integrator::Octree(_) => "octree",
             Integrator::PhotonMap(_) => "photonmap",
             Integrator::Ward(_) => "ward",
+            Integrator::Christensen(_) => "christensen",
         }
     }
 
@@ -67,6 +71,7 @@ impl Integrator {
             Integrator::Octree(o) => o.li(scene, ray, sampler, counters),
             Integrator::PhotonMap(o) => o.li(scene, ray, sampler, counters),
             Integrator::Ward(o) => o.li(scene, ray, sampler, counters),
+            Integrator::Christensen(o) => o.li(scene, ray, sampler, counters),
         }
     }
 }

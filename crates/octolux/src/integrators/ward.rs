@@ -64,6 +64,20 @@ pub enum WardSampleMode {
     FinalGather,
 }
 
+/// The validity radius `R_i` of a photon-computed sample.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum PhotonRadius {
+    /// The radius of the disk the estimate gathered (distance to the `n_max`-th photon, or
+    /// `r_max`). Dense photons give small radii, so a dim sample reaches further than a bright
+    /// one and borders between them are interpolated a little dark (measured: interpolated /
+    /// direct estimate = 0.96 over the test box, against 0.99 with `search_radius`).
+    #[default]
+    Gathered,
+    /// The estimate's search radius `r_max` for every sample (spacing independent of the light).
+    SearchRadius,
+}
+
 /// Settings of a Ward cache and of its priming pass (shared with `christensen`'s
 /// configuration C).
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
@@ -81,11 +95,13 @@ pub struct WardCacheSettings {
     pub prime_resolution: Option<u32>,
     /// Points per priming batch.
     pub batch: u32,
+    /// `R_i` of photon-computed samples.
+    pub photon_radius: PhotonRadius,
 }
 
 impl Default for WardCacheSettings {
     fn default() -> Self {
-        WardCacheSettings { a: 1.0, q_min: SceneLength::paper(1.0), max_radius: SceneLength::Relative(0.25), min_weight: 0.0, prime_resolution: None, batch: 256 }
+        WardCacheSettings { a: 1.0, q_min: SceneLength::paper(1.0), max_radius: SceneLength::Relative(0.25), min_weight: 0.0, prime_resolution: None, batch: 256, photon_radius: PhotonRadius::Gathered }
     }
 }
 
@@ -235,25 +251,39 @@ pub(crate) fn prime_points(scene: &Scene, shading: &Shading, columns: Option<u32
 
 /// How Ward samples are computed, resolved to scene units.
 #[derive(Clone, Copy, Debug)]
-struct SampleRecipe {
-    mode: WardSampleMode,
-    gather_rays: u32,
-    radius_min: f32,
-    radius_max: f32,
+pub(crate) struct SampleRecipe {
+    pub mode: WardSampleMode,
+    pub gather_rays: u32,
+    pub photon_radius: PhotonRadius,
+    pub radius_min: f32,
+    pub radius_max: f32,
 }
 
 impl SampleRecipe {
-    fn compute(&self, scene: &Scene, sh: &Shading, v: &Vertex, sampler: &mut Sampler, counters: &mut RayCounters, scratch: &mut Vec<Neighbor>) -> Option<IrradianceSample> {
-        let (e, r) = match self.mode {
-            WardSampleMode::Photons => {
-                let d = sh.irradiance_estimate(&sh.global, sh.global_density, v.hit.p, v.n, scratch, counters);
-                (d.e, d.r)
-            }
-            WardSampleMode::FinalGather => sh.gather_irradiance(scene, &v.hit, v.n, self.gather_rays, sampler, counters, scratch),
-        };
+    /// A sample at `v` with irradiance `e` and raw radius `r` (clamped here), if valid.
+    pub fn make(&self, v: &Vertex, e: Color, r: f32) -> Option<IrradianceSample> {
         let r = if r.is_nan() { self.radius_max } else { r.clamp(self.radius_min, self.radius_max) };
         let s = IrradianceSample { p: v.hit.p, n: v.n, e: e.max(Color::ZERO), r };
         s.is_valid().then_some(s)
+    }
+
+    /// `R_i` of a photon-computed sample whose estimate gathered a disk of radius `gathered`.
+    pub fn photon_radius(&self, gathered: f32, sh: &Shading) -> f32 {
+        match self.photon_radius {
+            PhotonRadius::Gathered => gathered,
+            PhotonRadius::SearchRadius => sh.global_density.r_max,
+        }
+    }
+
+    pub fn compute(&self, scene: &Scene, sh: &Shading, v: &Vertex, sampler: &mut Sampler, counters: &mut RayCounters, scratch: &mut Vec<Neighbor>) -> Option<IrradianceSample> {
+        let (e, r) = match self.mode {
+            WardSampleMode::Photons => {
+                let d = sh.irradiance_estimate(&sh.global, sh.global_density, v.hit.p, v.n, scratch, counters);
+                (d.e, self.photon_radius(d.r, sh))
+            }
+            WardSampleMode::FinalGather => sh.gather_irradiance(scene, &v.hit, v.n, self.gather_rays, sampler, counters, scratch),
+        };
+        self.make(v, e, r)
     }
 }
 
@@ -276,7 +306,7 @@ impl WardIntegrator {
         drop(maps);
         let size = scene_size(&scene.bounds);
         let (radius_min, radius_max) = settings.cache.radius_range(size);
-        let recipe = SampleRecipe { mode: settings.sample, gather_rays: settings.gather_rays, radius_min, radius_max };
+        let recipe = SampleRecipe { mode: settings.sample, gather_rays: settings.gather_rays, photon_radius: settings.cache.photon_radius, radius_min, radius_max };
         let t0 = Instant::now();
         let seed = settings.photons.seed;
         let points = prime_points(scene, &shading, settings.cache.prime_resolution, seed);
@@ -399,47 +429,52 @@ mod tests {
         }
     }
 
-    /// The cache's irradiance matches the photon density estimate it interpolates, and the
-    /// render agrees with the photon map's (same photons, same direct light).
+    /// The cache's irradiance matches the photon density estimate it interpolates (no bias
+    /// with a fixed radius; a few percent dark with gathered radii, see [`PhotonRadius`]),
+    /// samples respect `q_min`, and the render is lit and finite.
     #[test]
     fn cache_matches_the_density_estimate_and_spacing_holds() {
-        let scene = box_scene(32);
-        let mut s = small(100_000);
-        s.view = CacheView::Irradiance;
-        // reach a R ≈ 2 × 0.04 (n_max 50 of 230k photons), above the 0.06 grid spacing
-        s.cache.a = 2.0;
-        let w = WardIntegrator::build(&scene, s.clone()).unwrap();
-        let st = &w.stats;
-        assert!(st.m_e > 20 && st.m_e < st.prime_points, "{st:?}");
-        assert_eq!(st.prime.inserted, st.m_e);
-        // spacing: no two samples with the same normal closer than q_min
-        let q_min = s.cache.q_min.resolve(2.0);
-        let smp = w.cache.samples();
-        for (i, a) in smp.iter().enumerate() {
-            for b in &smp[i + 1..] {
-                if a.n.dot(b.n) > 0.999 {
-                    assert!(a.p.distance(b.p) >= q_min * 0.999);
+        let scene = box_scene(64);
+        for (radius, tolerance) in [(PhotonRadius::SearchRadius, 0.03), (PhotonRadius::Gathered, 0.08)] {
+            let mut s = small(100_000);
+            s.view = CacheView::Irradiance;
+            s.cache.photon_radius = radius;
+            let w = WardIntegrator::build(&scene, s.clone()).unwrap();
+            let st = &w.stats;
+            assert!(st.m_e > 20 && st.m_e < st.prime_points, "{st:?}");
+            assert_eq!(st.prime.inserted, st.m_e);
+            // spacing: no two samples with the same normal closer than q_min
+            let q_min = s.cache.q_min.resolve(2.0);
+            let smp = w.cache.samples();
+            for (i, a) in smp.iter().enumerate() {
+                for b in &smp[i + 1..] {
+                    if a.n.dot(b.n) > 0.999 {
+                        assert!(a.p.distance(b.p) >= q_min * 0.999);
+                    }
                 }
             }
-        }
-        // interpolated vs direct estimate at a coarser grid of points: no bias on average, and
-        // differences of the order of the estimates' own noise (n_max 50: ~14%)
-        let pts = prime_points(&scene, &w.shading, Some(16), 0);
-        let (mut diff, mut sum_i, mut sum_d) = (0.0f64, 0.0f64, 0.0f64);
-        let mut scratch = Vec::new();
-        for p in &pts {
-            let (ok, l) = w.cache.query(p.vertex.hit.p, p.vertex.n);
-            let direct = crate::caches::kdtree::photon_irradiance(&w.shading.global, p.vertex.hit.p, p.vertex.n, w.shading.global_density, &mut scratch).e;
-            if ok {
-                diff += (l.irradiance() - direct).abs().element_sum() as f64;
-                sum_i += l.irradiance().element_sum() as f64;
-                sum_d += direct.element_sum() as f64;
+            // interpolated vs direct estimate at another grid's points
+            let pts = prime_points(&scene, &w.shading, Some(24), 0);
+            let (mut diff, mut sum_i, mut sum_d, mut n) = (0.0f64, 0.0f64, 0.0f64, 0);
+            let mut scratch = Vec::new();
+            for p in &pts {
+                let (ok, l) = w.cache.query(p.vertex.hit.p, p.vertex.n);
+                let direct = crate::caches::kdtree::photon_irradiance(&w.shading.global, p.vertex.hit.p, p.vertex.n, w.shading.global_density, &mut scratch).e;
+                if ok {
+                    n += 1;
+                    diff += (l.irradiance() - direct).abs().element_sum() as f64;
+                    sum_i += l.irradiance().element_sum() as f64;
+                    sum_d += direct.element_sum() as f64;
+                }
             }
+            assert!(n * 10 > pts.len() * 8, "{radius:?}: only {n} of {} points covered", pts.len());
+            assert!((sum_i / sum_d - 1.0).abs() < tolerance, "{radius:?}: interpolated / direct = {}", sum_i / sum_d);
+            // of the order of the estimates' own noise (n_max 50: ~14%)
+            assert!(diff / sum_d < 0.25, "{radius:?}: mean relative difference {}", diff / sum_d);
         }
-        assert!((sum_i / sum_d - 1.0).abs() < 0.05, "interpolated / direct = {}", sum_i / sum_d);
-        assert!(diff / sum_d < 0.25, "mean relative difference {}", diff / sum_d);
         // the render mode: a lit, finite image
-        let (img, _) = render(&scene, &Integrator::Ward(Box::new(WardIntegrator::build(&scene, WardSettings { view: CacheView::Render, ..s }).unwrap())), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
+        let w = WardIntegrator::build(&scene, small(50_000)).unwrap();
+        let (img, _) = render(&scene, &Integrator::Ward(Box::new(w)), &RenderSettings { spp: 1, ..Default::default() }, &|_, _| {});
         assert!(img.data.iter().all(|c| c.is_finite() && c.min_element() >= 0.0));
         assert!(img.data.iter().map(|c| c.y as f64).sum::<f64>() > 0.0);
     }
@@ -464,39 +499,6 @@ mod tests {
             assert!(!a.0.is_empty());
             assert_eq!(a.0, b.0, "{mode:?}: caches differ");
             assert_eq!(a.1, b.1, "{mode:?}: images differ");
-        }
-    }
-}
-#[cfg(test)]
-mod tmp_probe {
-    use super::*;
-    use crate::integrators::photonmap::tests::box_scene;
-    #[test]
-    fn probe() {
-        let scene = box_scene(64);
-        for a in [0.25f32, 0.5, 1.0, 2.0, 4.0] {
-            let mut s = WardSettings::default();
-            s.photons.photons = 100_000;
-            s.density.n_max = 50;
-            s.cache.a = a;
-            let w = WardIntegrator::build(&scene, s.clone()).unwrap();
-            let pts = prime_points(&scene, &w.shading, Some(16), 0);
-            let (mut diff, mut sum_i, mut sum_d, mut n) = (0.0f64, 0.0f64, 0.0f64, 0);
-            let mut scratch = Vec::new();
-            let mut worst = Vec::new();
-            for p in &pts {
-                let (ok, l) = w.cache.query(p.vertex.hit.p, p.vertex.n);
-                let direct = crate::caches::kdtree::photon_irradiance(&w.shading.global, p.vertex.hit.p, p.vertex.n, w.shading.global_density, &mut scratch).e;
-                if ok {
-                    n += 1;
-                    diff += (l.irradiance() - direct).abs().element_sum() as f64;
-                    sum_i += l.irradiance().element_sum() as f64;
-                    sum_d += direct.element_sum() as f64;
-                    worst.push(((l.irradiance().element_sum() - direct.element_sum()), p.vertex.hit.p, p.vertex.n, l.count));
-                }
-            }
-            worst.sort_by(|a, b| a.0.total_cmp(&b.0));
-            println!("a {a}: m_e {} ok {n}/{} ratio {:.3} diff {:.3} worst {:?} {:?}", w.stats.m_e, pts.len(), sum_i / sum_d, diff / sum_d, &worst[..3], &worst[worst.len()-3..]);
         }
     }
 }

@@ -339,15 +339,7 @@ fn distribute_triangles(view: &TreeView, tri_bounds: &[Bounds3], eps: f32, n_val
     fn overlaps(a: &Bounds3, b: &Bounds3) -> bool {
         a.min.cmple(b.max).all() && b.min.cmple(a.max).all()
     }
-    fn rec(
-        view: &TreeView,
-        tb: &[Bounds3],
-        eps: f32,
-        node: u32,
-        depth: u32,
-        ijk: [u32; 3],
-        ids: &[u32],
-    ) -> Vec<(u32, Vec<u32>)> {
+    fn rec(view: &TreeView, tb: &[Bounds3], eps: f32, node: u32, depth: u32, ijk: [u32; 3], ids: &[u32]) -> Vec<(u32, Vec<u32>)> {
         let n = view.nodes[node as usize];
         if n.is_leaf() {
             return if n.value() != NO_VALUE { vec![(n.value(), ids.to_vec())] } else { Vec::new() };
@@ -552,7 +544,7 @@ mod tests {
     fn cube_is_centred_and_covers_the_box() {
         let b = Bounds3 { min: Vec3::new(-1.0, 0.0, 2.0), max: Vec3::new(3.0, 1.0, 2.5) };
         let (o, s) = cube_of(&b).unwrap();
-        assert!(s >= 4.0 && s < 4.001);
+        assert!((4.0..4.001).contains(&s));
         assert!(o.cmple(b.min).all() && (o + Vec3::splat(s)).cmpge(b.max).all());
         assert!(((o + Vec3::splat(0.5 * s)) - b.center()).length() < 1e-5);
         // a point gives a small cube, an empty or NaN box an error

@@ -32,11 +32,32 @@ impl TreeView<'_> {
     /// overlap the box are entered (one comparison per axis against the node's centre).
     #[inline]
     pub fn visit<F: FnMut(u32, u32, [u32; 3], f32)>(&self, qmin: Vec3, qmax: Vec3, mut f: F) {
-        let cmin = self.origin;
+        let mut cmin = self.origin;
         let cmax = cmin + Vec3::splat(self.cell_size[0]);
-        if qmin.cmplt(cmax).all() && qmax.cmpgt(cmin).all() {
-            self.visit_rec(0, 0, [0; 3], cmin, qmin, qmax, &mut f);
+        if !(qmin.cmplt(cmax).all() && qmax.cmpgt(cmin).all()) {
+            return;
         }
+        // descend without recursion while the box meets a single child (the common case for
+        // a box much smaller than the root), then visit from there
+        let (mut node, mut depth, mut ijk) = (0u32, 0u32, [0u32; 3]);
+        loop {
+            let n = self.nodes[node as usize];
+            if n.is_leaf() {
+                break;
+            }
+            let mid = self.cell_min(depth + 1, [2 * ijk[0] + 1, 2 * ijk[1] + 1, 2 * ijk[2] + 1]);
+            let lo = qmin.cmplt(mid);
+            let hi = qmax.cmpgt(mid);
+            if (lo & hi).any() {
+                break;
+            }
+            let b = [hi.x as u32, hi.y as u32, hi.z as u32];
+            ijk = [2 * ijk[0] + b[0], 2 * ijk[1] + b[1], 2 * ijk[2] + b[2]];
+            node = n.link + (b[0] | (b[1] << 1) | (b[2] << 2));
+            depth += 1;
+            cmin = self.cell_min(depth, ijk);
+        }
+        self.visit_rec(node, depth, ijk, cmin, qmin, qmax, &mut f);
     }
 
     /// `cmin` = `cell_min(depth, ijk)`; the caller checked the positive overlap.
@@ -187,7 +208,9 @@ impl Octree {
             return None;
         }
         Some(match &self.values {
-            LeafValues::Compressed(c) => std::array::from_fn(|k| decompress_matrix(&c[v as usize][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES])),
+            LeafValues::Compressed(c) => {
+                std::array::from_fn(|k| decompress_matrix(&c[v as usize][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]))
+            }
             LeafValues::Full(f) => f[v as usize],
         })
     }

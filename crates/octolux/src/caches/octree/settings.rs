@@ -58,15 +58,14 @@ pub struct OctreeSettings {
     /// Maximum depth (root = depth 0). Paper: 6. At most 21 (63-bit Morton keys).
     pub h_max: u32,
     /// Least photon count for a trustworthy leaf. Used by `Enlarge::UnderNMin` and by
-    /// `split_respects_n_min`. Default 32 (see `n_max`).
+    /// `split_respects_n_min`. Default 50 (a tenth of `n_max`: ~14% relative noise).
     pub n_min: u32,
-    /// A cell with more than `n_max` photons is split (until `h_max`). Default 400: the
-    /// paper's table 1 reports 205 photons per valid leaf on average; a leaf crossed by one
-    /// surface ends with between about `n_max/4` (a split divides a planar set among 4
-    /// children) and `n_max` photons, whose mean is near `n_max/2`. On a synthetic
-    /// Cornell-box distribution with the paper's photon count (1834 × 205 ≈ 376k photons on
-    /// the walls) `n_max = 400` gives about 200 photons per valid leaf (test
-    /// `default_n_max_matches_table_1`).
+    /// A cell with more than `n_max` photons is split (until `h_max`). Default 500. The paper
+    /// gives no value; its table 1 reports 1834 valid leaves, 205 photons per leaf and a mean
+    /// cell size of 30.69 (≈ 0.055 of a 555-unit Cornell box) for ≈ 376k photons at
+    /// `h_max = 6`. On a synthetic Cornell distribution (the same photon count on the walls
+    /// of a box) `n_max = 500` gives 1675 leaves, 224 photons per leaf and cells of 0.055 of
+    /// the box; 400 gives 2240 leaves of 168 photons (test `default_n_max_matches_table_1`).
     pub n_max: u32,
     /// Cell enlargement for the photon gathering: the enlarged cell has edge `(1+epsilon) s`,
     /// same centre. Paper: 0.2 (fig. 3 also shows 0.6).
@@ -90,8 +89,8 @@ impl Default for OctreeSettings {
     fn default() -> Self {
         OctreeSettings {
             h_max: 6,
-            n_min: 32,
-            n_max: 400,
+            n_min: 50,
+            n_max: 500,
             epsilon: 0.2,
             alpha: 1.5,
             estimator: Estimator::Paper,
@@ -142,7 +141,7 @@ mod tests {
         assert!(d.validate().is_ok());
         assert_eq!((d.h_max, d.epsilon, d.alpha), (6, 0.2, 1.5));
         let cases: Vec<(OctreeSettings, &str)> = vec![
-            (OctreeSettings { n_min: 500, n_max: 400, ..d.clone() }, "n_min"),
+            (OctreeSettings { n_min: 600, n_max: 400, ..d.clone() }, "n_min"),
             (OctreeSettings { n_max: 0, n_min: 0, ..d.clone() }, "n_max"),
             (OctreeSettings { h_max: 22, ..d.clone() }, "h_max"),
             (OctreeSettings { epsilon: -0.1, ..d.clone() }, "epsilon"),
