@@ -340,6 +340,10 @@ impl EmbreeAccel {
 
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<TriHit> {
+        // Embree's behaviour on invalid rays depends on its build options; answer them here.
+        if !(ray.tmin <= ray.tmax) {
+            return None;
+        }
         let mut rh = RtcRayHit {
             ray: RtcRay::from_ray(ray),
             hit: RtcHit {
@@ -365,6 +369,9 @@ impl EmbreeAccel {
 
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if !(ray.tmin <= ray.tmax) {
+            return false;
+        }
         let mut r = RtcRay::from_ray(ray);
         let mut ctx = IntersectContext::new();
         // SAFETY: as in `intersect`.

@@ -110,7 +110,7 @@ pub fn displaced_icosphere(level: u32, center: Vec3, radius: f32, amp: f32, seed
     let waves: Vec<(Vec3, f32, f32)> = (0..6)
         .map(|_| {
             let d = crate::sampling::square_to_uniform_sphere(s.next_2d());
-            (d, 3.0 + 20.0 * s.next_1d(), 6.283 * s.next_1d())
+            (d, 3.0 + 20.0 * s.next_1d(), std::f32::consts::TAU * s.next_1d())
         })
         .collect();
     for p in &mut m.vertices {

@@ -114,8 +114,9 @@ impl Accel {
 
 /// Check indices and that every vertex referenced by a triangle is finite.
 fn validate(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), AccelError> {
-    if triangles.len() >= (1usize << 31) {
-        return Err(AccelError::Geometry(format!("{} triangles (at most 2^31 - 1 supported)", triangles.len())));
+    // The BVH's leaf words address 4-triangle blocks with 28 bits.
+    if triangles.len() > (1usize << 30) {
+        return Err(AccelError::Geometry(format!("{} triangles (at most 2^30 supported)", triangles.len())));
     }
     for (i, t) in triangles.iter().enumerate() {
         for &k in t {
@@ -373,6 +374,11 @@ mod tests {
             }
             // Backwards ray: nothing behind the origin.
             assert!(a.intersect(&Ray::new(o, -d)).is_none(), "{name}");
+            // Empty or NaN interval: no hit.
+            for (tmin, tmax) in [(2.0, 1.0), (f32::NAN, 10.0), (0.0, f32::NAN)] {
+                let r = Ray { o, d, tmin, tmax };
+                assert!(a.intersect(&r).is_none() && !a.occluded(&r), "{name}: tmin {tmin} tmax {tmax}");
+            }
         }
     }
 
@@ -387,9 +393,10 @@ mod tests {
             }
         }
         // One triangle; and 200 copies of the same triangle (all centroids coincide).
-        let mut one = MeshData::default();
-        one.vertices = vec![Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)];
-        one.triangles = vec![[0, 1, 2]];
+        let one = MeshData {
+            vertices: vec![Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)],
+            triangles: vec![[0, 1, 2]],
+        };
         let mut copies = one.clone();
         copies.triangles = vec![[0, 1, 2]; 200];
         for m in [one, copies] {

@@ -291,6 +291,24 @@ mod tests {
     }
 
     #[test]
+    fn furnace_is_analytic() {
+        use crate::integrators::photonmap::tests::{check_furnace, furnace_scene, image_mean};
+        let scene = furnace_scene(0.5, 1.0);
+        for added in [AddedSamples::None, AddedSamples::Precomputed] {
+            let mut means = Vec::new();
+            for view in [CacheView::Render, CacheView::Irradiance] {
+                let mut s = small(100_000);
+                s.added = added;
+                s.view = view;
+                let c = ChristensenIntegrator::build(&scene, s).unwrap();
+                let (img, _) = render(&scene, &Integrator::Christensen(Box::new(c)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
+                means.push(image_mean(&img.data));
+            }
+            check_furnace(means[0], means[1], 0.03, &format!("christensen {added:?}"));
+        }
+    }
+
+    #[test]
     fn images_are_identical_for_one_and_two_threads() {
         let scene = box_scene(16);
         for added in [AddedSamples::None, AddedSamples::Precomputed, AddedSamples::Density] {

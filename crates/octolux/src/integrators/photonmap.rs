@@ -485,6 +485,71 @@ pub(crate) mod tests {
         Scene::prepare(desc, BackendKind::Bvh).expect("valid test scene")
     }
 
+    /// The inside of a sphere of radius 1 whose walls are Lambertian of albedo `rho` and emit
+    /// `le` inwards, seen from the centre: radiance is `le / (1 - rho)` everywhere, of which
+    /// `le` is emission and `rho le` reflected direct light, so the indirect irradiance is
+    /// `π (le / (1 - rho) - le - rho le) / rho = π rho le / (1 - rho)`.
+    pub(crate) fn furnace_scene(rho: f32, le: f32) -> Scene {
+        let desc = SceneDesc {
+            shapes: vec![ShapeDesc { name: "sphere".into(), geometry: Geometry::Sphere { center: Vec3::ZERO, radius: 1.0 }, material: 0, emission: Some(Color::splat(le)), flip_normals: true }],
+            materials: vec![Material::Diffuse { reflectance: Texture::Const(Color::splat(rho)) }],
+            camera: CameraDesc { to_world: look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y), fov_deg: 60.0, fov_axis: FovAxis::X, near_clip: 1e-3 },
+            film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box },
+            ..Default::default()
+        };
+        Scene::prepare(desc, BackendKind::Bvh).expect("valid furnace scene")
+    }
+
+    /// Mean of an image over all pixels and channels.
+    pub(crate) fn image_mean(img: &[Color]) -> f64 {
+        img.iter().map(|c| c.element_sum() as f64 / 3.0).sum::<f64>() / img.len() as f64
+    }
+
+    /// Render `integrator` on the furnace (ρ = 0.5, Le = 1): the render is 2, the indirect
+    /// irradiance π.
+    pub(crate) fn check_furnace(render_mean: f64, irradiance_mean: f64, tolerance: f64, what: &str) {
+        assert!((render_mean - 2.0).abs() < 2.0 * tolerance, "{what}: render {render_mean}, expected 2");
+        let pi = std::f64::consts::PI;
+        assert!((irradiance_mean - pi).abs() < pi * tolerance, "{what}: indirect irradiance {irradiance_mean}, expected π");
+    }
+
+    #[test]
+    fn furnace_is_analytic() {
+        use crate::integrators::Integrator;
+        use crate::render::{render, RenderSettings};
+        let scene = furnace_scene(0.5, 1.0);
+        let mut means = Vec::new();
+        for view in [CacheView::Render, CacheView::Irradiance] {
+            let mut s = PhotonMapSettings { view, gather_rays: 8, ..Default::default() };
+            s.photons.photons = 100_000;
+            s.global.n_max = 50;
+            let pm = PhotonMapIntegrator::build(&scene, s).unwrap();
+            assert_eq!(pm.stats.photons.caustic_photons, 0);
+            let (img, st) = render(&scene, &Integrator::PhotonMap(Box::new(pm)), &RenderSettings { spp: 4, ..Default::default() }, &|_, _| {});
+            assert!(st.counters.cache_queries > 0);
+            means.push(image_mean(&img.data));
+        }
+        check_furnace(means[0], means[1], 0.03, "photonmap");
+    }
+
+    #[test]
+    fn images_are_identical_for_one_and_two_threads() {
+        use crate::integrators::Integrator;
+        use crate::render::{render, RenderSettings};
+        let scene = box_scene(12);
+        let mut s = PhotonMapSettings { gather_rays: 4, ..Default::default() };
+        s.photons.photons = 20_000;
+        let run = |t| {
+            rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| {
+                let pm = PhotonMapIntegrator::build(&scene, s.clone()).unwrap();
+                render(&scene, &Integrator::PhotonMap(Box::new(pm)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {}).0.data
+            })
+        };
+        let a = run(1);
+        assert_eq!(a, run(2));
+        assert!(image_mean(&a) > 0.0);
+    }
+
     #[test]
     fn rectangle_orientations_face_the_room() {
         // The box scene's walls must face inwards, or every other test is meaningless.

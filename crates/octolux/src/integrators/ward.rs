@@ -480,6 +480,26 @@ mod tests {
     }
 
     #[test]
+    fn furnace_is_analytic() {
+        use crate::integrators::photonmap::tests::{check_furnace, furnace_scene, image_mean};
+        let scene = furnace_scene(0.5, 1.0);
+        for (mode, tolerance) in [(WardSampleMode::Photons, 0.03), (WardSampleMode::FinalGather, 0.04)] {
+            let mut means = Vec::new();
+            for view in [CacheView::Render, CacheView::Irradiance] {
+                let mut s = small(100_000);
+                s.sample = mode;
+                s.gather_rays = 32;
+                s.view = view;
+                let w = WardIntegrator::build(&scene, s).unwrap();
+                assert!(w.stats.m_e > 0);
+                let (img, _) = render(&scene, &Integrator::Ward(Box::new(w)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
+                means.push(image_mean(&img.data));
+            }
+            check_furnace(means[0], means[1], tolerance, &format!("ward {mode:?}"));
+        }
+    }
+
+    #[test]
     fn images_are_identical_for_one_and_two_threads() {
         let scene = box_scene(16);
         for mode in [WardSampleMode::Photons, WardSampleMode::FinalGather] {

@@ -229,6 +229,64 @@ fn geometry_area_is_exact_in_a_corner_with_two_beams() {
     }
 }
 
+/// The paper's fig. 3 case: a small closed object (a tessellated sphere) inside a cell, lit
+/// by a collimated beam. Each lit triangle receives one photon carrying exactly its flux
+/// `E⊥ A_t (n_t·w)`. Only the outer side of the sphere is lit, so the lit projected area is
+/// the silhouette and `GeometryArea` recovers `M = E⊥ w Cᵀ`; the paper's estimator divides
+/// the same flux by the cell face and comes out dark (by `A⊥/ΔA`).
+#[test]
+fn geometry_area_fixes_the_dark_sphere() {
+    let centre = Vec3::splat(3.5 / 8.0); // middle of a depth-3 cell
+    let r = 0.05;
+    let (nu, nv) = (32, 16);
+    let vert = |i: u32, j: u32| {
+        let phi = i as f32 / nu as f32 * std::f32::consts::TAU;
+        let th = j as f32 / nv as f32 * std::f32::consts::PI;
+        centre + r * Vec3::new(th.sin() * phi.cos(), th.sin() * phi.sin(), th.cos())
+    };
+    let mut tris = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            for mut t in [[vert(i, j), vert(i + 1, j), vert(i + 1, j + 1)], [vert(i, j), vert(i + 1, j + 1), vert(i, j + 1)]] {
+                let n = (t[1] - t[0]).cross(t[2] - t[0]);
+                if n.length() < 1e-9 {
+                    continue; // degenerate at the poles
+                }
+                if n.dot((t[0] + t[1] + t[2]) / 3.0 - centre) < 0.0 {
+                    t.swap(1, 2); // outward winding
+                }
+                tris.push(t);
+            }
+        }
+    }
+    let w = Vec3::new(0.3, 0.5, 0.8).normalize();
+    let col = Vec3::new(1.0, 0.7, 0.4);
+    let e_perp = 2.0;
+    let mut photons = Vec::new();
+    let mut silhouette = 0.0f32;
+    for t in &tris {
+        let c = (t[1] - t[0]).cross(t[2] - t[0]);
+        let (area, n) = (0.5 * c.length(), c.normalize());
+        if n.dot(w) > 0.0 {
+            photons.push(Photon { p: (t[0] + t[1] + t[2]) / 3.0, wi: w, power: col * (e_perp * area * n.dot(w)), ng: n });
+            silhouette += area * n.dot(w);
+        }
+    }
+    let s = OctreeSettings { h_max: 3, n_max: 10, epsilon: 0.25, storage: Storage::Full, ..Default::default() };
+    let truth = Mat3::from_cols(w * col.x, w * col.y, w * col.z) * e_perp;
+    let ga = Octree::build(&photons, unit_cube(), &OctreeSettings { estimator: Estimator::GeometryArea, ..s.clone() }, Some(&tris)).unwrap();
+    assert_eq!(ga.stats().valid_leaves, 1);
+    let m = ga.leaf_matrices(centre).unwrap();
+    for k in [0, 2, 4] {
+        assert!(mat_close(&m[k], &truth, 1e-4), "{k}: {:?} vs {truth:?}", m[k]);
+    }
+    let paper = Octree::build(&photons, unit_cube(), &s, None).unwrap();
+    let da = (1.25 * paper.bounds().extent().x / 8.0).powi(2);
+    let mp = paper.leaf_matrices(centre).unwrap();
+    assert!(mat_close(&mp[4], &(truth * (silhouette / da)), 1e-4));
+    assert!(silhouette / da < 0.4, "the paper's estimate is dark here");
+}
+
 /// Photons on the six inner walls of the unit box, cosine-distributed directions (a diffuse
 /// field), wall colours as in a Cornell box.
 pub(crate) fn cornell_photons(n: usize, seed: u64) -> Vec<Photon> {
