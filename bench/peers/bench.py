@@ -96,8 +96,8 @@ LADDERS = {
     },
 }
 MODE_DEFAULTS = {
-    "full": {"resolution": (128, 128), "ref_spp": 8192, "max_run_s": 300.0},
-    "quick": {"resolution": (32, 32), "ref_spp": 4096, "max_run_s": 60.0},
+    "full": {"resolution": (128, 128), "ref_spp": 8192, "max_run_s": 300.0, "check_spp": 1024},
+    "quick": {"resolution": (32, 32), "ref_spp": 4096, "max_run_s": 60.0, "check_spp": 512},
 }
 LUX_SHIFT = (1, 0)  # (dy, dx): LuxCore pixel (y + dy, x + dx) is Mitsuba's (y, x)
 MARGIN = 1
@@ -519,7 +519,11 @@ def analyse(scene_runs: dict[str, list[dict]], targets: dict[str, float]) -> dic
                 t, how = time_to_error(curve(runs, rd), r["rel_mse"], rd in UNBIASED)
                 row[rd] = {"time_s": t, "how": how, "speedup": (t / r["time_s"]) if t else None}
             along.append(row)
-        out[name] = {"target_rel_mse": target, "renderers": per, "along_octree": along}
+        lux = [r for r in runs if r["renderer"] == "luxcore-path"]
+        check = max(lux, key=lambda r: r["spp"]) if lux else None
+        out[name] = {"target_rel_mse": target, "renderers": per, "along_octree": along,
+                     "luxcore_check": None if not check else {
+                         k: check.get(k) for k in ("spp", "mean_ratio", "rel_mse", "best_shift", "shift", "time_s")}}
     return out
 
 
@@ -565,7 +569,7 @@ def markdown(results: dict) -> str:
     for name, a in ana.items():
         p = a["renderers"]
         g = lambda rd, k: p.get(rd, {}).get(k)  # noqa: E731
-        lr = g("luxcore-path", "mean_ratio_last")
+        lr = (a.get("luxcore_check") or {}).get("mean_ratio")
         L.append(f"| {name} | {a['target_rel_mse']:.2e} | {fmt_t(g('octolux-octree', 'time_to_target_s'))} | "
                  f"{fmt_x(g('mitsuba-path', 'octree_speedup'), g('mitsuba-path', 'how'))} | "
                  f"{fmt_x(g('luxcore-path', 'octree_speedup'), g('luxcore-path', 'how'))} | "
@@ -573,6 +577,12 @@ def markdown(results: dict) -> str:
                  f"{fmt_x(g('octolux-path', 'octree_speedup'), g('octolux-path', 'how'))} | "
                  f"{mb(g('octolux-octree', 'cache_bytes_max'))} | {mb(g('luxcore-pgi', 'cache_bytes_max'))} | "
                  + ("–" if not lr else " / ".join(f"{x:.3f}" for x in lr)) + " |")
+    L.append("")
+    L.append("LuxCore/Mitsuba mean = ratio of the channel means (R / G / B, without the 1-pixel border) of LuxCore "
+             "PATHCPU at its highest spp and the Mitsuba reference: the check of the scene translation. Its "
+             "relMSE and best integer alignment: " + "; ".join(
+                 f"{n} {a['luxcore_check']['spp']} spp relMSE {a['luxcore_check']['rel_mse']:.1e}, shift "
+                 f"{a['luxcore_check']['best_shift']}" for n, a in ana.items() if a.get("luxcore_check")) + ".")
     L.append("")
     L.append("Time to the target per renderer (s) and lowest relMSE reached:")
     L.append("")
@@ -673,6 +683,7 @@ def versions(runs: list[dict]) -> dict:
     v = {}
     try:
         v["octolux"] = subprocess.run([str(BIN), "--version"], capture_output=True, text=True).stdout.strip()
+        v["octolux"] = v["octolux"].removeprefix("octolux").strip()
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT).stdout.strip()
         dirty = subprocess.run(["git", "status", "--porcelain", "crates"], capture_output=True, text=True, cwd=ROOT).stdout.strip()
         v["octolux"] += f" (git {head}{', crates/ modified' if dirty else ''})"
@@ -715,6 +726,9 @@ def main(argv=None) -> int:
     for rd in RENDERERS:
         ap.add_argument(f"--ladder-{rd}", default=None, metavar="LIST",
                         help=f"spp list{' (spp:photons)' if rd in ('octolux-octree', 'luxcore-pgi') else ''}")
+    ap.add_argument("--check-spp", type=int, default=None,
+                    help="spp of the LuxCore translation check (LuxCore PATHCPU against the reference: "
+                         "mean ratio, best alignment; default 1024, quick 512; 0 = none)")
     ap.add_argument("--max-run-s", type=float, default=None,
                     help="stop a renderer's ladder after a run that took longer (default 300, quick 60)")
     ap.add_argument("--target", action="append", default=[], metavar="SCENE=RELMSE",
@@ -731,6 +745,7 @@ def main(argv=None) -> int:
     res = tuple(int(x) for x in args.resolution.lower().split("x")) if args.resolution else md["resolution"]
     ref_spp = args.ref_spp or md["ref_spp"]
     max_run_s = args.max_run_s or md["max_run_s"]
+    check_spp = md["check_spp"] if args.check_spp is None else args.check_spp
     outdir = Path(args.out) if args.out else ROOT / "target" / "peers-results" / mode
     outdir.mkdir(parents=True, exist_ok=True)
     res_json = outdir / "results.json"
@@ -738,6 +753,11 @@ def main(argv=None) -> int:
 
     old = json.loads(res_json.read_text()) if (args.reuse or args.report_only) and res_json.exists() else None
     runs: list[dict] = list(old["runs"]) if old else []
+    if old and not args.report_only:
+        kept = [r for r in runs if tuple(r["resolution"]) == tuple(res) and r["threads"] == args.threads]
+        if len(kept) != len(runs):
+            log(f"--reuse: {len(runs) - len(kept)} runs at another resolution or thread count dropped")
+        runs = kept
     meta = old["meta"] if old and args.report_only else None
 
     if not args.report_only:
@@ -782,6 +802,20 @@ def main(argv=None) -> int:
                     if rec["time_s"] > max_run_s:
                         log(f"   {rd}: run took more than {max_run_s:.0f} s, rest of its ladder skipped")
                         break
+            if check_spp and "luxcore-path" in args.renderers:
+                # Translation check: a well-converged LuxCore PATHCPU render (also a point of its curve).
+                rec = next((r for r in runs if (r["scene"], r["renderer"], r["spp"]) == (name, "luxcore-path", check_spp)), None)
+                if rec is None:
+                    log(f"{name}: LuxCore translation check, PATHCPU {check_spp} spp ...")
+                    try:
+                        rec = run_one(sc, "luxcore-path", check_spp, None, args, outdir)
+                        rec["translation_check"] = True
+                        runs.append(rec)
+                    except RuntimeError as e:
+                        log(f"FAILED: {e}")
+                if rec is not None:
+                    log(f"   LuxCore/Mitsuba mean ratio {'/'.join(f'{x:.4f}' for x in rec['mean_ratio'])}, relMSE "
+                        f"{rec['rel_mse']:.2e}, best shift {rec.get('best_shift')} (applied {list(LUX_SHIFT)})")
             ref_meta = dict(sc.ref_info)
             ref_meta["file"] = str(sc.ref)
             if meta is None:

@@ -39,6 +39,7 @@ REFS = os.path.join(REPO, "tests", "refs")
 SHARED = os.environ.get("OCTOLUX_SHARED_SCENES", "/work/shared/scenes")
 sys.path.insert(0, HERE)
 import compare  # noqa: E402
+from render import load_env_file  # noqa: E402
 
 RES = 128
 REF_SEED, CHECK_SEED, LOW_SEED = 1, 2, 3
@@ -195,6 +196,7 @@ def make_one(name: str, cfg: dict, spp: int, variant: str, threads: int | None, 
 
 
 def main(argv=None) -> int:
+    load_env_file()  # OCTOLUX_MI_VARIANT / DRJIT_LIBLLVM_PATH from tools/mitsuba/setup.sh
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--only", action="append", choices=sorted(REFERENCES), help="make only these (repeatable)")
     ap.add_argument("--spp", type=int, default=8192, help="reference spp (default 8192)")

@@ -410,6 +410,20 @@ mod tests {
     }
 
     #[test]
+    fn concurrent_queries_match_sequential_ones() {
+        use rayon::prelude::*;
+        let m = meshes::spheres_in_room(3);
+        let mut s = Sampler::new(8, 8, 8);
+        let rays: Vec<Ray> = (0..20_000).map(|_| random_ray(&mut s, -3.0, 3.0)).collect();
+        for a in all_backends(&m) {
+            let seq: Vec<(Option<TriHit>, bool)> = rays.iter().map(|r| (a.intersect(r), a.occluded(r))).collect();
+            let par: Vec<(Option<TriHit>, bool)> = rays.par_iter().map(|r| (a.intersect(r), a.occluded(r))).collect();
+            assert!(seq == par, "{}: results differ between threads", a.name());
+            assert!(seq.iter().all(|(h, o)| h.is_some() == *o), "{}", a.name());
+        }
+    }
+
+    #[test]
     fn bad_geometry_is_an_error() {
         let v = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
         assert!(matches!(Accel::build(&v, &[[0, 1, 3]], BackendKind::Bvh), Err(AccelError::Geometry(_))));

@@ -426,7 +426,7 @@ mod tests {
             let q = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 1.2 - 0.1;
             let k = [1usize, 5, 50, 205][t % 4];
             let r = [0.05f32, 0.2, 10.0][t % 3];
-            let filt = |p: &P| p.1 % 7 != 0;
+            let filt = |p: &P| !p.1.is_multiple_of(7);
             let r2 = tree.knn(q, k, r, filt, &mut out);
             let mut got: Vec<(f32, u32)> = out.iter().map(|n| (n.d2, tree.items()[n.index as usize].1)).collect();
             got.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));

@@ -145,7 +145,14 @@ pub struct ChristensenIntegrator {
 }
 
 /// Irradiance from the irradiance photons at `v`, or the density-estimate fallback.
-fn christensen_irradiance(cache: &ChristensenCache, sh: &Shading, v: &Vertex, counters: &mut RayCounters, scratch: &mut Vec<Neighbor>, misses: Option<&AtomicU64>) -> (Color, f32) {
+fn christensen_irradiance(
+    cache: &ChristensenCache,
+    sh: &Shading,
+    v: &Vertex,
+    counters: &mut RayCounters,
+    scratch: &mut Vec<Neighbor>,
+    misses: Option<&AtomicU64>,
+) -> (Color, f32) {
     let t = Instant::now();
     let found = cache.lookup(v.hit.p, v.n).map(|s| (s.e, s.r));
     counters.cache_queries += 1;
@@ -173,7 +180,13 @@ impl ChristensenIntegrator {
         if settings.added != AddedSamples::None {
             let t0 = Instant::now();
             let (radius_min, radius_max) = settings.cache.radius_range(scene_size(&scene.bounds));
-            let recipe = SampleRecipe { mode: WardSampleMode::Photons, gather_rays: 0, photon_radius: settings.cache.photon_radius, radius_min, radius_max };
+            let recipe = SampleRecipe {
+                mode: WardSampleMode::Photons,
+                gather_rays: 0,
+                photon_radius: settings.cache.photon_radius,
+                radius_min,
+                radius_max,
+            };
             let seed = settings.photons.seed;
             let points = prime_points(scene, &shading, settings.cache.prime_resolution, seed);
             let pn: Vec<(Vec3, Vec3)> = points.iter().map(|p| (p.vertex.hit.p, p.vertex.n)).collect();
@@ -188,7 +201,14 @@ impl ChristensenIntegrator {
                         let (e, r) = christensen_irradiance(&cache, &shading, v, &mut counters, &mut scratch, None);
                         recipe.make(v, e, recipe.photon_radius(r, &shading))
                     }
-                    _ => recipe.compute(scene, &shading, v, &mut Sampler::new(seed, i as u64, PRIME_SAMPLE_STREAM), &mut counters, &mut scratch),
+                    _ => recipe.compute(
+                        scene,
+                        &shading,
+                        v,
+                        &mut Sampler::new(seed, i as u64, PRIME_SAMPLE_STREAM),
+                        &mut counters,
+                        &mut scratch,
+                    ),
                 }
             });
             t_prime_s = t0.elapsed().as_secs_f64();
@@ -260,7 +280,14 @@ mod tests {
             (ChristensenSettings { normal_cos: 1.0, ..small(10) }, "normal_cos"),
             (ChristensenSettings { normal_cos: f32::NAN, ..small(10) }, "normal_cos"),
             (ChristensenSettings { max_depth: -2, ..small(10) }, "max_depth"),
-            (ChristensenSettings { added: AddedSamples::Precomputed, cache: WardCacheSettings { a: -1.0, ..Default::default() }, ..small(10) }, "cache.a"),
+            (
+                ChristensenSettings {
+                    added: AddedSamples::Precomputed,
+                    cache: WardCacheSettings { a: -1.0, ..Default::default() },
+                    ..small(10)
+                },
+                "cache.a",
+            ),
             (small(0), "photons"),
         ];
         for (s, field) in cases {
@@ -279,11 +306,13 @@ mod tests {
         let c = ChristensenIntegrator::build(&scene, s.clone()).unwrap();
         assert_eq!(c.stats.m_e, c.stats.photons.global_photons.div_ceil(4));
         assert_eq!(c.stats.m_a, 0);
-        let (img_a, _) = render(&scene, &Integrator::Christensen(Box::new(c)), &RenderSettings { spp: 1, ..Default::default() }, &|_, _| {});
+        let (img_a, _) =
+            render(&scene, &Integrator::Christensen(Box::new(c)), &RenderSettings { spp: 1, ..Default::default() }, &|_, _| {});
         s.added = AddedSamples::Precomputed;
         let c = ChristensenIntegrator::build(&scene, s.clone()).unwrap();
         assert!(c.stats.m_a > 10 && c.stats.m_a <= c.stats.prime.unwrap().points, "{:?}", c.stats);
-        let (img_c, _) = render(&scene, &Integrator::Christensen(Box::new(c)), &RenderSettings { spp: 1, ..Default::default() }, &|_, _| {});
+        let (img_c, _) =
+            render(&scene, &Integrator::Christensen(Box::new(c)), &RenderSettings { spp: 1, ..Default::default() }, &|_, _| {});
         // Same photons, same irradiance photons: configuration C only interpolates them.
         let mean = |img: &[Color]| img.iter().map(|c| c.element_sum() as f64).sum::<f64>() / img.len() as f64;
         let (a, c) = (mean(&img_a.data), mean(&img_c.data));
@@ -301,7 +330,8 @@ mod tests {
                 s.added = added;
                 s.view = view;
                 let c = ChristensenIntegrator::build(&scene, s).unwrap();
-                let (img, _) = render(&scene, &Integrator::Christensen(Box::new(c)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
+                let (img, _) =
+                    render(&scene, &Integrator::Christensen(Box::new(c)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
                 means.push(image_mean(&img.data));
             }
             check_furnace(means[0], means[1], 0.03, &format!("christensen {added:?}"));
@@ -319,7 +349,8 @@ mod tests {
                 rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| {
                     let c = ChristensenIntegrator::build(&scene, s.clone()).unwrap();
                     let samples = c.cache.samples().to_vec();
-                    let (img, _) = render(&scene, &Integrator::Christensen(Box::new(c)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
+                    let (img, _) =
+                        render(&scene, &Integrator::Christensen(Box::new(c)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
                     (samples, img.data)
                 })
             };

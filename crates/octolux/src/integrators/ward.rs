@@ -14,6 +14,7 @@
 //!   cosine-distributed rays, `L_i` the radiance leaving each gather hit (NEE there + global
 //!   and caustic radiance estimates, see `photonmap`), and `R_i` the harmonic mean distance of
 //!   the gather hits.
+//!
 //! Either way `R_i` is clamped to `[q_min / a, max_radius]`: `q_min / a` makes `q_min` the least
 //! distance between two samples on a flat surface (a sample covers its neighbourhood up to
 //! `a R_i ≥ q_min`); `max_radius` bounds the reach of samples in open space.
@@ -49,9 +50,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 /// Stream of the priming pass's camera paths.
-pub(crate) const PRIME_STREAM: u64 = 0x5052_494d_45; // "PRIME"
+pub(crate) const PRIME_STREAM: u64 = 0x0050_5249_4d45; // "PRIME"
 /// Stream of the priming pass's sample computations (final gathering).
-pub(crate) const PRIME_SAMPLE_STREAM: u64 = 0x5052_494d_46;
+pub(crate) const PRIME_SAMPLE_STREAM: u64 = 0x0050_5249_4d46;
 
 /// How an irradiance sample is computed.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
@@ -101,7 +102,15 @@ pub struct WardCacheSettings {
 
 impl Default for WardCacheSettings {
     fn default() -> Self {
-        WardCacheSettings { a: 1.0, q_min: SceneLength::paper(1.0), max_radius: SceneLength::Relative(0.25), min_weight: 0.0, prime_resolution: None, batch: 256, photon_radius: PhotonRadius::Gathered }
+        WardCacheSettings {
+            a: 1.0,
+            q_min: SceneLength::paper(1.0),
+            max_radius: SceneLength::Relative(0.25),
+            min_weight: 0.0,
+            prime_resolution: None,
+            batch: 256,
+            photon_radius: PhotonRadius::Gathered,
+        }
     }
 }
 
@@ -123,7 +132,9 @@ impl WardCacheSettings {
             return Err(SettingsError::new(&f("batch"), "a priming batch holds at least one point (got 0)"));
         }
         // Both lengths of the same kind compare without a scene.
-        if let (SceneLength::Relative(q), SceneLength::Relative(m)) | (SceneLength::Absolute(q), SceneLength::Absolute(m)) = (self.q_min, self.max_radius) {
+        if let (SceneLength::Relative(q), SceneLength::Relative(m)) | (SceneLength::Absolute(q), SceneLength::Absolute(m)) =
+            (self.q_min, self.max_radius)
+        {
             if q / self.a > m {
                 return Err(SettingsError::new(&f("max_radius"), format!("{m} is below q_min / a = {}: no radius is allowed", q / self.a)));
             }
@@ -241,7 +252,9 @@ pub(crate) fn prime_points(scene: &Scene, shading: &Shading, columns: Option<u32
             let (o, d, tmin) = scene.camera.generate_ray(film);
             let ray = Ray { o, d, tmin, tmax: f32::INFINITY };
             let mut ignored = Color::ZERO;
-            shading.first_vertex(scene, ray, &mut sampler, &mut RayCounters::default(), false, &mut ignored).map(|vertex| PrimePoint { vertex })
+            shading
+                .first_vertex(scene, ray, &mut sampler, &mut RayCounters::default(), false, &mut ignored)
+                .map(|vertex| PrimePoint { vertex })
         })
         .collect::<Vec<_>>()
         .into_iter()
@@ -275,7 +288,15 @@ impl SampleRecipe {
         }
     }
 
-    pub fn compute(&self, scene: &Scene, sh: &Shading, v: &Vertex, sampler: &mut Sampler, counters: &mut RayCounters, scratch: &mut Vec<Neighbor>) -> Option<IrradianceSample> {
+    pub fn compute(
+        &self,
+        scene: &Scene,
+        sh: &Shading,
+        v: &Vertex,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+        scratch: &mut Vec<Neighbor>,
+    ) -> Option<IrradianceSample> {
         let (e, r) = match self.mode {
             WardSampleMode::Photons => {
                 let d = sh.irradiance_estimate(&sh.global, sh.global_density, v.hit.p, v.n, scratch, counters);
@@ -306,7 +327,13 @@ impl WardIntegrator {
         drop(maps);
         let size = scene_size(&scene.bounds);
         let (radius_min, radius_max) = settings.cache.radius_range(size);
-        let recipe = SampleRecipe { mode: settings.sample, gather_rays: settings.gather_rays, photon_radius: settings.cache.photon_radius, radius_min, radius_max };
+        let recipe = SampleRecipe {
+            mode: settings.sample,
+            gather_rays: settings.gather_rays,
+            photon_radius: settings.cache.photon_radius,
+            radius_min,
+            radius_max,
+        };
         let t0 = Instant::now();
         let seed = settings.photons.seed;
         let points = prime_points(scene, &shading, settings.cache.prime_resolution, seed);
@@ -342,7 +369,14 @@ impl WardIntegrator {
     }
 
     /// Indirect irradiance at a vertex: the cache's interpolation, or a temporary sample.
-    fn irradiance(&self, scene: &Scene, v: &Vertex, sampler: &mut Sampler, counters: &mut RayCounters, scratch: &mut Vec<Neighbor>) -> Color {
+    fn irradiance(
+        &self,
+        scene: &Scene,
+        v: &Vertex,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+        scratch: &mut Vec<Neighbor>,
+    ) -> Color {
         let t = Instant::now();
         let (ok, l) = self.cache.query(v.hit.p, v.n);
         counters.cache_queries += 1;
@@ -356,7 +390,9 @@ impl WardIntegrator {
 
     /// Radiance along a primary ray.
     pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
-        render_vertex(&self.shading, self.settings.view, scene, ray, sampler, counters, |v, s, c, scratch| self.irradiance(scene, v, s, c, scratch))
+        render_vertex(&self.shading, self.settings.view, scene, ray, sampler, counters, |v, s, c, scratch| {
+            self.irradiance(scene, v, s, c, scratch)
+        })
     }
 }
 
@@ -415,10 +451,26 @@ mod tests {
         let cases: Vec<(WardSettings, &str)> = vec![
             (WardSettings { cache: WardCacheSettings { a: 0.0, ..Default::default() }, ..small(10) }, "cache.a"),
             (WardSettings { cache: WardCacheSettings { a: f32::NAN, ..Default::default() }, ..small(10) }, "cache.a"),
-            (WardSettings { cache: WardCacheSettings { q_min: SceneLength::Absolute(-1.0), ..Default::default() }, ..small(10) }, "cache.q_min"),
-            (WardSettings { cache: WardCacheSettings { q_min: SceneLength::Relative(0.5), max_radius: SceneLength::Relative(0.1), ..Default::default() }, ..small(10) }, "cache.max_radius"),
+            (
+                WardSettings { cache: WardCacheSettings { q_min: SceneLength::Absolute(-1.0), ..Default::default() }, ..small(10) },
+                "cache.q_min",
+            ),
+            (
+                WardSettings {
+                    cache: WardCacheSettings {
+                        q_min: SceneLength::Relative(0.5),
+                        max_radius: SceneLength::Relative(0.1),
+                        ..Default::default()
+                    },
+                    ..small(10)
+                },
+                "cache.max_radius",
+            ),
             (WardSettings { cache: WardCacheSettings { batch: 0, ..Default::default() }, ..small(10) }, "cache.batch"),
-            (WardSettings { cache: WardCacheSettings { prime_resolution: Some(0), ..Default::default() }, ..small(10) }, "cache.prime_resolution"),
+            (
+                WardSettings { cache: WardCacheSettings { prime_resolution: Some(0), ..Default::default() }, ..small(10) },
+                "cache.prime_resolution",
+            ),
             (WardSettings { density: DensitySettings { n_max: 0, ..Default::default() }, ..small(10) }, "density.n_max"),
             (WardSettings { sample: WardSampleMode::FinalGather, gather_rays: 0, ..small(10) }, "gather_rays"),
             (small(0), "photons"),
@@ -459,7 +511,14 @@ mod tests {
             let mut scratch = Vec::new();
             for p in &pts {
                 let (ok, l) = w.cache.query(p.vertex.hit.p, p.vertex.n);
-                let direct = crate::caches::kdtree::photon_irradiance(&w.shading.global, p.vertex.hit.p, p.vertex.n, w.shading.global_density, &mut scratch).e;
+                let direct = crate::caches::kdtree::photon_irradiance(
+                    &w.shading.global,
+                    p.vertex.hit.p,
+                    p.vertex.n,
+                    w.shading.global_density,
+                    &mut scratch,
+                )
+                .e;
                 if ok {
                     n += 1;
                     diff += (l.irradiance() - direct).abs().element_sum() as f64;
@@ -511,7 +570,8 @@ mod tests {
                 rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| {
                     let w = WardIntegrator::build(&scene, s.clone()).unwrap();
                     let samples = w.cache.samples().to_vec();
-                    let (img, _) = render(&scene, &Integrator::Ward(Box::new(w)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
+                    let (img, _) =
+                        render(&scene, &Integrator::Ward(Box::new(w)), &RenderSettings { spp: 2, ..Default::default() }, &|_, _| {});
                     (samples, img.data)
                 })
             };

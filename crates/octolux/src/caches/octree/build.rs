@@ -16,7 +16,7 @@ use super::compress::{compress_leaf, FullLeaf};
 use super::geometry::{lit_areas, projected_lit_area, OrientedArea};
 use super::query::TreeView;
 use super::settings::{Enlarge, Estimator, Storage, MAX_DEPTH};
-use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg};
+use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg, SortKey, Sorted};
 use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, LEAF_BIT, NO_VALUE};
 use crate::math::Bounds3;
 use crate::photon::Photon;
@@ -80,9 +80,8 @@ struct LeafBuild {
     ijk: [u32; 3],
 }
 
-struct TreeBuilder<'a, R> {
-    recs: &'a [R],
-    kf: KeyFn,
+struct TreeBuilder<'a, K> {
+    keys: &'a [K],
     h: u32,
     n_max: usize,
     n_min: usize,
@@ -94,7 +93,7 @@ struct TreeBuilder<'a, R> {
     valid: Vec<LeafBuild>,
 }
 
-impl<R: PhotonRec> TreeBuilder<'_, R> {
+impl<K: SortKey> TreeBuilder<'_, K> {
     fn make_leaf(&mut self, id: usize, lo: usize, hi: usize, depth: u32, ijk: [u32; 3]) {
         let leaf = LeafBuild { node: id as u32, lo: lo as u32, hi: hi as u32, depth, ijk };
         self.start[id] = lo as u32;
@@ -116,12 +115,11 @@ impl<R: PhotonRec> TreeBuilder<'_, R> {
             return self.make_leaf(id, lo, hi, depth, ijk);
         }
         let shift = 3 * (self.h - depth - 1);
-        let s = &self.recs[lo..hi];
-        let kf = self.kf;
+        let s = &self.keys[lo..hi];
         let mut cut = [0usize; 9];
         cut[8] = count;
         for (c, cut_c) in cut.iter_mut().enumerate().take(8).skip(1) {
-            *cut_c = s.partition_point(|r| ((kf.key(r.p()) >> shift) & 7) < c as u64);
+            *cut_c = s.partition_point(|k| ((k.get() >> shift) & 7) < c as u64);
         }
         if self.respect_n_min && (0..8).any(|c| (1..self.n_min).contains(&(cut[c + 1] - cut[c]))) {
             return self.make_leaf(id, lo, hi, depth, ijk);
@@ -377,10 +375,9 @@ struct Tree {
     valid: Vec<LeafBuild>,
 }
 
-fn subdivide<R: PhotonRec>(recs: &[R], kf: KeyFn, settings: &OctreeSettings) -> Tree {
+fn subdivide<K: SortKey>(keys: &[K], settings: &OctreeSettings) -> Tree {
     let mut tb = TreeBuilder {
-        recs,
-        kf,
+        keys,
         h: settings.h_max,
         n_max: settings.n_max as usize,
         n_min: settings.n_min as usize,
@@ -390,20 +387,21 @@ fn subdivide<R: PhotonRec>(recs: &[R], kf: KeyFn, settings: &OctreeSettings) -> 
         leaves: Vec::new(),
         valid: Vec::new(),
     };
-    tb.node(0, 0, recs.len(), 0, [0; 3]);
+    tb.node(0, 0, keys.len(), 0, [0; 3]);
     Tree { nodes: tb.nodes, start: tb.start, leaves: tb.leaves, valid: tb.valid }
 }
 
 /// Steps 2-4 on sorted photons: subdivision, triangle lists, per-leaf estimates.
-fn estimates<R: PhotonRec>(
-    recs: Vec<R>,
-    kf: KeyFn,
+fn estimates<R: PhotonRec, K: SortKey>(
+    sorted: Sorted<R, K>,
+    origin: Vec3,
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
     triangles: &[[Vec3; 3]],
 ) -> (Tree, usize, Vec<LeafEstimate>) {
-    let origin = kf.origin;
-    let tree = subdivide(&recs, kf, settings);
+    let Sorted { keys, recs } = sorted;
+    let tree = subdivide(&keys, settings);
+    drop(keys);
     let view = TreeView { nodes: &tree.nodes, origin, cell_size };
     let tri_lists = if triangles.is_empty() {
         Vec::new()
@@ -427,6 +425,23 @@ fn estimates<R: PhotonRec>(
         tree.valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
     let n = recs.len();
     (tree, n, est)
+}
+
+/// Steps 1-4 with the key storage chosen by the depth.
+fn sort_and_estimate<R: PhotonRec>(
+    photons: &[Photon],
+    kf: KeyFn,
+    size: f32,
+    cosine_min: Option<f32>,
+    cell_size: &[f32; MAX_DEPTH as usize + 1],
+    settings: &OctreeSettings,
+    triangles: &[[Vec3; 3]],
+) -> (Tree, usize, Vec<LeafEstimate>) {
+    if 3 * kf.h < 32 {
+        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles)
+    } else {
+        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles)
+    }
 }
 
 pub(super) fn build(
@@ -455,14 +470,8 @@ pub(super) fn build(
     let cosine_min = (settings.estimator == Estimator::Cosine).then_some(settings.min_cos);
     let kf = KeyFn { origin, inv_quant, h };
     let (tree, n_kept, est) = match settings.estimator {
-        Estimator::GeometryArea => {
-            let sorted = sort_photons::<RecNg>(photons, kf, size, cosine_min);
-            estimates(sorted, kf, &cell_size, settings, geometry.unwrap_or(&[]))
-        }
-        Estimator::Paper | Estimator::Cosine => {
-            let sorted = sort_photons::<Rec>(photons, kf, size, cosine_min);
-            estimates(sorted, kf, &cell_size, settings, &[])
-        }
+        Estimator::GeometryArea => sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, geometry.unwrap_or(&[])),
+        Estimator::Paper | Estimator::Cosine => sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, &[]),
     };
     let Tree { nodes, leaves, valid, .. } = tree;
     let values = match settings.storage {

@@ -4,8 +4,9 @@
 //! sorted index would read them at random (a TLB and cache miss per photon, ~70–100 ns on
 //! the reference machine), so the photon records themselves are moved, in two streaming
 //! steps:
-//! 1. an MSD pass: each photon is scattered, as a compact record, to the bucket of its top
-//!    (at most 10) key bits (chunked histograms, stable; keys recomputed, not stored);
+//! 1. an MSD pass: keys computed once (`u32` when they fit), then each photon is scattered,
+//!    as a compact record with its key, to the bucket of its top (at most 10) key bits
+//!    (chunked histograms, stable);
 //! 2. a local LSD counting sort of each bucket on the remaining key bits (buckets are small
 //!    enough to stay in cache), buckets in parallel.
 //!
@@ -130,34 +131,67 @@ impl<T> ScatterPtr<T> {
     }
 }
 
+/// Storage of a Morton key: `u32` when `3 h_max + 1 <= 32`, else `u64`.
+pub(super) trait SortKey: Copy + Send + Sync + Default {
+    fn from_u64(k: u64) -> Self;
+    fn get(self) -> u64;
+}
+
+impl SortKey for u32 {
+    #[inline]
+    fn from_u64(k: u64) -> Self {
+        k as u32
+    }
+    #[inline]
+    fn get(self) -> u64 {
+        self as u64
+    }
+}
+
+impl SortKey for u64 {
+    #[inline]
+    fn from_u64(k: u64) -> Self {
+        k
+    }
+    #[inline]
+    fn get(self) -> u64 {
+        self
+    }
+}
+
+/// Photons sorted by Morton key: `keys[i]` is the key of `recs[i]`.
+pub(super) struct Sorted<R, K> {
+    pub keys: Vec<K>,
+    pub recs: Vec<R>,
+}
+
 /// Sort the photons lying in the cube `[origin, origin + size]³` by their Morton key at
-/// depth `h` (see the module docs). Keys are not stored (recomputed from the positions where
-/// needed): at several µs per fresh memory page on the reference machine, memory is time.
-pub(super) fn sort_photons<R: PhotonRec>(photons: &[Photon], kf: KeyFn, size: f32, cosine_min: Option<f32>) -> Vec<R> {
+/// depth `h` (see the module docs). `K` must hold `3 h + 1` bits.
+pub(super) fn sort_photons<R: PhotonRec, K: SortKey>(photons: &[Photon], kf: KeyFn, size: f32, cosine_min: Option<f32>) -> Sorted<R, K> {
     let n = photons.len();
     let flag = 3 * kf.h; // <= 63
     let bits = flag + 1;
+    debug_assert!(bits as usize <= 8 * std::mem::size_of::<K>());
     let top = bits.min(10);
     let low = bits - top;
     let nb = 1usize << top;
     let hi = kf.origin + Vec3::splat(size);
-    let key_of = |ph: &Photon| -> u64 {
-        let ok = ph.is_finite() && ph.p.cmpge(kf.origin).all() && ph.p.cmple(hi).all();
-        if ok {
-            kf.key(ph.p)
-        } else {
-            1u64 << flag
-        }
-    };
+    let keys_in: Vec<K> = photons
+        .par_iter()
+        .map(|ph| {
+            let ok = ph.is_finite() && ph.p.cmpge(kf.origin).all() && ph.p.cmple(hi).all();
+            K::from_u64(if ok { kf.key(ph.p) } else { 1u64 << flag })
+        })
+        .collect();
 
     // MSD pass: chunked histograms, offsets bucket-major then chunk order (stability)
     let chunk = n.div_ceil(4 * rayon::current_num_threads()).max(1 << 14);
-    let mut offs: Vec<Vec<u32>> = photons
+    let mut offs: Vec<Vec<u32>> = keys_in
         .par_chunks(chunk)
         .map(|c| {
             let mut hist = vec![0u32; nb];
-            for ph in c {
-                hist[(key_of(ph) >> low) as usize] += 1;
+            for &k in c {
+                hist[(k.get() >> low) as usize] += 1;
             }
             hist
         })
@@ -173,47 +207,58 @@ pub(super) fn sort_photons<R: PhotonRec>(photons: &[Photon], kf: KeyFn, size: f3
         }
     }
     bucket_start[nb] = n;
+    let mut keys: Vec<K> = Vec::with_capacity(n);
     let mut recs: Vec<R> = Vec::with_capacity(n);
+    let kp = ScatterPtr(keys.spare_capacity_mut().as_mut_ptr() as *mut K);
     let rp = ScatterPtr(recs.spare_capacity_mut().as_mut_ptr() as *mut R);
-    photons.par_chunks(chunk).zip(offs.par_iter_mut()).for_each(|(pc, off)| {
-        for ph in pc {
-            let b = (key_of(ph) >> low) as usize;
+    photons.par_chunks(chunk).zip(keys_in.par_chunks(chunk)).zip(offs.par_iter_mut()).for_each(|((pc, kc), off)| {
+        for (ph, &k) in pc.iter().zip(kc) {
+            let b = (k.get() >> low) as usize;
             let dst = off[b] as usize;
             off[b] += 1;
             // SAFETY: `off[b]` walks the range reserved for (this chunk, bucket b); the ranges
             // of all (chunk, bucket) pairs are disjoint and tile `0..n`, within the capacity.
-            unsafe { rp.get().add(dst).write(R::from_photon(ph, cosine_min)) };
+            unsafe {
+                kp.get().add(dst).write(k);
+                rp.get().add(dst).write(R::from_photon(ph, cosine_min));
+            }
         }
     });
     // SAFETY: every index of `0..n` was written exactly once above.
-    unsafe { recs.set_len(n) };
+    unsafe {
+        keys.set_len(n);
+        recs.set_len(n);
+    }
+    drop(keys_in);
 
     // the kept photons are the buckets without the flag bit
     let kept_buckets = 1usize << (top - 1);
     let kept = bucket_start[kept_buckets];
+    keys.truncate(kept);
     recs.truncate(kept);
     // local sorts of the low bits, bucket by bucket
     if low > 0 {
         let mut slices = Vec::with_capacity(kept_buckets);
-        let mut rest = &mut recs[..];
+        let (mut krest, mut rrest) = (&mut keys[..], &mut recs[..]);
         for b in 0..kept_buckets {
-            let (r, tail) = rest.split_at_mut(bucket_start[b + 1] - bucket_start[b]);
-            slices.push(r);
-            rest = tail;
+            let len = bucket_start[b + 1] - bucket_start[b];
+            let (k, kt) = krest.split_at_mut(len);
+            let (r, rt) = rrest.split_at_mut(len);
+            slices.push((k, r));
+            krest = kt;
+            rrest = rt;
         }
-        slices.into_par_iter().for_each_init(|| (Vec::new(), Vec::new(), Vec::new()), |sc, r| local_sort(r, kf, low, sc));
+        slices.into_par_iter().for_each_init(|| (Vec::new(), Vec::new()), |sc, (k, r)| local_sort(k, r, low, sc));
     }
-    recs
+    Sorted { keys, recs }
 }
 
-/// Stable LSD counting sort of `recs` on the key bits `[0, low)`.
-fn local_sort<R: PhotonRec>(recs: &mut [R], kf: KeyFn, low: u32, sc: &mut (Vec<u64>, Vec<(u64, R)>, Vec<u32>)) {
-    if recs.len() < 2 {
+/// Stable LSD counting sort of `(keys, recs)` on the key bits `[0, low)`.
+fn local_sort<R: Copy, K: SortKey>(keys: &mut [K], recs: &mut [R], low: u32, sc: &mut (Vec<(K, R)>, Vec<u32>)) {
+    if keys.len() < 2 {
         return;
     }
-    let (keys, tmp, counts) = sc;
-    keys.clear();
-    keys.extend(recs.iter().map(|r| kf.key(r.p())));
+    let (tmp, counts) = sc;
     let passes = low.div_ceil(11);
     let digit = low.div_ceil(passes);
     let mut shift = 0;
@@ -223,7 +268,7 @@ fn local_sort<R: PhotonRec>(recs: &mut [R], kf: KeyFn, low: u32, sc: &mut (Vec<u
         counts.clear();
         counts.resize(1 << d, 0);
         for &k in keys.iter() {
-            counts[((k >> shift) & mask) as usize] += 1;
+            counts[((k.get() >> shift) & mask) as usize] += 1;
         }
         let mut sum = 0u32;
         for c in counts.iter_mut() {
@@ -234,7 +279,7 @@ fn local_sort<R: PhotonRec>(recs: &mut [R], kf: KeyFn, low: u32, sc: &mut (Vec<u
         tmp.clear();
         tmp.extend(keys.iter().copied().zip(recs.iter().copied()));
         for &(k, r) in tmp.iter() {
-            let b = ((k >> shift) & mask) as usize;
+            let b = ((k.get() >> shift) & mask) as usize;
             let dst = counts[b] as usize;
             counts[b] += 1;
             keys[dst] = k;
@@ -265,7 +310,11 @@ mod tests {
         }
         let inv = (1u64 << h) as f32;
         let kf = KeyFn { origin: Vec3::ZERO, inv_quant: inv, h };
-        let sorted: Vec<Rec> = sort_photons(&photons, kf, 1.0, None);
+        let sorted: Sorted<Rec, u64> = sort_photons(&photons, kf, 1.0, None);
+        if h <= 10 {
+            let s32: Sorted<Rec, u32> = sort_photons(&photons, kf, 1.0, None);
+            assert!(s32.keys.iter().zip(&sorted.keys).all(|(&a, &b)| a as u64 == b));
+        }
         // the expected order: stable sort of the kept photons by key
         let mut expect: Vec<(u64, usize)> = photons
             .iter()
@@ -274,10 +323,12 @@ mod tests {
             .map(|(i, ph)| (morton(quantize(ph.p, Vec3::ZERO, inv, h)), i))
             .collect();
         expect.sort();
-        assert_eq!(sorted.len(), expect.len());
+        assert_eq!(sorted.recs.len(), expect.len());
+        assert_eq!(sorted.keys.len(), expect.len());
         for (i, &(k, idx)) in expect.iter().enumerate() {
-            assert_eq!(kf.key(sorted[i].p), k);
-            assert_eq!(sorted[i].c.x, idx as f32, "photon {idx} at {i}");
+            assert_eq!(sorted.keys[i], k);
+            assert_eq!(kf.key(sorted.recs[i].p), k);
+            assert_eq!(sorted.recs[i].c.x, idx as f32, "photon {idx} at {i}");
         }
     }
 

@@ -272,9 +272,10 @@ fn geometry_area_fixes_the_dark_sphere() {
             silhouette += area * n.dot(w);
         }
     }
-    let s = OctreeSettings { h_max: 3, n_max: 10, epsilon: 0.25, storage: Storage::Full, ..Default::default() };
+    let s = OctreeSettings { h_max: 3, n_min: 0, n_max: 10, epsilon: 0.25, storage: Storage::Full, ..Default::default() };
     let truth = Mat3::from_cols(w * col.x, w * col.y, w * col.z) * e_perp;
-    let ga = Octree::build(&photons, unit_cube(), &OctreeSettings { estimator: Estimator::GeometryArea, ..s.clone() }, Some(&tris)).unwrap();
+    let ga =
+        Octree::build(&photons, unit_cube(), &OctreeSettings { estimator: Estimator::GeometryArea, ..s.clone() }, Some(&tris)).unwrap();
     assert_eq!(ga.stats().valid_leaves, 1);
     let m = ga.leaf_matrices(centre).unwrap();
     for k in [0, 2, 4] {
@@ -557,4 +558,75 @@ fn default_n_max_matches_table_1() {
     assert!((150.0..260.0).contains(&st.mean_photons_per_leaf), "{st:?}");
     assert!((1834.0 * 0.8..1834.0 * 1.2).contains(&(st.valid_leaves as f64)), "{st:?}");
     assert!((st.mean_cell_size / (30.69 / 555.0) - 1.0).abs() < 0.1, "{st:?}");
+}
+
+#[test]
+#[ignore]
+fn perf_probe() {
+    fn cpu_s() -> f64 {
+        let st = std::fs::read_to_string("/proc/self/stat").unwrap();
+        let f: Vec<&str> = st.rsplit(')').next().unwrap().split_whitespace().collect();
+        (f[11].parse::<f64>().unwrap() + f[12].parse::<f64>().unwrap()) / 100.0
+    }
+    fn tcpu() -> f64 {
+        std::fs::read_to_string("/proc/thread-self/schedstat").unwrap().split_whitespace().next().unwrap().parse::<f64>().unwrap() * 1e-9
+    }
+    let sizes: Vec<usize> = if std::env::var("SMALL").is_ok() { vec![1_000_000] } else { vec![1_000_000, 4_000_000] };
+    for n in sizes {
+        let photons = cornell_photons(n, 1);
+        for est in [Estimator::Paper] {
+            let s = OctreeSettings { estimator: est, ..Default::default() };
+            let g = cornell_geometry();
+            let reps = if n > 1_000_000 { 3 } else { 20 };
+            let _ = Octree::build(&photons, unit_cube(), &s, Some(&g)).unwrap();
+            let c0 = cpu_s();
+            let w0 = std::time::Instant::now();
+            for _ in 0..reps {
+                std::hint::black_box(Octree::build(&photons, unit_cube(), &s, Some(&g)).unwrap());
+            }
+            let (w, c) = (w0.elapsed().as_secs_f64() / reps as f64, (cpu_s() - c0) / reps as f64);
+            eprintln!(
+                "{n} {est:?}: wall {:.1} ms ({:.1} M/s), cpu {:.1} ms ({:.1} M photons per cpu-s)",
+                w * 1e3,
+                n as f64 / w * 1e-6,
+                c * 1e3,
+                n as f64 / c * 1e-6
+            );
+        }
+    }
+    if std::env::var("SMALL").is_ok() {
+        return;
+    }
+    let photons = cornell_photons(1_000_000, 1);
+    for storage in [Storage::Compressed, Storage::Full] {
+        let t = Octree::build(&photons, unit_cube(), &OctreeSettings { storage, ..Default::default() }, None).unwrap();
+        let mut s = Sampler::new(7, 0, 0);
+        let q: Vec<(Vec3, Vec3)> = (0..4096)
+            .map(|i| {
+                let axis = (i % 6) / 2;
+                let side = (i % 2) as f32;
+                let mut p = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+                p[axis] = side;
+                let mut n = Vec3::ZERO;
+                n[axis] = 1.0 - 2.0 * side;
+                (p, n)
+            })
+            .collect();
+        let reps = 500;
+        let c0 = tcpu();
+        let w0 = std::time::Instant::now();
+        let mut acc = Vec3::ZERO;
+        for _ in 0..reps {
+            for &(p, n) in &q {
+                acc += t.irradiance(p, n).unwrap_or(Vec3::ZERO);
+            }
+        }
+        let nq = (reps * q.len()) as f64;
+        eprintln!(
+            "query {storage:?} {}: wall {:.0} ns, cpu {:.0} ns",
+            acc.x > 0.0,
+            w0.elapsed().as_secs_f64() * 1e9 / nq,
+            (tcpu() - c0) * 1e9 / nq
+        );
+    }
 }
