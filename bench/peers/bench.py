@@ -554,6 +554,9 @@ def markdown(results: dict) -> str:
     L.append(f"Mode `{meta['mode']}`, {meta['resolution'][0]}x{meta['resolution'][1]} pixels, {meta['threads']} threads "
              f"per renderer, reference: Mitsuba 3 at {meta['ref_spp']} spp; {meta['date']} on {meta['machine']['cpu']} "
              f"({meta['machine']['nproc']} CPUs, {meta['machine']['mem_gib']:.0f} GiB).")
+    if meta.get("command"):
+        L.append("")
+        L.append(f"Command: `{meta['command']}` (total {meta.get('total_s', 0) / 60:.1f} min including the references).")
     if meta.get("loaded"):
         L.append("")
         L.append(f"**Taken on a loaded machine** (1-minute load average up to {meta['max_load']:.1f} on "
@@ -600,8 +603,9 @@ def markdown(results: dict) -> str:
             cells.append(f"{fmt_t(t)}{mark} (min {v['best_rel_mse']:.1e})")
         L.append(f"| {name} | " + " | ".join(cells) + " |")
     L.append("")
-    L.append("All runs (time = the renderer's own clock incl. cache build; build = photon tracing + cache "
-             "build alone; wall/CPU = the whole process; RSS = peak resident memory of the process):")
+    L.append("<details><summary>All runs (time = the renderer's own clock incl. cache build; build = photon "
+             "tracing + cache build alone; wall/CPU = the whole process; RSS = peak resident memory of the "
+             "process)</summary>")
     L.append("")
     L.append("| scene | renderer | spp | photons | time (s) | build (s) | wall (s) | CPU (s) | relMSE | "
              "RMSE | mean ratio (R/G/B) | cache (MiB) | peak RSS (MiB) |")
@@ -612,6 +616,8 @@ def markdown(results: dict) -> str:
                  f"{r['cpu_s']:.2f} | {r['rel_mse']:.3e} | {r['rmse']:.3e} | "
                  + "/".join(f"{x:.3f}" for x in r["mean_ratio"])
                  + f" | {mb(r.get('cache_bytes'))} | {mb(r['peak_rss_bytes'])} |")
+    L.append("")
+    L.append("</details>")
     L.append("")
     L.append("Versions: " + ", ".join(f"{k} {v}" for k, v in meta["versions"].items()) + ".")
     checks = [f"{r['scene']} {r['renderer']} {r['spp']} spp: best shift {r['best_shift']}"
@@ -829,7 +835,7 @@ def main(argv=None) -> int:
             "date": dt.datetime.now().strftime("%Y-%m-%d %H:%M"), "machine": mach,
             "max_load": max_load, "loaded": max_load > 0.75 * (mach["nproc"] or 1),
             "total_s": time.perf_counter() - t_all,
-            "command": " ".join([Path(sys.argv[0]).name] + (argv if argv is not None else sys.argv[1:])),
+            "command": " ".join(["bench/peers/bench.py"] + (argv if argv is not None else sys.argv[1:])),
             "ladders": {rd: getattr(args, "ladder_" + rd.replace("-", "_")) or LADDERS[mode][rd] for rd in RENDERERS},
             "lux_shift": list(LUX_SHIFT), "margin": MARGIN,
         })

@@ -139,6 +139,7 @@ def main(argv=None) -> int:
                     help="caustic lookup radius as a fraction of the scene's bounding-box diagonal")
     ap.add_argument("--photons", type=int, default=None,
                     help="path.photongi.photon.maxcount (LuxCore's default 100M; its halt threshold may stop earlier)")
+    ap.add_argument("--poll", type=float, default=0.005, help="seconds between HasDone() polls")
     ap.add_argument("--log", help="write LuxCore's log here")
     ap.add_argument("-P", dest="props", action="append", default=[], metavar="KEY=VALUE",
                     help="extra LuxCore config property (string value)")
@@ -208,7 +209,7 @@ def main(argv=None) -> int:
         if session.HasDone():
             break
         polls += 1
-        time.sleep(0.005)
+        time.sleep(args.poll)
     t_done = time.perf_counter()
     stats = session.GetStats()
     spp_done = float(stats.Get("stats.renderengine.pass").GetFloat()) if stats.IsDefined("stats.renderengine.pass") else None

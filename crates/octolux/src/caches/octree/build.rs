@@ -26,7 +26,7 @@ use std::time::Instant;
 
 /// Spread the low 21 bits of `v` to every third bit.
 #[inline]
-pub(super) fn spread_bits(v: u32) -> u64 {
+pub(super) const fn spread_bits(v: u32) -> u64 {
     let mut x = (v as u64) & 0x1f_ffff;
     x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
     x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
@@ -36,10 +36,25 @@ pub(super) fn spread_bits(v: u32) -> u64 {
     x
 }
 
+/// `spread_bits` of the 10-bit values.
+static SPREAD10: [u32; 1024] = {
+    let mut t = [0u32; 1024];
+    let mut i = 0;
+    while i < 1024 {
+        t[i] = spread_bits(i as u32) as u32;
+        i += 1;
+    }
+    t
+};
+
 /// Morton key of integer cell coordinates: bit 0 of each triple is x, bit 1 y, bit 2 z.
 #[inline]
 pub(super) fn morton(q: [u32; 3]) -> u64 {
-    spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
+    if (q[0] | q[1] | q[2]) < 1024 {
+        (SPREAD10[q[0] as usize] | (SPREAD10[q[1] as usize] << 1) | (SPREAD10[q[2] as usize] << 2)) as u64
+    } else {
+        spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
+    }
 }
 
 /// Integer cell coordinates at depth `h` of a point inside the root cube (clamped to it).
@@ -157,17 +172,23 @@ struct LeafEstimate {
 struct EstimateCtx<'a, R> {
     view: TreeView<'a>,
     start: &'a [u32],
+    pos: &'a [Vec3],
     recs: &'a [R],
     settings: &'a OctreeSettings,
     triangles: &'a [[Vec3; 3]],
     tri_lists: &'a [Vec<u32>],
 }
 
-/// Six 3x3 sums: f32 blocks of at most `BLOCK` photons flushed into f64 totals, so that
-/// the rounding error does not grow with the photon count of a leaf.
+/// The six 3x3 sums. Each photon adds `(w · weight) cᵀ` to one of 8 octant sums (by the
+/// signs of `w`); the axis matrices are the sums of the 4 octants on their side. A photon
+/// with a zero component belongs to no matrix of that axis: it goes to `zero` sums, one per
+/// axis matrix. f32 blocks of at most `BLOCK` photons are flushed into f64 totals, so the
+/// rounding error does not grow with the photon count of a leaf.
 struct Accumulator {
-    block: [[Vec3A; 3]; 6],
-    total: [[DVec3; 3]; 6],
+    block: [[Vec3A; 3]; 8],
+    total: [[DVec3; 3]; 8],
+    /// Photons with a zero direction component, added directly to the axis matrices (f64).
+    zero: [[DVec3; 3]; 6],
     count: u32,
 }
 
@@ -175,7 +196,7 @@ impl Accumulator {
     const BLOCK: u32 = 64;
 
     fn new() -> Self {
-        Accumulator { block: [[Vec3A::ZERO; 3]; 6], total: [[DVec3::ZERO; 3]; 6], count: 0 }
+        Accumulator { block: [[Vec3A::ZERO; 3]; 8], total: [[DVec3::ZERO; 3]; 8], zero: [[DVec3::ZERO; 3]; 6], count: 0 }
     }
 
     fn flush(&mut self) {
@@ -188,21 +209,27 @@ impl Accumulator {
         self.count = 0;
     }
 
-    /// Add `(w · weight) cᵀ` to the matrix of each axis whose sign class `w` belongs to.
     #[inline(always)]
     fn add(&mut self, w: Vec3, c: Vec3, weight: f32) {
         let wd = Vec3A::from(w) * weight;
         let cols = [wd * c.x, wd * c.y, wd * c.z];
-        for a in 0..3 {
-            let wa = w[a];
-            if wa == 0.0 {
-                continue;
+        if w.x == 0.0 || w.y == 0.0 || w.z == 0.0 {
+            // rare: straight into the matrices of the non-zero components
+            for a in 0..3 {
+                if w[a] != 0.0 {
+                    let m = &mut self.zero[2 * a + (w[a] < 0.0) as usize];
+                    for (mc, cc) in m.iter_mut().zip(&cols) {
+                        *mc += DVec3::from(Vec3::from(*cc));
+                    }
+                }
             }
-            let m = &mut self.block[2 * a + (wa < 0.0) as usize];
-            m[0] += cols[0];
-            m[1] += cols[1];
-            m[2] += cols[2];
+            return;
         }
+        let o = (w.x < 0.0) as usize | ((w.y < 0.0) as usize) << 1 | ((w.z < 0.0) as usize) << 2;
+        let m = &mut self.block[o];
+        m[0] += cols[0];
+        m[1] += cols[1];
+        m[2] += cols[2];
         self.count += 1;
         if self.count == Self::BLOCK {
             self.flush();
@@ -212,8 +239,17 @@ impl Accumulator {
     fn finish(mut self) -> FullLeaf {
         self.flush();
         let mut m = [Mat3::ZERO; 6];
-        for (mk, t) in m.iter_mut().zip(&self.total) {
-            *mk = Mat3::from_cols(t[0].as_vec3(), t[1].as_vec3(), t[2].as_vec3());
+        for (k, mk) in m.iter_mut().enumerate() {
+            let (axis, neg) = (k / 2, k % 2);
+            let mut cols = self.zero[k];
+            for (o, t) in self.total.iter().enumerate() {
+                if (o >> axis) & 1 == neg {
+                    for (cc, tc) in cols.iter_mut().zip(t) {
+                        *cc += *tc;
+                    }
+                }
+            }
+            *mk = Mat3::from_cols(cols[0].as_vec3(), cols[1].as_vec3(), cols[2].as_vec3());
         }
         m
     }
@@ -265,10 +301,9 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
                 let base = singles.len();
                 singles.resize(base + n.photons as usize, 0);
                 let out = &mut singles[base..];
-                let recs = &self.recs[lo as usize..hi as usize];
+                let pos = &self.pos[lo as usize..hi as usize];
                 let mut k = 0usize;
-                for (i, r) in (lo..hi).zip(recs) {
-                    let p = r.p();
+                for (i, &p) in (lo..hi).zip(pos) {
                     out[k] = i;
                     let inside = (p.x >= emin.x) & (p.x < emax.x) & (p.y >= emin.y) & (p.y < emax.y) & (p.z >= emin.z) & (p.z < emax.z);
                     k += inside as usize;
@@ -294,7 +329,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
             sc.ng.clear();
             let all = sc.segs.iter().flat_map(|&(lo, hi)| lo..hi).chain(sc.singles.iter().copied());
             for i in all {
-                sc.pos.push(recs[i as usize].p());
+                sc.pos.push(self.pos[i as usize]);
                 sc.ng.push(recs[i as usize].ng());
             }
             let ids = self.tri_lists.get(value).map(Vec::as_slice).unwrap_or(&[]);
@@ -399,7 +434,7 @@ fn estimates<R: PhotonRec, K: SortKey>(
     settings: &OctreeSettings,
     triangles: &[[Vec3; 3]],
 ) -> (Tree, usize, Vec<LeafEstimate>) {
-    let Sorted { keys, recs } = sorted;
+    let Sorted { keys, pos, recs } = sorted;
     let tree = subdivide(&keys, settings);
     drop(keys);
     let view = TreeView { nodes: &tree.nodes, origin, cell_size };
@@ -420,7 +455,7 @@ fn estimates<R: PhotonRec, K: SortKey>(
             .collect();
         distribute_triangles(&view, &tri_bounds, settings.epsilon, tree.valid.len())
     };
-    let ctx = EstimateCtx { view, start: &tree.start, recs: &recs, settings, triangles, tri_lists: &tri_lists };
+    let ctx = EstimateCtx { view, start: &tree.start, pos: &pos, recs: &recs, settings, triangles, tri_lists: &tri_lists };
     let est: Vec<LeafEstimate> =
         tree.valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
     let n = recs.len();
@@ -547,6 +582,37 @@ mod tests {
             assert_eq!(morton(q), naive(q));
         }
         assert_eq!(morton([0x1f_ffff; 3]), (1u64 << 63) - 1);
+    }
+
+    #[test]
+    fn accumulator_matches_the_direct_sums() {
+        let mut s = crate::sampling::Sampler::new(2, 2, 2);
+        let mut acc = Accumulator::new();
+        let mut direct = [[DVec3::ZERO; 3]; 6];
+        for i in 0..1000 {
+            let mut w = crate::sampling::square_to_uniform_sphere(s.next_2d());
+            if i % 10 == 0 {
+                w[i % 3] = 0.0; // zero components: in no matrix of that axis
+            }
+            let c = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+            let weight = 0.5 + s.next_1d();
+            acc.add(w, c, weight);
+            for a in 0..3 {
+                if w[a] != 0.0 {
+                    let k = 2 * a + (w[a] < 0.0) as usize;
+                    for j in 0..3 {
+                        direct[k][j] += (w * weight * c[j]).as_dvec3();
+                    }
+                }
+            }
+        }
+        let m = acc.finish();
+        for k in 0..6 {
+            let expect = Mat3::from_cols(direct[k][0].as_vec3(), direct[k][1].as_vec3(), direct[k][2].as_vec3());
+            let d = m[k] - expect;
+            let err = d.x_axis.abs().max(d.y_axis.abs()).max(d.z_axis.abs()).max_element();
+            assert!(err < 1e-3, "{k}: {err}");
+        }
     }
 
     #[test]

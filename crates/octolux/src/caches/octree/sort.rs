@@ -19,12 +19,12 @@ use crate::photon::Photon;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// A photon as the estimates read it, in sorted order.
+/// The attributes of a photon that the estimates read, in sorted order (the positions
+/// are kept apart: the gathering tests read only them).
 pub(super) trait PhotonRec: Copy + Send + Sync {
     /// `cosine_min`: `Some(min_cos)` stores `w / max(|w·ng|, min_cos)` in place of `w`
     /// (`Estimator::Cosine`: same direction and sign, weight folded in).
     fn from_photon(ph: &Photon, cosine_min: Option<f32>) -> Self;
-    fn p(&self) -> Vec3;
     fn w(&self) -> Vec3;
     fn c(&self) -> Vec3;
     fn ng(&self) -> Vec3;
@@ -38,11 +38,10 @@ fn weighted_w(ph: &Photon, cosine_min: Option<f32>) -> Vec3 {
     }
 }
 
-/// Position, direction, power (36 bytes).
+/// Direction, power (24 bytes).
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 pub(super) struct Rec {
-    p: Vec3,
     w: Vec3,
     c: Vec3,
 }
@@ -50,11 +49,7 @@ pub(super) struct Rec {
 impl PhotonRec for Rec {
     #[inline]
     fn from_photon(ph: &Photon, cosine_min: Option<f32>) -> Self {
-        Rec { p: ph.p, w: weighted_w(ph, cosine_min), c: ph.power }
-    }
-    #[inline]
-    fn p(&self) -> Vec3 {
-        self.p
+        Rec { w: weighted_w(ph, cosine_min), c: ph.power }
     }
     #[inline]
     fn w(&self) -> Vec3 {
@@ -70,11 +65,10 @@ impl PhotonRec for Rec {
     }
 }
 
-/// With the geometric normal, for `Estimator::GeometryArea` (48 bytes).
+/// With the geometric normal, for `Estimator::GeometryArea` (36 bytes).
 #[derive(Clone, Copy, Debug)]
 #[repr(C)]
 pub(super) struct RecNg {
-    p: Vec3,
     w: Vec3,
     c: Vec3,
     ng: Vec3,
@@ -83,11 +77,7 @@ pub(super) struct RecNg {
 impl PhotonRec for RecNg {
     #[inline]
     fn from_photon(ph: &Photon, cosine_min: Option<f32>) -> Self {
-        RecNg { p: ph.p, w: weighted_w(ph, cosine_min), c: ph.power, ng: ph.ng }
-    }
-    #[inline]
-    fn p(&self) -> Vec3 {
-        self.p
+        RecNg { w: weighted_w(ph, cosine_min), c: ph.power, ng: ph.ng }
     }
     #[inline]
     fn w(&self) -> Vec3 {
@@ -159,9 +149,10 @@ impl SortKey for u64 {
     }
 }
 
-/// Photons sorted by Morton key: `keys[i]` is the key of `recs[i]`.
+/// Photons sorted by Morton key: `keys[i]` is the key of the photon at `pos[i]`, `recs[i]`.
 pub(super) struct Sorted<R, K> {
     pub keys: Vec<K>,
+    pub pos: Vec<Vec3>,
     pub recs: Vec<R>,
 }
 
@@ -208,8 +199,10 @@ pub(super) fn sort_photons<R: PhotonRec, K: SortKey>(photons: &[Photon], kf: Key
     }
     bucket_start[nb] = n;
     let mut keys: Vec<K> = Vec::with_capacity(n);
+    let mut pos: Vec<Vec3> = Vec::with_capacity(n);
     let mut recs: Vec<R> = Vec::with_capacity(n);
     let kp = ScatterPtr(keys.spare_capacity_mut().as_mut_ptr() as *mut K);
+    let pp = ScatterPtr(pos.spare_capacity_mut().as_mut_ptr() as *mut Vec3);
     let rp = ScatterPtr(recs.spare_capacity_mut().as_mut_ptr() as *mut R);
     photons.par_chunks(chunk).zip(keys_in.par_chunks(chunk)).zip(offs.par_iter_mut()).for_each(|((pc, kc), off)| {
         for (ph, &k) in pc.iter().zip(kc) {
@@ -220,6 +213,7 @@ pub(super) fn sort_photons<R: PhotonRec, K: SortKey>(photons: &[Photon], kf: Key
             // of all (chunk, bucket) pairs are disjoint and tile `0..n`, within the capacity.
             unsafe {
                 kp.get().add(dst).write(k);
+                pp.get().add(dst).write(ph.p);
                 rp.get().add(dst).write(R::from_photon(ph, cosine_min));
             }
         }
@@ -227,6 +221,7 @@ pub(super) fn sort_photons<R: PhotonRec, K: SortKey>(photons: &[Photon], kf: Key
     // SAFETY: every index of `0..n` was written exactly once above.
     unsafe {
         keys.set_len(n);
+        pos.set_len(n);
         recs.set_len(n);
     }
     drop(keys_in);
@@ -235,26 +230,30 @@ pub(super) fn sort_photons<R: PhotonRec, K: SortKey>(photons: &[Photon], kf: Key
     let kept_buckets = 1usize << (top - 1);
     let kept = bucket_start[kept_buckets];
     keys.truncate(kept);
+    pos.truncate(kept);
     recs.truncate(kept);
     // local sorts of the low bits, bucket by bucket
     if low > 0 {
         let mut slices = Vec::with_capacity(kept_buckets);
-        let (mut krest, mut rrest) = (&mut keys[..], &mut recs[..]);
+        let (mut krest, mut prest, mut rrest) = (&mut keys[..], &mut pos[..], &mut recs[..]);
         for b in 0..kept_buckets {
             let len = bucket_start[b + 1] - bucket_start[b];
             let (k, kt) = krest.split_at_mut(len);
+            let (p, pt) = prest.split_at_mut(len);
             let (r, rt) = rrest.split_at_mut(len);
-            slices.push((k, r));
+            slices.push((k, p, r));
             krest = kt;
+            prest = pt;
             rrest = rt;
         }
-        slices.into_par_iter().for_each_init(|| (Vec::new(), Vec::new()), |sc, (k, r)| local_sort(k, r, low, sc));
+        slices.into_par_iter().for_each_init(|| (Vec::new(), Vec::new()), |sc, (k, p, r)| local_sort(k, p, r, low, sc));
     }
-    Sorted { keys, recs }
+    Sorted { keys, pos, recs }
 }
 
-/// Stable LSD counting sort of `(keys, recs)` on the key bits `[0, low)`.
-fn local_sort<R: Copy, K: SortKey>(keys: &mut [K], recs: &mut [R], low: u32, sc: &mut (Vec<(K, R)>, Vec<u32>)) {
+/// Stable LSD counting sort of `(keys, pos, recs)` on the key bits `[0, low)`.
+#[allow(clippy::type_complexity)]
+fn local_sort<R: Copy, K: SortKey>(keys: &mut [K], pos: &mut [Vec3], recs: &mut [R], low: u32, sc: &mut (Vec<(K, Vec3, R)>, Vec<u32>)) {
     if keys.len() < 2 {
         return;
     }
@@ -277,12 +276,13 @@ fn local_sort<R: Copy, K: SortKey>(keys: &mut [K], recs: &mut [R], low: u32, sc:
             sum += k;
         }
         tmp.clear();
-        tmp.extend(keys.iter().copied().zip(recs.iter().copied()));
-        for &(k, r) in tmp.iter() {
+        tmp.extend(keys.iter().zip(pos.iter()).zip(recs.iter()).map(|((&k, &p), &r)| (k, p, r)));
+        for &(k, p, r) in tmp.iter() {
             let b = ((k.get() >> shift) & mask) as usize;
             let dst = counts[b] as usize;
             counts[b] += 1;
             keys[dst] = k;
+            pos[dst] = p;
             recs[dst] = r;
         }
         shift += d;
@@ -327,7 +327,7 @@ mod tests {
         assert_eq!(sorted.keys.len(), expect.len());
         for (i, &(k, idx)) in expect.iter().enumerate() {
             assert_eq!(sorted.keys[i], k);
-            assert_eq!(kf.key(sorted.recs[i].p), k);
+            assert_eq!(kf.key(sorted.pos[i]), k);
             assert_eq!(sorted.recs[i].c.x, idx as f32, "photon {idx} at {i}");
         }
     }
