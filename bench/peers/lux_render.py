@@ -6,8 +6,9 @@
         [--threads 2] [--seed S] [--log log.txt]
 
 Prints one JSON object on stdout (the last line): timings, spp reached, PhotonGI figures.
-The image is written as float32 RGB .npy, rows top to bottom, exactly as LuxCore renders it (no
-shift: the harness compares it against the Mitsuba reference after its measured offset).
+The image is written as float32 RGB .npy, rows top to bottom, exactly as LuxCore renders it: one
+pixel row lower than Mitsuba's (LuxCore's row y + 1 is Mitsuba's row y, its top row is nearly black);
+the harness compares it with that shift and checks it (best of the 9 integer shifts).
 
 Translation (see docs/benchmarks.md):
 * meshes are passed as numpy arrays (Scene.DefineMeshExt; LuxCore 2.11 reads PLY but not OBJ),

@@ -377,7 +377,7 @@ fn octree_settings(args: &RenderArgs, max_depth: i32) -> OctreeIntegratorSetting
     let mut s = OctreeIntegratorSettings::default();
     s.photons.photons = o.photons;
     s.photons.seed = args.seed;
-    s.max_depth = if max_depth < 0 { OctreeIntegratorSettings::default().max_depth } else { max_depth };
+    s.max_depth = max_depth;
     for t in [&mut s.global, &mut s.caustic] {
         if let Some(v) = o.h_max {
             t.h_max = v;

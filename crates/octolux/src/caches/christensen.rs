@@ -7,7 +7,7 @@
 //! within `r_max`, normal = the photon's surface normal on its arrival side), and stored with
 //! the photon's position and normal as an [`IrradianceSample`] (the radius `r` is the disk
 //! the estimate gathered). A lookup at `(x, n)` returns the **nearest** irradiance photon
-//! within `r_max` whose normal is compatible, `n·n_p > normal_cos` (Christensen: a normal
+//! within the lookup radius (usually `r_max`) whose normal is compatible, `n·n_p > normal_cos` (Christensen: a normal
 //! test, so that light is not taken from the other side of a corner or of a thin sheet): a
 //! piecewise-constant (Voronoi) irradiance, no interpolation.
 //!
@@ -46,9 +46,9 @@ pub struct ChristensenCache {
 
 impl ChristensenCache {
     /// Precompute the irradiance at every `every`-th photon of `photons` (the global map, in
-    /// emission order) from `map` (the same photons in a kd-tree). `every` 0 is taken as 1;
-    /// photons with non-finite fields are skipped.
-    pub fn build(photons: &[Photon], map: &PhotonTree, every: u32, density: Density, normal_cos: f32) -> Self {
+    /// emission order) from `map` (the same photons in a kd-tree); lookups search within
+    /// `lookup_radius`. `every` 0 is taken as 1; photons with non-finite fields are skipped.
+    pub fn build(photons: &[Photon], map: &PhotonTree, every: u32, density: Density, lookup_radius: f32, normal_cos: f32) -> Self {
         let t0 = std::time::Instant::now();
         let every = every.max(1) as usize;
         let chosen: Vec<&Photon> = photons.iter().step_by(every).filter(|p| p.is_finite()).collect();
@@ -62,10 +62,10 @@ impl ChristensenCache {
         let mean_photons = if est.is_empty() { 0.0 } else { est.iter().map(|e| e.1 as f64).sum::<f64>() / est.len() as f64 };
         let tree = KdTree::build(est.into_iter().map(|e| e.0).collect());
         let stats = ChristensenStats { samples: tree.len(), t_precompute_s: t0.elapsed().as_secs_f64(), bytes: tree.bytes(), mean_photons };
-        ChristensenCache { tree, r_max: density.r_max, normal_cos, stats }
+        ChristensenCache { tree, r_max: lookup_radius, normal_cos, stats }
     }
 
-    /// The nearest irradiance photon within `r_max` of `x` with `n·n_p > normal_cos`.
+    /// The nearest irradiance photon within the lookup radius of `x` with `n·n_p > normal_cos`.
     #[inline]
     pub fn lookup(&self, x: Vec3, n: Vec3) -> Option<&IrradianceSample> {
         let c = self.normal_cos;
@@ -109,7 +109,7 @@ mod tests {
         let map = PhotonTree::build(photons.clone());
         let d = Density { n_max: 100, r_max: 1.0 };
         // every 3rd: both surfaces (alternating photons) get irradiance photons
-        let c = ChristensenCache::build(&photons, &map, 3, d, 0.9);
+        let c = ChristensenCache::build(&photons, &map, 3, d, d.r_max, 0.9);
         assert_eq!(c.stats().samples, 13_334);
         let mut s = Sampler::new(8, 8, 8);
         for _ in 0..200 {
@@ -139,7 +139,7 @@ mod tests {
         let run = |t| {
             rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap().install(|| {
                 let map = PhotonTree::build(photons.clone());
-                ChristensenCache::build(&photons, &map, 3, Density { n_max: 50, r_max: 2.0 }, 0.9).samples().to_vec()
+                ChristensenCache::build(&photons, &map, 3, Density { n_max: 50, r_max: 2.0 }, 2.0, 0.9).samples().to_vec()
             })
         };
         assert_eq!(run(1), run(2));

@@ -168,6 +168,8 @@ pub struct Neighbor {
 #[derive(Clone, Debug)]
 pub struct KdTree<T> {
     items: Vec<T>,
+    /// The items' positions, same order (compact for the traversal: 12 bytes per item).
+    points: Vec<Vec3>,
     /// Split axis of the item at the median of each internal range.
     axes: Vec<u8>,
     dropped: usize,
@@ -183,7 +185,8 @@ impl<T: KdItem + Send> KdTree<T> {
         let dropped = before - items.len();
         let mut axes = vec![0u8; items.len()];
         build_range(&mut items, &mut axes);
-        KdTree { items, axes, dropped }
+        let points = items.iter().map(|it| it.position()).collect();
+        KdTree { items, points, axes, dropped }
     }
 }
 
@@ -241,9 +244,9 @@ impl<T: KdItem> KdTree<T> {
         self.dropped
     }
 
-    /// Bytes of the structure: the items plus one axis byte each.
+    /// Bytes of the structure: the items, their positions and one axis byte each.
     pub fn bytes(&self) -> usize {
-        std::mem::size_of_val(self.items.as_slice()) + self.axes.len()
+        std::mem::size_of_val(self.items.as_slice()) + std::mem::size_of_val(self.points.as_slice()) + self.axes.len()
     }
 
     /// The `k` nearest items to `q` within distance `r_max` that pass `filter`, written to
@@ -256,14 +259,14 @@ impl<T: KdItem> KdTree<T> {
             return r_max2.max(0.0);
         }
         let limit = |out: &Vec<Neighbor>| if out.len() == k { out[0].d2 } else { r_max2 };
+        let points = self.points.as_slice();
         let consider = |i: usize, out: &mut Vec<Neighbor>| {
-            let it = &self.items[i];
-            let d2 = (it.position() - q).length_squared();
+            let d2 = (points[i] - q).length_squared();
             if out.len() < k {
-                if d2 <= r_max2 && filter(it) {
+                if d2 <= r_max2 && filter(&self.items[i]) {
                     heap_push(out, Neighbor { d2, index: i as u32 });
                 }
-            } else if d2 < out[0].d2 && filter(it) {
+            } else if d2 < out[0].d2 && filter(&self.items[i]) {
                 heap_replace_top(out, Neighbor { d2, index: i as u32 });
             }
         };
@@ -287,7 +290,7 @@ impl<T: KdItem> KdTree<T> {
                 }
                 let mid = l + (h - l) / 2;
                 let axis = self.axes[mid] as usize;
-                let diff = q[axis] - self.items[mid].position()[axis];
+                let diff = q[axis] - points[mid][axis];
                 consider(mid, out);
                 let (near, far) =
                     if diff <= 0.0 { ((lo, mid as u32), (mid as u32 + 1, hi)) } else { ((mid as u32 + 1, hi), (lo, mid as u32)) };

@@ -53,10 +53,17 @@ pub struct OctreeIntegratorSettings {
     pub global: OctreeSettings,
     /// Octree of the caustic photons.
     pub caustic: OctreeSettings,
-    /// Longest specular chain followed from the camera (vertices, Mitsuba-like; -1 unbounded).
+    /// Mitsuba's `max_depth` (path vertices; -1 = unbounded): it bounds the specular chain
+    /// followed from the camera and, as `max_depth - 2`, the photons' bounces, so that a render
+    /// compares with `path` at the same value. Unbounded chains stop after
+    /// [`MAX_SPECULAR_CHAIN`] vertices.
     pub max_depth: i32,
     pub view: OctreeView,
 }
+
+/// Safety bound on specular chains from the camera when `max_depth` is unbounded (a closed
+/// mirror box would otherwise never end).
+pub const MAX_SPECULAR_CHAIN: u32 = 64;
 
 /// Caustics are sharp, so the caustic octree is finer than the global one. Measured on
 /// cornell-spheres (128², 64 spp, 1M photons, relMSE vs Mitsuba 3): caustic (h_max, n_max) =
@@ -77,7 +84,7 @@ impl Default for OctreeIntegratorSettings {
             photons: PhotonSettings::default(),
             global: tree.clone(),
             caustic: OctreeSettings { h_max: CAUSTIC_H_MAX, n_max: CAUSTIC_N_MAX, ..tree },
-            max_depth: 16,
+            max_depth: -1,
             view: OctreeView::Render,
         }
     }
@@ -127,7 +134,15 @@ impl OctreeIntegrator {
     pub fn build(scene: &Scene, settings: OctreeIntegratorSettings) -> Result<OctreeIntegrator, BuildError> {
         settings.global.validate().map_err(BuildError::Global)?;
         settings.caustic.validate().map_err(BuildError::Caustic)?;
-        let maps = trace_photons(scene, &settings.photons)?;
+        // Honour max_depth as Mitsuba counts it, so renders stay comparable with `path` at the
+        // same value: a path camera -> x1 -> y_b ... -> y_1 -> light has b + 1 surface
+        // vertices and must have at most max_depth - 1, so photons stored at x1 may have
+        // bounced at most max_depth - 2 times.
+        let mut photon_settings = settings.photons;
+        if settings.max_depth >= 0 {
+            photon_settings.max_bounces = photon_settings.max_bounces.min((settings.max_depth - 2).max(0) as u32);
+        }
+        let maps = trace_photons(scene, &photon_settings)?;
         let t0 = Instant::now();
         let needs_geometry = |s: &OctreeSettings| s.estimator == crate::caches::Estimator::GeometryArea;
         let tris = if needs_geometry(&settings.global) || needs_geometry(&settings.caustic) { Some(scene.world_triangles()) } else { None };
@@ -156,7 +171,7 @@ impl OctreeIntegrator {
 
     /// Radiance along a primary ray.
     pub fn li(&self, scene: &Scene, mut ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
-        let max_depth = if self.settings.max_depth < 0 { u32::MAX } else { self.settings.max_depth as u32 };
+        let max_depth = if self.settings.max_depth < 0 { MAX_SPECULAR_CHAIN } else { self.settings.max_depth as u32 };
         let mut result = Color::ZERO;
         let mut throughput = Color::ONE;
         let mut depth = 0u32;

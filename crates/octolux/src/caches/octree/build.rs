@@ -9,8 +9,9 @@
 //! 3. For `Estimator::GeometryArea`: the triangles are filtered down the tree by bounding box
 //!    against the enlarged cells (an enlarged child lies inside its enlarged parent).
 //! 4. Per valid leaf, in parallel: gather the photons of the enlarged cell (own range plus the
-//!    neighbouring leaves met by the enlarged box, tested point by point unless the whole
-//!    neighbour lies inside), then sum the six matrices sequentially in f64.
+//!    neighbouring leaves met by the enlarged box, tested point by point, on the axes where
+//!    they stick out, unless the whole neighbour lies inside), then sum the six matrices
+//!    sequentially (8 octant sums, f32 blocks of 64 photons flushed into f64).
 
 use super::compress::{compress_leaf, FullLeaf};
 use super::geometry::{lit_areas, projected_lit_area, OrientedArea};
@@ -297,17 +298,23 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
             if cmin.cmpge(emin).all() && cmax.cmple(emax).all() {
                 segs.push((lo, hi));
             } else {
-                // branchless compaction
+                // test only the axes along which the neighbour sticks out of the box (one for
+                // a face neighbour, the common case): a loop per axis set
                 let base = singles.len();
                 singles.resize(base + n.photons as usize, 0);
-                let out = &mut singles[base..];
                 let pos = &self.pos[lo as usize..hi as usize];
-                let mut k = 0usize;
-                for (i, &p) in (lo..hi).zip(pos) {
-                    out[k] = i;
-                    let inside = (p.x >= emin.x) & (p.x < emax.x) & (p.y >= emin.y) & (p.y < emax.y) & (p.z >= emin.z) & (p.z < emax.z);
-                    k += inside as usize;
-                }
+                let out = &mut singles[base..];
+                let cut = (cmin.cmplt(emin) | cmax.cmpgt(emax)).bitmask();
+                let (a, b) = (emin, emax);
+                let k = match cut {
+                    0b001 => compact(lo, pos, out, |p| (p.x >= a.x) & (p.x < b.x)),
+                    0b010 => compact(lo, pos, out, |p| (p.y >= a.y) & (p.y < b.y)),
+                    0b100 => compact(lo, pos, out, |p| (p.z >= a.z) & (p.z < b.z)),
+                    0b011 => compact(lo, pos, out, |p| (p.x >= a.x) & (p.x < b.x) & (p.y >= a.y) & (p.y < b.y)),
+                    0b101 => compact(lo, pos, out, |p| (p.x >= a.x) & (p.x < b.x) & (p.z >= a.z) & (p.z < b.z)),
+                    0b110 => compact(lo, pos, out, |p| (p.y >= a.y) & (p.y < b.y) & (p.z >= a.z) & (p.z < b.z)),
+                    _ => compact(lo, pos, out, |p| p.cmpge(a).all() & p.cmplt(b).all()),
+                };
                 singles.truncate(base + k);
             }
         });
@@ -400,6 +407,18 @@ fn distribute_triangles(view: &TreeView, tri_bounds: &[Bounds3], eps: f32, n_val
         lists[v as usize] = l;
     }
     lists
+}
+
+/// Branchless compaction: the indices `lo + j` of the positions `pos[j]` that pass `inside`
+/// go to the front of `out` (as long as `pos`); returns their count.
+#[inline(always)]
+fn compact(lo: u32, pos: &[Vec3], out: &mut [u32], inside: impl Fn(Vec3) -> bool) -> usize {
+    let mut k = 0usize;
+    for (i, &p) in (lo..).zip(pos) {
+        out[k] = i;
+        k += inside(p) as usize;
+    }
+    k
 }
 
 /// The built node array with its leaves.

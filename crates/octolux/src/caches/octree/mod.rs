@@ -10,10 +10,10 @@
 //! `[min, max)` through the Morton quantisation); a leaf holds more than `n_max` photons only
 //! at depth `h_max` (or when `split_respects_n_min` refused the split).
 //!
-//! Build: Morton keys at depth `h_max`, a parallel sort of `(key, index)` (unique, hence
-//! deterministic), a top-down split over the sorted ranges, then the per-leaf estimates in
-//! parallel (each leaf sums its photons sequentially in sorted order, in f64): the result is
-//! bit-identical for any thread count.
+//! Build (`build.rs`, `sort.rs`): Morton keys at depth `h_max`, a stable parallel sort of
+//! the photon records by key, a top-down split over the sorted ranges, then the per-leaf
+//! estimates in parallel (each leaf sums its photons sequentially in a fixed order, f32
+//! blocks flushed into f64): the result is bit-identical for any thread count.
 //!
 //! # What a matrix estimates (§4, eq. 5.1–5.4)
 //! Arvo's irradiance vector `M(x) = ∫ L(x,w) w dω`, one column per colour channel (rows x,
