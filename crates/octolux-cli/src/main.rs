@@ -18,7 +18,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Parser)]
-#[command(name = "octolux", version, about = "Offline renderer with a photon-built octree of incident radiance (Pacanowski, Granier & Schlick 2005)")]
+#[command(
+    name = "octolux",
+    version,
+    about = "Offline renderer with a photon-built octree of incident radiance (Pacanowski, Granier & Schlick 2005)"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -311,7 +315,10 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     }
     let settings = RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, ..Default::default() };
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((scene.film.width as u64) * (scene.film.height as u64)) };
-    bar.set_style(ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
     if !args.quiet && args.integrator == IntegratorArg::Octree {
         eprintln!("octree: view {:?}", args.octree.view);
     }
@@ -469,8 +476,9 @@ fn main() -> Result<()> {
         Command::Compare { image, reference } => {
             let a = octolux_io::image_io::read_exr(&image).with_context(|| format!("cannot read {}", image.display()))?;
             let r = octolux_io::image_io::read_exr(&reference).with_context(|| format!("cannot read {}", reference.display()))?;
-            let e = octolux::metrics::compare(&a, &r)
-                .with_context(|| format!("{} is {}x{} but {} is {}x{}", image.display(), a.width, a.height, reference.display(), r.width, r.height))?;
+            let e = octolux::metrics::compare(&a, &r).with_context(|| {
+                format!("{} is {}x{} but {} is {}x{}", image.display(), a.width, a.height, reference.display(), r.width, r.height)
+            })?;
             println!("{}", serde_json::to_string_pretty(&e)?);
             Ok(())
         }

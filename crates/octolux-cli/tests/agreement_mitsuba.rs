@@ -54,7 +54,8 @@ fn channel_means(img: &Image) -> [f64; 3] {
 /// Check one reference of the manifest; returns a message when skipped.
 fn check(name: &str, spp: u32) -> Option<String> {
     let root = repo_root();
-    let manifest: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(root.join("tests/refs/manifest.json")).expect("manifest")).expect("json");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("tests/refs/manifest.json")).expect("manifest")).expect("json");
     let entry = &manifest["references"][name];
     assert!(entry.is_object(), "no reference '{name}' in the manifest");
     let reference = octolux_io::image_io::read_exr(&root.join("tests/refs").join(entry["file"].as_str().unwrap())).expect("reference exr");

@@ -41,7 +41,12 @@ fn octree_render_of_cornell_box_matches_the_path_traced_reference() {
     println!("octree (default estimator): {e:?}");
     assert!(e.rel_mse <= 2.0e-3, "relMSE {:.4e} above the measured bound 2.0e-3", e.rel_mse);
     for c in 0..3 {
-        assert!((e.mean[c] - e.mean_reference[c]).abs() <= 0.02 * e.mean_reference[c], "channel {c}: mean {} vs {}", e.mean[c], e.mean_reference[c]);
+        assert!(
+            (e.mean[c] - e.mean_reference[c]).abs() <= 0.02 * e.mean_reference[c],
+            "channel {c}: mean {} vs {}",
+            e.mean[c],
+            e.mean_reference[c]
+        );
     }
     let paper = octree_render(Some(Estimator::Paper));
     println!("octree (paper's estimator): {paper:?}");

@@ -150,7 +150,12 @@ mod tests {
 
     #[test]
     fn centre_ray_looks_at_target_and_left_is_left() {
-        let desc = CameraDesc { to_world: look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y), fov_deg: 40.0, fov_axis: FovAxis::X, near_clip: 0.0 };
+        let desc = CameraDesc {
+            to_world: look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y),
+            fov_deg: 40.0,
+            fov_axis: FovAxis::X,
+            near_clip: 0.0,
+        };
         let cam = Camera::new(&desc, 200, 100);
         let (o, d, _) = cam.generate_ray(Vec2::new(100.0, 50.0));
         assert!((o - Vec3::new(0.0, 0.0, 4.0)).length() < 1e-6);

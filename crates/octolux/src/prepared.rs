@@ -94,7 +94,8 @@ impl Scene {
         let mut spheres = Vec::new();
         let mut shapes = Vec::new();
         for (si, s) in desc.shapes.iter().enumerate() {
-            let mut info = ShapeInfo { material: s.material, flip: s.flip_normals, has_normals: false, has_uvs: false, name: s.name.clone() };
+            let mut info =
+                ShapeInfo { material: s.material, flip: s.flip_normals, has_normals: false, has_uvs: false, name: s.name.clone() };
             match &s.geometry {
                 Geometry::Mesh(m) => {
                     let base = positions.len() as u32;
@@ -163,8 +164,11 @@ impl Scene {
     /// World-space triangles of the whole scene (spheres tessellated), e.g. for geometry-area
     /// estimates.
     pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
-        let mut out: Vec<[Vec3; 3]> =
-            self.triangles.iter().map(|t| [self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]]).collect();
+        let mut out: Vec<[Vec3; 3]> = self
+            .triangles
+            .iter()
+            .map(|t| [self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]])
+            .collect();
         for s in &self.spheres {
             let (nt, np) = (24usize, 48usize);
             let pt = |i: usize, j: usize| {
@@ -258,7 +262,16 @@ impl Scene {
         if info.flip {
             n = -n;
         }
-        SurfaceHit { p, t, ng: n, frame: Frame::from_normal(n), uv, shape: s.shape, material: info.material, light: self.lights.shape_light(s.shape) }
+        SurfaceHit {
+            p,
+            t,
+            ng: n,
+            frame: Frame::from_normal(n),
+            uv,
+            shape: s.shape,
+            material: info.material,
+            light: self.lights.shape_light(s.shape),
+        }
     }
 
     /// Name of a shape (for messages).

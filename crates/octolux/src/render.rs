@@ -89,7 +89,12 @@ fn sample_tent(u: f32) -> f32 {
 
 /// Render the scene's film with `integrator`. `progress(done_pixels, total_pixels)` is called
 /// after each tile (from worker threads).
-pub fn render(scene: &Scene, integrator: &Integrator, settings: &RenderSettings, progress: &(dyn Fn(u64, u64) + Sync)) -> (Image, RenderStats) {
+pub fn render(
+    scene: &Scene,
+    integrator: &Integrator,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> (Image, RenderStats) {
     let (w, h) = (scene.film.width, scene.film.height);
     let tile = settings.tile.max(1);
     let tiles_x = w.div_ceil(tile);

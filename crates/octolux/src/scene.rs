@@ -116,7 +116,12 @@ impl TriMesh {
     /// `segments` triangles (the area error is below 0.1% for 128 segments).
     pub fn disk(to_world: &Mat4, segments: u32) -> TriMesh {
         let segments = segments.max(3);
-        let mut m = TriMesh { normals: Some(vec![Vec3::Z]), uvs: Some(vec![Vec2::new(0.5, 0.5)]), positions: vec![Vec3::ZERO], indices: Vec::new() };
+        let mut m = TriMesh {
+            normals: Some(vec![Vec3::Z]),
+            uvs: Some(vec![Vec2::new(0.5, 0.5)]),
+            positions: vec![Vec3::ZERO],
+            indices: Vec::new(),
+        };
         for i in 0..segments {
             let phi = i as f32 / segments as f32 * std::f32::consts::TAU;
             let (s, c) = phi.sin_cos();
@@ -135,7 +140,10 @@ impl TriMesh {
 pub enum Geometry {
     Mesh(TriMesh),
     /// An analytic sphere (intersected exactly, not tessellated).
-    Sphere { center: Vec3, radius: f32 },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+    },
 }
 
 /// One shape: geometry, the material it uses and optionally an area emitter on it.
@@ -235,13 +243,19 @@ impl SceneDesc {
             }
             if let Some(e) = s.emission {
                 if !e.is_finite() || e.min_element() < 0.0 {
-                    return Err(SceneError::BadShape { shape: s.name.clone(), problem: format!("emitted radiance {e} must be finite and non-negative") });
+                    return Err(SceneError::BadShape {
+                        shape: s.name.clone(),
+                        problem: format!("emitted radiance {e} must be finite and non-negative"),
+                    });
                 }
             }
             match &s.geometry {
                 Geometry::Sphere { center, radius } => {
                     if !center.is_finite() || !radius.is_finite() || *radius <= 0.0 {
-                        return Err(SceneError::BadShape { shape: s.name.clone(), problem: format!("sphere centre {center} radius {radius} is invalid") });
+                        return Err(SceneError::BadShape {
+                            shape: s.name.clone(),
+                            problem: format!("sphere centre {center} radius {radius} is invalid"),
+                        });
                     }
                 }
                 Geometry::Mesh(m) => {
@@ -250,10 +264,16 @@ impl SceneDesc {
                         return Err(SceneError::BadShape { shape: s.name.clone(), problem: format!("vertex {p} is not finite") });
                     }
                     if m.indices.iter().any(|t| t.iter().any(|&i| i as usize >= n)) {
-                        return Err(SceneError::BadShape { shape: s.name.clone(), problem: format!("a triangle index is out of range (mesh has {n} vertices)") });
+                        return Err(SceneError::BadShape {
+                            shape: s.name.clone(),
+                            problem: format!("a triangle index is out of range (mesh has {n} vertices)"),
+                        });
                     }
                     if m.normals.as_ref().is_some_and(|v| v.len() != n) || m.uvs.as_ref().is_some_and(|v| v.len() != n) {
-                        return Err(SceneError::BadShape { shape: s.name.clone(), problem: "normal or uv count differs from the vertex count".into() });
+                        return Err(SceneError::BadShape {
+                            shape: s.name.clone(),
+                            problem: "normal or uv count differs from the vertex count".into(),
+                        });
                     }
                 }
             }

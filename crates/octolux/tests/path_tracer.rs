@@ -10,6 +10,7 @@
 
 use octolux::accel::BackendKind;
 use octolux::camera::{look_at, CameraDesc, FovAxis};
+use octolux::glam::{Mat4, Vec3};
 use octolux::integrators::{path::PathSettings, Integrator};
 use octolux::light::Light;
 use octolux::material::{Material, Texture};
@@ -17,7 +18,6 @@ use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
 use octolux::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
 use octolux::Color;
-use octolux::glam::{Mat4, Vec3};
 
 fn furnace_scene(albedo: f32) -> SceneDesc {
     SceneDesc {
@@ -30,7 +30,12 @@ fn furnace_scene(albedo: f32) -> SceneDesc {
         }],
         materials: vec![Material::Diffuse { reflectance: Texture::Const(Color::splat(albedo)) }],
         lights: vec![Light::Constant { radiance: Color::ONE }],
-        camera: CameraDesc { to_world: look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y), fov_deg: 30.0, fov_axis: FovAxis::X, near_clip: 1e-3 },
+        camera: CameraDesc {
+            to_world: look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, Vec3::Y),
+            fov_deg: 30.0,
+            fov_axis: FovAxis::X,
+            near_clip: 1e-3,
+        },
         film: FilmDesc { width: 24, height: 24, filter: PixelFilter::Box },
         ..Default::default()
     }
@@ -78,16 +83,33 @@ fn grey_sphere_under_constant_sky_reflects_its_albedo() {
 #[test]
 fn disk_light_over_a_plane_matches_the_form_factor() {
     let (le, r, h, rho) = (10.0f32, 0.5f32, 1.0f32, 0.6f32);
-    let disk = TriMesh::disk(&(Mat4::from_translation(Vec3::new(0.0, 0.0, h)) * Mat4::from_scale(Vec3::splat(r)) * Mat4::from_rotation_x(std::f32::consts::PI)), 256);
+    let disk = TriMesh::disk(
+        &(Mat4::from_translation(Vec3::new(0.0, 0.0, h)) * Mat4::from_scale(Vec3::splat(r)) * Mat4::from_rotation_x(std::f32::consts::PI)),
+        256,
+    );
     let plane = TriMesh::rectangle(&Mat4::from_scale(Vec3::splat(10.0)));
     let desc = SceneDesc {
         shapes: vec![
             ShapeDesc { name: "plane".into(), geometry: Geometry::Mesh(plane), material: 0, emission: None, flip_normals: false },
-            ShapeDesc { name: "light".into(), geometry: Geometry::Mesh(disk), material: 1, emission: Some(Color::splat(le)), flip_normals: false },
+            ShapeDesc {
+                name: "light".into(),
+                geometry: Geometry::Mesh(disk),
+                material: 1,
+                emission: Some(Color::splat(le)),
+                flip_normals: false,
+            },
         ],
-        materials: vec![Material::Diffuse { reflectance: Texture::Const(Color::splat(rho)) }, Material::Diffuse { reflectance: Texture::Const(Color::ZERO) }],
+        materials: vec![
+            Material::Diffuse { reflectance: Texture::Const(Color::splat(rho)) },
+            Material::Diffuse { reflectance: Texture::Const(Color::ZERO) },
+        ],
         // A narrow camera looking at the origin from the side, under the light's rim.
-        camera: CameraDesc { to_world: look_at(Vec3::new(3.0, 0.0, 0.8), Vec3::ZERO, Vec3::Z), fov_deg: 0.5, fov_axis: FovAxis::X, near_clip: 1e-3 },
+        camera: CameraDesc {
+            to_world: look_at(Vec3::new(3.0, 0.0, 0.8), Vec3::ZERO, Vec3::Z),
+            fov_deg: 0.5,
+            fov_axis: FovAxis::X,
+            near_clip: 1e-3,
+        },
         film: FilmDesc { width: 8, height: 8, filter: PixelFilter::Box },
         ..Default::default()
     };

@@ -136,6 +136,16 @@ pub struct PrimeStats {
     pub rejected: usize,
 }
 
+impl std::ops::AddAssign for PrimeStats {
+    fn add_assign(&mut self, o: Self) {
+        self.points += o.points;
+        self.computed += o.computed;
+        self.inserted += o.inserted;
+        self.discarded += o.discarded;
+        self.rejected += o.rejected;
+    }
+}
+
 /// Statistics of a cache.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct WardCacheStats {
@@ -308,31 +318,42 @@ impl WardCache {
     where
         F: Fn(usize) -> Option<IrradianceSample> + Sync,
     {
-        let batch = batch.max(1);
+        let mut stats = PrimeStats::default();
+        for start in (0..points.len()).step_by(batch.max(1)) {
+            let end = (start + batch.max(1)).min(points.len());
+            stats += self.prime_batch(&points[start..end], |i| compute(start + i));
+        }
+        stats
+    }
+
+    /// One batch of [`Self::prime`]: the points the cache (frozen) does not cover get a sample
+    /// computed in parallel, inserted in order unless an earlier one of the batch now covers
+    /// the point. `compute(i)` is called with indices into `points`.
+    pub fn prime_batch<F>(&mut self, points: &[(Vec3, Vec3)], compute: F) -> PrimeStats
+    where
+        F: Fn(usize) -> Option<IrradianceSample> + Sync,
+    {
         let mut stats = PrimeStats { points: points.len(), ..Default::default() };
-        for start in (0..points.len()).step_by(batch) {
-            let end = (start + batch).min(points.len());
-            let this = &*self;
-            let uncovered: Vec<usize> = (start..end).into_par_iter().filter(|&i| !this.query(points[i].0, points[i].1).0).collect();
-            let computed: Vec<(usize, Option<IrradianceSample>)> = uncovered.into_par_iter().map(|i| (i, compute(i))).collect();
-            stats.computed += computed.len();
-            let mut first = true;
-            for (i, s) in computed {
-                let Some(s) = s else {
-                    stats.rejected += 1;
-                    continue;
-                };
-                // The first one is uncovered by construction (nothing was inserted since).
-                if !first && self.query(points[i].0, points[i].1).0 {
-                    stats.discarded += 1;
-                    continue;
-                }
-                if self.insert(s) {
-                    stats.inserted += 1;
-                    first = false;
-                } else {
-                    stats.rejected += 1;
-                }
+        let this = &*self;
+        let uncovered: Vec<usize> = (0..points.len()).into_par_iter().filter(|&i| !this.query(points[i].0, points[i].1).0).collect();
+        let computed: Vec<(usize, Option<IrradianceSample>)> = uncovered.into_par_iter().map(|i| (i, compute(i))).collect();
+        stats.computed += computed.len();
+        let mut first = true;
+        for (i, s) in computed {
+            let Some(s) = s else {
+                stats.rejected += 1;
+                continue;
+            };
+            // The first one is uncovered by construction (nothing was inserted since).
+            if !first && self.query(points[i].0, points[i].1).0 {
+                stats.discarded += 1;
+                continue;
+            }
+            if self.insert(s) {
+                stats.inserted += 1;
+                first = false;
+            } else {
+                stats.rejected += 1;
             }
         }
         stats

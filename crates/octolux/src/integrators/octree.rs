@@ -194,7 +194,9 @@ impl OctreeIntegrator {
             if material.has_smooth_lobe() {
                 match self.settings.view {
                     OctreeView::Render => {
-                        result += throughput * (self.direct(scene, &hit, material, wo, sampler, counters) + self.indirect(scene, &hit, material, wo, counters));
+                        result += throughput
+                            * (self.direct(scene, &hit, material, wo, sampler, counters)
+                                + self.indirect(scene, &hit, material, wo, counters));
                     }
                     OctreeView::Irradiance | OctreeView::IrradianceAll => {
                         let n = facing_normal(&hit, ray.d);
@@ -232,7 +234,15 @@ impl OctreeIntegrator {
 
     /// Next-event estimation of direct light (light sampling only: the cache has no BSDF
     /// continuation to combine with).
-    fn direct(&self, scene: &Scene, hit: &SurfaceHit, material: &Material, wo: Vec3, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+    fn direct(
+        &self,
+        scene: &Scene,
+        hit: &SurfaceHit,
+        material: &Material,
+        wo: Vec3,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+    ) -> Color {
         let u_sel = sampler.next_1d();
         let u = sampler.next_2d();
         let Some(ls) = scene.lights.sample_li(hit.p, u_sel, u) else { return Color::ZERO };
@@ -287,7 +297,13 @@ impl OctreeIntegrator {
         let edge = rel.min(Vec3::ONE - rel);
         // Ignore the axis the surface is flat along (the one most aligned with the normal).
         let n = facing_normal(hit, d).abs();
-        let dist = if n.x >= n.y && n.x >= n.z { edge.y.min(edge.z) } else if n.y >= n.z { edge.x.min(edge.z) } else { edge.x.min(edge.y) };
+        let dist = if n.x >= n.y && n.x >= n.z {
+            edge.y.min(edge.z)
+        } else if n.y >= n.z {
+            edge.x.min(edge.z)
+        } else {
+            edge.x.min(edge.y)
+        };
         if dist < 0.02 {
             base * 0.15
         } else {
