@@ -10,7 +10,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use octolux::accel::BackendKind;
 use octolux::caches::{Estimator, Storage};
 use octolux::integrators::octree::{OctreeBuildStats, OctreeIntegrator, OctreeIntegratorSettings, OctreeView};
+use octolux::integrators::christensen::{ChristensenIntegrator, ChristensenSettings};
+use octolux::integrators::photonmap::{PhotonMapIntegrator, PhotonMapSettings};
+use octolux::integrators::ward::{WardIntegrator, WardSettings};
 use octolux::integrators::{path::PathSettings, Integrator};
+use octolux::photon_pass::PhotonSettings;
 use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings, RenderStats};
 use serde::Serialize;
@@ -51,6 +55,12 @@ enum IntegratorArg {
     Path,
     /// The paper's ray tracer with a global and a caustic incident-radiance octree.
     Octree,
+    /// Baseline: Ward's irradiance cache, samples computed from the photons.
+    Ward,
+    /// Baseline: Christensen's precomputed irradiance photon map.
+    Christensen,
+    /// Baseline: Jensen's photon map with final gathering.
+    Photonmap,
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
@@ -75,7 +85,7 @@ enum EstimatorArg {
 /// Settings of the octree integrator (defaults: the paper's configuration where it has one).
 #[derive(clap::Args)]
 struct OctreeArgs {
-    /// Photon paths emitted from the lights.
+    /// Photon paths emitted from the lights (octree and the baselines).
     #[arg(long, default_value_t = 1_000_000)]
     photons: u64,
     /// Maximum octree depth h_max.
@@ -298,6 +308,40 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             }
             build_stats = Some(serde_json::to_value(&built.stats)?);
             (Integrator::Octree(Box::new(built)), value)
+        }
+        IntegratorArg::Ward | IntegratorArg::Christensen | IntegratorArg::Photonmap => {
+            let photons = PhotonSettings { photons: args.octree.photons, seed: args.seed, ..Default::default() };
+            if !args.quiet {
+                eprintln!("{:?}: tracing {} photons and building the cache ...", args.integrator, photons.photons);
+            }
+            let (integrator, value, stats) = match args.integrator {
+                IntegratorArg::Ward => {
+                    let s = WardSettings { photons, max_depth, ..Default::default() };
+                    let value = serde_json::to_value(&s)?;
+                    let built = WardIntegrator::build(&scene, s).context("cannot build the Ward cache")?;
+                    let stats = serde_json::to_value(&built.stats)?;
+                    (Integrator::Ward(Box::new(built)), value, stats)
+                }
+                IntegratorArg::Christensen => {
+                    let s = ChristensenSettings { photons, max_depth, ..Default::default() };
+                    let value = serde_json::to_value(&s)?;
+                    let built = ChristensenIntegrator::build(&scene, s).context("cannot build the irradiance photon map")?;
+                    let stats = serde_json::to_value(&built.stats)?;
+                    (Integrator::Christensen(Box::new(built)), value, stats)
+                }
+                _ => {
+                    let s = PhotonMapSettings { photons, max_depth, ..Default::default() };
+                    let value = serde_json::to_value(&s)?;
+                    let built = PhotonMapIntegrator::build(&scene, s).context("cannot build the photon maps")?;
+                    let stats = serde_json::to_value(&built.stats)?;
+                    (Integrator::PhotonMap(Box::new(built)), value, stats)
+                }
+            };
+            if !args.quiet {
+                eprintln!("build: {}", serde_json::to_string(&stats)?);
+            }
+            build_stats = Some(stats);
+            (integrator, value)
         }
     };
     if !args.quiet {

@@ -27,7 +27,7 @@
 //! caustic map.
 
 use super::photonmap::{check_max_depth, BaselineError, CacheView, PhotonMapStats, Shading, Vertex};
-use super::ward::{prime_points, render_vertex, SampleRecipe, WardCacheSettings, WardSampleMode, PRIME_SAMPLE_STREAM};
+use super::ward::{render_vertex, Primer, SampleRecipe, WardCacheSettings, WardSampleMode, PRIME_SAMPLE_STREAM};
 use super::RayCounters;
 use crate::caches::christensen::{ChristensenCache, ChristensenStats};
 use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SceneLength, SettingsError};
@@ -36,7 +36,6 @@ use crate::math::{Color, Ray};
 use crate::photon_pass::{trace_photons, PhotonSettings};
 use crate::prepared::Scene;
 use crate::sampling::Sampler;
-use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -114,7 +113,7 @@ impl ChristensenSettings {
             r.check("lookup_radius", false)?;
         }
         if self.added != AddedSamples::None {
-            self.cache.validate("cache")?;
+            self.cache.validate("cache", WardSampleMode::Photons)?;
         }
         check_max_depth(self.max_depth)
     }
@@ -196,7 +195,8 @@ impl ChristensenIntegrator {
         let (mut ward, mut prime, mut t_prime_s) = (None, None, 0.0);
         if settings.added != AddedSamples::None {
             let t0 = Instant::now();
-            let (radius_min, radius_max) = settings.cache.radius_range(scene_size(&scene.bounds));
+            let a = settings.cache.accuracy(WardSampleMode::Photons);
+            let (radius_min, radius_max) = settings.cache.radius_range(scene_size(&scene.bounds), a);
             let recipe = SampleRecipe {
                 mode: WardSampleMode::Photons,
                 gather_rays: 0,
@@ -205,27 +205,18 @@ impl ChristensenIntegrator {
                 radius_max,
             };
             let seed = settings.photons.seed;
-            let points = prime_points(scene, &shading, settings.cache.prime_resolution, seed);
-            let pn: Vec<(Vec3, Vec3)> = points.iter().map(|p| (p.vertex.hit.p, p.vertex.n)).collect();
-            let mut w = WardCache::new(scene.bounds, settings.cache.a, settings.cache.min_weight);
+            let mut w = WardCache::new(scene.bounds, a, settings.cache.min_weight);
             let added = settings.added;
-            let st = w.prime(&pn, settings.cache.batch as usize, |i| -> Option<IrradianceSample> {
-                let v = &points[i].vertex;
-                let mut scratch = Vec::new();
+            let primer = Primer::new(scene, &shading, settings.cache.prime, seed);
+            let st = primer.prime(&mut w, settings.cache.batch as usize, |i, v| -> Option<IrradianceSample> {
+                let mut scratch = shading.scratch();
                 let mut counters = RayCounters::default();
                 match added {
                     AddedSamples::Precomputed => {
                         let (e, r) = christensen_irradiance(&cache, &shading, v, &mut counters, &mut scratch, None);
                         recipe.make(v, e, recipe.photon_radius(r, &shading))
                     }
-                    _ => recipe.compute(
-                        scene,
-                        &shading,
-                        v,
-                        &mut Sampler::new(seed, i as u64, PRIME_SAMPLE_STREAM),
-                        &mut counters,
-                        &mut scratch,
-                    ),
+                    _ => recipe.compute(scene, &shading, v, &mut Sampler::new(seed, i, PRIME_SAMPLE_STREAM), &mut counters, &mut scratch),
                 }
             });
             t_prime_s = t0.elapsed().as_secs_f64();
@@ -302,7 +293,7 @@ mod tests {
             (
                 ChristensenSettings {
                     added: AddedSamples::Precomputed,
-                    cache: WardCacheSettings { a: -1.0, ..Default::default() },
+                    cache: WardCacheSettings { a: Some(-1.0), ..Default::default() },
                     ..small(10)
                 },
                 "cache.a",
@@ -314,7 +305,7 @@ mod tests {
             assert!(e.to_string().contains(field), "{e} should name {field}");
         }
         // the Ward settings are not checked when configuration C is off
-        assert!(ChristensenSettings { cache: WardCacheSettings { a: -1.0, ..Default::default() }, ..small(10) }.validate().is_ok());
+        assert!(ChristensenSettings { cache: WardCacheSettings { a: Some(-1.0), ..Default::default() }, ..small(10) }.validate().is_ok());
     }
 
     #[test]

@@ -124,6 +124,11 @@ impl Shading {
         }
     }
 
+    /// A scratch buffer sized for the estimates.
+    pub fn scratch(&self) -> Vec<Neighbor> {
+        Vec::with_capacity(self.global_density.n_max.max(self.caustic_density.n_max).min(4096))
+    }
+
     /// Follow `ray` through specular vertices to the first vertex with a non-delta lobe. With
     /// `emission`, emitters met on the way (that one included) and the environment add
     /// `throughput · Le` to `result`.
@@ -459,7 +464,7 @@ impl PhotonMapIntegrator {
         let view = self.settings.view;
         let mut result = Color::ZERO;
         let Some(v) = sh.first_vertex(scene, ray, sampler, counters, view == CacheView::Render, &mut result) else { return result };
-        let mut scratch = Vec::with_capacity(sh.global_density.n_max.max(sh.caustic_density.n_max).min(4096));
+        let mut scratch = sh.scratch();
         let material = &scene.materials[v.hit.material as usize];
         match view {
             CacheView::Render => {

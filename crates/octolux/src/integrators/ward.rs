@@ -23,16 +23,18 @@
 //! Caustic photons are not in the cache: caustics are rendered from the caustic map.
 //!
 //! # Filling the cache deterministically
-//! Priming pass before rendering: one camera ray through the centre of each cell of a grid
-//! (`prime_resolution` columns, the film's aspect; default one per pixel), specular chains
-//! followed with a per-point sampler, the first non-delta hit taken as a point. The points are
-//! ordered coarse to fine (grid stride 2^k, 2^(k-1), …, 1) so that each batch is spread over
-//! the image, and [`WardCache::prime`] inserts samples in batches (parallel computation,
-//! in-order insertion). The render then only reads the cache; a lookup that finds it
-//! insufficient (a point the priming grid did not see, e.g. jittered inside a pixel) computes
+//! Priming pass before rendering ([`PrimePoints`]): camera paths traced like the render's (specular
+//! chains followed with a per-path sampler), their first non-delta hits taken as points —
+//! either one ray through the centre of each cell of a grid (default: one per pixel), or the
+//! render's own first-pass samples (same seed and spp as the render, so the render's lookups
+//! happen exactly at primed points). Pixels are ordered coarse to fine (stride 2^k, 2^(k-1),
+//! …, 1) and samples sample-major, so each batch is spread over the image, and
+//! [`WardCache::prime_batch`] inserts samples batch by batch (parallel computation, in-order
+//! insertion). The render then only reads the cache; a lookup that finds it insufficient (a
+//! point the priming did not see, e.g. jittered inside a pixel with the grid priming) computes
 //! a temporary sample with the same recipe and does not store it
-//! ([`WardIntegrator::temporary_samples`] counts them). Images are identical for any
-//! thread count.
+//! ([`WardIntegrator::temporary_samples`] counts them: 0 with `render_samples` priming and the
+//! render's settings). Images are identical for any thread count.
 //!
 //! `F_m` = bytes of the cache (samples, octree, index lists) + the global map (needed for
 //! temporary samples) + the caustic map (caustics).
@@ -44,6 +46,7 @@ use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache, WardCacheStat
 use crate::math::{Color, Ray};
 use crate::photon_pass::{trace_photons, PhotonSettings};
 use crate::prepared::Scene;
+use crate::render::sample_filter;
 use crate::sampling::Sampler;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -86,19 +89,20 @@ pub enum PhotonRadius {
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default)]
 pub struct WardCacheSettings {
-    /// Ward's accuracy `a`: a sample is valid where `w_i > 1/a`; smaller is denser. The
-    /// default 2 with gathered radii gives `m_e` = 1789 on the built-in `cornell-box` with 1M
-    /// photons, close to the paper's 1824 (table 2); its reach `a R_i` ≈ 22 mm is that of
-    /// Radiance's usual `a` ≈ 0.1–0.2 with a harmonic mean distance of 100–200 mm.
-    pub a: f32,
+    /// Ward's accuracy `a`: a sample is valid where `w_i > 1/a`; smaller is denser. `None`
+    /// picks one per kind of `R_i` (see [`Self::accuracy`]), all with a reach `a R_i` of about
+    /// 20–30 mm in the 559 mm `cornell-box`: 2 for gathered photon radii (`m_e` = 1789 with 1M
+    /// photons there, close to the paper's 1824, table 2), 1 for `search_radius`, and 0.2 for
+    /// final gathering (Radiance's usual 0.1–0.2 with harmonic mean distances of 100–200 mm).
+    pub a: Option<f32>,
     /// Least distance between two samples (paper's table 2: 1.0 in its 559 mm scene).
     pub q_min: SceneLength,
     /// Largest validity radius `R_i`.
     pub max_radius: SceneLength,
     /// Least `Σ w_i` for the cache to be sufficient (0: Ward's rule, any valid sample).
     pub min_weight: f32,
-    /// Columns of the priming grid (rows follow the film's aspect); `None`: the film width.
-    pub prime_resolution: Option<u32>,
+    /// The camera samples that prime the cache.
+    pub prime: PrimePoints,
     /// Points per priming batch.
     pub batch: u32,
     /// `R_i` of photon-computed samples.
@@ -108,11 +112,11 @@ pub struct WardCacheSettings {
 impl Default for WardCacheSettings {
     fn default() -> Self {
         WardCacheSettings {
-            a: 2.0,
+            a: None,
             q_min: SceneLength::paper(1.0),
             max_radius: SceneLength::Relative(0.25),
             min_weight: 0.0,
-            prime_resolution: None,
+            prime: PrimePoints::Grid { columns: None },
             batch: 128,
             photon_radius: PhotonRadius::Gathered,
         }
@@ -120,18 +124,35 @@ impl Default for WardCacheSettings {
 }
 
 impl WardCacheSettings {
-    pub fn validate(&self, prefix: &str) -> Result<(), SettingsError> {
+    /// The accuracy `a` for samples computed by `mode` (module docs of the defaults).
+    pub fn accuracy(&self, mode: WardSampleMode) -> f32 {
+        self.a.unwrap_or(match (mode, self.photon_radius) {
+            (WardSampleMode::FinalGather, _) => 0.2,
+            (WardSampleMode::Photons, PhotonRadius::Gathered) => 2.0,
+            (WardSampleMode::Photons, PhotonRadius::SearchRadius) => 1.0,
+        })
+    }
+
+    /// Check the settings for samples computed by `mode`; `prefix` names them in messages.
+    pub fn validate(&self, prefix: &str, mode: WardSampleMode) -> Result<(), SettingsError> {
         let f = |name: &str| format!("{prefix}.{name}");
-        if !(self.a.is_finite() && self.a > 0.0) {
-            return Err(SettingsError::new(&f("a"), format!("the accuracy {} must be finite and positive", self.a)));
+        let a = self.accuracy(mode);
+        if !(a.is_finite() && a > 0.0) {
+            return Err(SettingsError::new(&f("a"), format!("the accuracy {a} must be finite and positive")));
         }
         self.q_min.check(&f("q_min"), true)?;
         self.max_radius.check(&f("max_radius"), false)?;
         if !(self.min_weight.is_finite() && self.min_weight >= 0.0) {
             return Err(SettingsError::new(&f("min_weight"), format!("{} must be finite and non-negative", self.min_weight)));
         }
-        if self.prime_resolution == Some(0) {
-            return Err(SettingsError::new(&f("prime_resolution"), "the priming grid needs at least one column (got 0)"));
+        match self.prime {
+            PrimePoints::Grid { columns: Some(0) } => {
+                return Err(SettingsError::new(&f("prime"), "the priming grid needs at least one column (got 0)"))
+            }
+            PrimePoints::RenderSamples { spp: 0, .. } => {
+                return Err(SettingsError::new(&f("prime"), "priming with the render's samples needs spp ≥ 1 (got 0)"))
+            }
+            _ => {}
         }
         if self.batch == 0 {
             return Err(SettingsError::new(&f("batch"), "a priming batch holds at least one point (got 0)"));
@@ -140,16 +161,16 @@ impl WardCacheSettings {
         if let (SceneLength::Relative(q), SceneLength::Relative(m)) | (SceneLength::Absolute(q), SceneLength::Absolute(m)) =
             (self.q_min, self.max_radius)
         {
-            if q / self.a > m {
-                return Err(SettingsError::new(&f("max_radius"), format!("{m} is below q_min / a = {}: no radius is allowed", q / self.a)));
+            if q / a > m {
+                return Err(SettingsError::new(&f("max_radius"), format!("{m} is below q_min / a = {}: no radius is allowed", q / a)));
             }
         }
         Ok(())
     }
 
-    /// `[R_min, R_max]` in scene units (`R_min = q_min / a`; `R_max ≥ R_min`).
-    pub fn radius_range(&self, scene_size: f32) -> (f32, f32) {
-        let lo = (self.q_min.resolve(scene_size) / self.a).max(1e-6 * scene_size);
+    /// `[R_min, R_max]` in scene units for accuracy `a` (`R_min = q_min / a`; `R_max ≥ R_min`).
+    pub fn radius_range(&self, scene_size: f32, a: f32) -> (f32, f32) {
+        let lo = (self.q_min.resolve(scene_size) / a).max(1e-6 * scene_size);
         (lo, self.max_radius.resolve(scene_size).max(lo))
     }
 }
@@ -194,7 +215,7 @@ impl WardSettings {
         }
         self.density.validate("density")?;
         self.caustic.validate("caustic")?;
-        self.cache.validate("cache")?;
+        self.cache.validate("cache", self.sample)?;
         if self.sample == WardSampleMode::FinalGather && self.gather_rays == 0 {
             return Err(SettingsError::new("gather_rays", "final gathering needs at least one ray (got 0)"));
         }
@@ -216,6 +237,8 @@ pub struct WardBuildStats {
     pub cache: WardCacheStats,
     /// `m_e`: samples in the cache.
     pub m_e: usize,
+    /// The accuracy `a` used.
+    pub a: f32,
     /// Resolved `r_max` of the density estimate, and `[R_min, R_max]`, scene units.
     pub r_max: f32,
     pub radius_min: f32,
@@ -224,47 +247,113 @@ pub struct WardBuildStats {
     pub bytes: usize,
 }
 
-/// A priming point: the first non-delta hit of a grid camera ray.
-pub(crate) struct PrimePoint {
-    pub vertex: Vertex,
+/// Which camera samples prime the cache.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum PrimePoints {
+    /// One ray through the centre of each cell of a grid of `columns` columns (rows from the
+    /// film's aspect); `None`: the film width, one ray per pixel.
+    Grid { columns: Option<u32> },
+    /// The render's own first-pass camera samples: give the render's `spp` and `seed`, and
+    /// every lookup of a render with those settings finds the cache sufficient (no temporary
+    /// sample; later passes of a time-budget render may still compute some). Worth it with
+    /// `final_gather`, whose samples shrink to `q_min` in corners, below a pixel: on
+    /// `cornell-box` 128², 64 spp, the grid left 22 826 temporary samples (t_v 21.7 s), this
+    /// none (t_v 0.6 s; priming 12.3 s instead of 2.6 s).
+    RenderSamples { spp: u32, seed: u64 },
 }
 
-/// Camera rays through the centres of a `columns × rows` grid (rows from the film's aspect),
-/// coarse-to-fine order, to their first non-delta hits (module docs).
-pub(crate) fn prime_points(scene: &Scene, shading: &Shading, columns: Option<u32>, seed: u64) -> Vec<PrimePoint> {
-    let (fw, fh) = (scene.film.width.max(1), scene.film.height.max(1));
-    let w = columns.unwrap_or(fw).max(1);
-    let h = ((w as f64 * fh as f64 / fw as f64).round() as u32).max(1);
-    let mut order: Vec<(u32, u32)> = Vec::with_capacity((w * h) as usize);
-    let top = w.max(h).next_power_of_two();
-    let mut stride = top;
-    while stride >= 1 {
-        for y in (0..h).step_by(stride as usize) {
-            for x in (0..w).step_by(stride as usize) {
-                if stride == top || x % (2 * stride) != 0 || y % (2 * stride) != 0 {
-                    order.push((x, y));
+impl Default for PrimePoints {
+    fn default() -> Self {
+        PrimePoints::Grid { columns: None }
+    }
+}
+
+/// The priming pass: an ordered, lazily traced list of camera paths (module docs).
+pub(crate) struct Primer<'a> {
+    scene: &'a Scene,
+    shading: &'a Shading,
+    points: PrimePoints,
+    /// Pixels (or grid cells) in coarse-to-fine order.
+    order: Vec<(u32, u32)>,
+    w: u32,
+    h: u32,
+    spp: u64,
+    photon_seed: u64,
+}
+
+impl<'a> Primer<'a> {
+    pub fn new(scene: &'a Scene, shading: &'a Shading, points: PrimePoints, photon_seed: u64) -> Self {
+        let (fw, fh) = (scene.film.width.max(1), scene.film.height.max(1));
+        let (w, h, spp) = match points {
+            PrimePoints::Grid { columns } => {
+                let w = columns.unwrap_or(fw).max(1);
+                (w, ((w as f64 * fh as f64 / fw as f64).round() as u32).max(1), 1)
+            }
+            PrimePoints::RenderSamples { spp, .. } => (fw, fh, spp.max(1) as u64),
+        };
+        let mut order: Vec<(u32, u32)> = Vec::with_capacity((w as usize) * (h as usize));
+        let top = w.max(h).next_power_of_two();
+        let mut stride = top;
+        while stride >= 1 {
+            for y in (0..h).step_by(stride as usize) {
+                for x in (0..w).step_by(stride as usize) {
+                    if stride == top || x % (2 * stride) != 0 || y % (2 * stride) != 0 {
+                        order.push((x, y));
+                    }
                 }
             }
+            stride /= 2;
         }
-        stride /= 2;
+        Primer { scene, shading, points, order, w, h, spp, photon_seed }
     }
-    let (sx, sy) = (fw as f32 / w as f32, fh as f32 / h as f32);
-    order
-        .into_par_iter()
-        .map(|(x, y)| {
-            let mut sampler = Sampler::new(seed, (y as u64) * w as u64 + x as u64, PRIME_STREAM);
-            let film = Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy);
-            let (o, d, tmin) = scene.camera.generate_ray(film);
-            let ray = Ray { o, d, tmin, tmax: f32::INFINITY };
-            let mut ignored = Color::ZERO;
-            shading
-                .first_vertex(scene, ray, &mut sampler, &mut RayCounters::default(), false, &mut ignored)
-                .map(|vertex| PrimePoint { vertex })
-        })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .flatten()
-        .collect()
+
+    /// Camera paths: sample-major (all pixels of sample 0, then of sample 1, ...).
+    pub fn len(&self) -> u64 {
+        self.order.len() as u64 * self.spp
+    }
+
+    /// First non-delta vertex of camera path `i`, traced as the render traces it.
+    pub fn vertex(&self, i: u64) -> Option<Vertex> {
+        let n = self.order.len() as u64;
+        let (sample, k) = (i / n, (i % n) as usize);
+        let (x, y) = self.order[k];
+        let pixel = y as u64 * self.w as u64 + x as u64;
+        let (mut sampler, film) = match self.points {
+            PrimePoints::Grid { .. } => {
+                let (sx, sy) = (self.scene.film.width.max(1) as f32 / self.w as f32, self.scene.film.height.max(1) as f32 / self.h as f32);
+                (Sampler::new(self.photon_seed, pixel, PRIME_STREAM), Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy))
+            }
+            PrimePoints::RenderSamples { seed, .. } => {
+                let mut sampler = Sampler::new(seed, pixel, sample);
+                let off = sample_filter(self.scene.film.filter, &mut sampler);
+                (sampler, Vec2::new(x as f32 + 0.5, y as f32 + 0.5) + off)
+            }
+        };
+        let (o, d, tmin) = self.scene.camera.generate_ray(film);
+        let ray = Ray { o, d, tmin, tmax: f32::INFINITY };
+        let mut ignored = Color::ZERO;
+        self.shading.first_vertex(self.scene, ray, &mut sampler, &mut RayCounters::default(), false, &mut ignored)
+    }
+
+    /// Prime `cache` in batches of `batch` camera paths; `compute(i, vertex)` makes the
+    /// sample of path `i`.
+    pub fn prime<F>(&self, cache: &mut WardCache, batch: usize, compute: F) -> PrimeStats
+    where
+        F: Fn(u64, &Vertex) -> Option<IrradianceSample> + Sync,
+    {
+        let batch = batch.max(1) as u64;
+        let mut stats = PrimeStats::default();
+        let mut start = 0u64;
+        while start < self.len() {
+            let end = (start + batch).min(self.len());
+            let verts: Vec<(u64, Vertex)> = (start..end).into_par_iter().filter_map(|i| self.vertex(i).map(|v| (i, v))).collect();
+            let pn: Vec<(Vec3, Vec3)> = verts.iter().map(|(_, v)| (v.hit.p, v.n)).collect();
+            stats += cache.prime_batch(&pn, |j| compute(verts[j].0, &verts[j].1));
+            start = end;
+        }
+        stats
+    }
 }
 
 /// How Ward samples are computed, resolved to scene units.
@@ -331,7 +420,8 @@ impl WardIntegrator {
         let shading = Shading::new(scene, &maps, &settings.density, &settings.caustic, settings.max_depth);
         drop(maps);
         let size = scene_size(&scene.bounds);
-        let (radius_min, radius_max) = settings.cache.radius_range(size);
+        let a = settings.cache.accuracy(settings.sample);
+        let (radius_min, radius_max) = settings.cache.radius_range(size, a);
         let recipe = SampleRecipe {
             mode: settings.sample,
             gather_rays: settings.gather_rays,
@@ -341,23 +431,24 @@ impl WardIntegrator {
         };
         let t0 = Instant::now();
         let seed = settings.photons.seed;
-        let points = prime_points(scene, &shading, settings.cache.prime_resolution, seed);
-        let pn: Vec<(Vec3, Vec3)> = points.iter().map(|p| (p.vertex.hit.p, p.vertex.n)).collect();
-        let mut cache = WardCache::new(scene.bounds, settings.cache.a, settings.cache.min_weight);
-        let prime = cache.prime(&pn, settings.cache.batch as usize, |i| {
-            let mut sampler = Sampler::new(seed, i as u64, PRIME_SAMPLE_STREAM);
-            let mut scratch = Vec::new();
-            recipe.compute(scene, &shading, &points[i].vertex, &mut sampler, &mut RayCounters::default(), &mut scratch)
+        let mut cache = WardCache::new(scene.bounds, a, settings.cache.min_weight);
+        let primer = Primer::new(scene, &shading, settings.cache.prime, seed);
+        let prime = primer.prime(&mut cache, settings.cache.batch as usize, |i, v| {
+            let mut sampler = Sampler::new(seed, i, PRIME_SAMPLE_STREAM);
+            let mut scratch = shading.scratch();
+            recipe.compute(scene, &shading, v, &mut sampler, &mut RayCounters::default(), &mut scratch)
         });
+        drop(primer);
         let t_prime_s = t0.elapsed().as_secs_f64();
         let cs = cache.stats();
         let p = shading.stats.clone();
         let stats = WardBuildStats {
-            prime_points: points.len(),
+            prime_points: prime.points,
             t_prime_s,
             t_c_s: p.t_photons_s + p.t_kdtree_s + t_prime_s,
             prime,
             m_e: cs.samples,
+            a,
             r_max: shading.global_density.r_max,
             radius_min,
             radius_max,
@@ -414,7 +505,7 @@ pub(crate) fn render_vertex(
 ) -> Color {
     let mut result = Color::ZERO;
     let Some(v) = sh.first_vertex(scene, ray, sampler, counters, view == CacheView::Render, &mut result) else { return result };
-    let mut scratch = Vec::new();
+    let mut scratch = sh.scratch();
     let material = &scene.materials[v.hit.material as usize];
     match view {
         CacheView::Render => {
@@ -454,8 +545,8 @@ mod tests {
     fn bad_settings_are_refused_with_clear_messages() {
         let scene = box_scene(4);
         let cases: Vec<(WardSettings, &str)> = vec![
-            (WardSettings { cache: WardCacheSettings { a: 0.0, ..Default::default() }, ..small(10) }, "cache.a"),
-            (WardSettings { cache: WardCacheSettings { a: f32::NAN, ..Default::default() }, ..small(10) }, "cache.a"),
+            (WardSettings { cache: WardCacheSettings { a: Some(0.0), ..Default::default() }, ..small(10) }, "cache.a"),
+            (WardSettings { cache: WardCacheSettings { a: Some(f32::NAN), ..Default::default() }, ..small(10) }, "cache.a"),
             (
                 WardSettings { cache: WardCacheSettings { q_min: SceneLength::Absolute(-1.0), ..Default::default() }, ..small(10) },
                 "cache.q_min",
@@ -473,8 +564,11 @@ mod tests {
             ),
             (WardSettings { cache: WardCacheSettings { batch: 0, ..Default::default() }, ..small(10) }, "cache.batch"),
             (
-                WardSettings { cache: WardCacheSettings { prime_resolution: Some(0), ..Default::default() }, ..small(10) },
-                "cache.prime_resolution",
+                WardSettings {
+                    cache: WardCacheSettings { prime: PrimePoints::Grid { columns: Some(0) }, ..Default::default() },
+                    ..small(10)
+                },
+                "cache.prime",
             ),
             (WardSettings { density: DensitySettings { n_max: 0, ..Default::default() }, ..small(10) }, "density.n_max"),
             (WardSettings { sample: WardSampleMode::FinalGather, gather_rays: 0, ..small(10) }, "gather_rays"),
@@ -511,19 +605,14 @@ mod tests {
                 }
             }
             // interpolated vs direct estimate at another grid's points
-            let pts = prime_points(&scene, &w.shading, Some(24), 0);
+            let primer = Primer::new(&scene, &w.shading, PrimePoints::Grid { columns: Some(24) }, 0);
+            let pts: Vec<Vertex> = (0..primer.len()).filter_map(|i| primer.vertex(i)).collect();
             let (mut diff, mut sum_i, mut sum_d, mut n) = (0.0f64, 0.0f64, 0.0f64, 0);
             let mut scratch = Vec::new();
             for p in &pts {
-                let (ok, l) = w.cache.query(p.vertex.hit.p, p.vertex.n);
-                let direct = crate::caches::kdtree::photon_irradiance(
-                    &w.shading.global,
-                    p.vertex.hit.p,
-                    p.vertex.n,
-                    w.shading.global_density,
-                    &mut scratch,
-                )
-                .e;
+                let (ok, l) = w.cache.query(p.hit.p, p.n);
+                let direct =
+                    crate::caches::kdtree::photon_irradiance(&w.shading.global, p.hit.p, p.n, w.shading.global_density, &mut scratch).e;
                 if ok {
                     n += 1;
                     diff += (l.irradiance() - direct).abs().element_sum() as f64;
@@ -561,6 +650,23 @@ mod tests {
             }
             check_furnace(means[0], means[1], tolerance, &format!("ward {mode:?}"));
         }
+    }
+
+    /// Priming with the render's own samples serves every lookup of that render from the
+    /// cache; another seed's lookups are not all covered.
+    #[test]
+    fn priming_with_the_render_samples_leaves_no_temporary() {
+        let scene = box_scene(32);
+        let mut s = small(20_000);
+        s.cache.a = Some(0.5);
+        s.cache.prime = PrimePoints::RenderSamples { spp: 2, seed: 7 };
+        let integ = Integrator::Ward(Box::new(WardIntegrator::build(&scene, s).unwrap()));
+        let Integrator::Ward(w) = &integ else { unreachable!() };
+        assert_eq!(w.stats.prime_points, 2 * 32 * 32);
+        render(&scene, &integ, &RenderSettings { spp: 2, seed: 7, ..Default::default() }, &|_, _| {});
+        assert_eq!(w.temporary_samples(), 0);
+        render(&scene, &integ, &RenderSettings { spp: 2, seed: 8, ..Default::default() }, &|_, _| {});
+        assert!(w.temporary_samples() > 0);
     }
 
     #[test]
