@@ -10,9 +10,11 @@ pub mod path;
 pub mod photonmap;
 pub mod ward;
 
+use crate::material::Material;
 use crate::math::{Color, Ray};
-use crate::prepared::Scene;
+use crate::prepared::{Scene, SurfaceHit};
 use crate::sampling::Sampler;
+use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// Counters an integrator updates while tracing (per worker, summed at the end).
@@ -74,6 +76,34 @@ impl Integrator {
             Integrator::Christensen(o) => o.li(scene, ray, sampler, counters),
         }
     }
+}
+
+/// Next-event estimation of direct light at a surface hit: one light sample (chosen by power),
+/// one shadow ray, no MIS. Used by the cache integrators, whose indirect light comes from a
+/// cache rather than a BSDF-sampled continuation to combine with.
+pub fn direct_light(
+    scene: &Scene,
+    hit: &SurfaceHit,
+    material: &Material,
+    wo: Vec3,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    let u_sel = sampler.next_1d();
+    let u = sampler.next_2d();
+    let Some(ls) = scene.lights.sample_li(hit.p, u_sel, u) else { return Color::ZERO };
+    if !(ls.pdf > 0.0) || ls.li == Color::ZERO {
+        return Color::ZERO;
+    }
+    let f = material.eval(&scene.images, hit.uv, wo, hit.frame.to_local(ls.wi));
+    if f == Color::ZERO {
+        return Color::ZERO;
+    }
+    counters.shadow_rays += 1;
+    if scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
+        return Color::ZERO;
+    }
+    f * ls.li / ls.pdf
 }
 
 /// Power heuristic (β = 2) for multiple importance sampling.

@@ -18,7 +18,7 @@
 //! An emitter seen directly or through a specular chain adds its emission; emission reached
 //! otherwise is already in the direct term.
 
-use super::RayCounters;
+use super::{direct_light, RayCounters};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
 use crate::material::{Lobe, Material};
 use crate::math::{Color, Frame, Ray};
@@ -195,7 +195,7 @@ impl OctreeIntegrator {
                 match self.settings.view {
                     OctreeView::Render => {
                         result += throughput
-                            * (self.direct(scene, &hit, material, wo, sampler, counters)
+                            * (direct_light(scene, &hit, material, wo, sampler, counters)
                                 + self.indirect(scene, &hit, material, wo, counters));
                     }
                     OctreeView::Irradiance | OctreeView::IrradianceAll => {
@@ -230,34 +230,6 @@ impl OctreeIntegrator {
             depth += 1;
         }
         result
-    }
-
-    /// Next-event estimation of direct light (light sampling only: the cache has no BSDF
-    /// continuation to combine with).
-    fn direct(
-        &self,
-        scene: &Scene,
-        hit: &SurfaceHit,
-        material: &Material,
-        wo: Vec3,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-    ) -> Color {
-        let u_sel = sampler.next_1d();
-        let u = sampler.next_2d();
-        let Some(ls) = scene.lights.sample_li(hit.p, u_sel, u) else { return Color::ZERO };
-        if !(ls.pdf > 0.0) || ls.li == Color::ZERO {
-            return Color::ZERO;
-        }
-        let f = material.eval(&scene.images, hit.uv, wo, hit.frame.to_local(ls.wi));
-        if f == Color::ZERO {
-            return Color::ZERO;
-        }
-        counters.shadow_rays += 1;
-        if scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
-            return Color::ZERO;
-        }
-        f * ls.li / ls.pdf
     }
 
     /// Indirect light and caustics from the octrees (see the module docs).

@@ -178,33 +178,6 @@ impl Shading {
         }
     }
 
-    /// Next-event estimation of direct light (light sampling, one shadow ray).
-    pub fn direct(
-        &self,
-        scene: &Scene,
-        hit: &SurfaceHit,
-        material: &Material,
-        wo: Vec3,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-    ) -> Color {
-        let u_sel = sampler.next_1d();
-        let u = sampler.next_2d();
-        let Some(ls) = scene.lights.sample_li(hit.p, u_sel, u) else { return Color::ZERO };
-        if !(ls.pdf > 0.0) || ls.li == Color::ZERO {
-            return Color::ZERO;
-        }
-        let f = material.eval(&scene.images, hit.uv, wo, hit.frame.to_local(ls.wi));
-        if f == Color::ZERO {
-            return Color::ZERO;
-        }
-        counters.shadow_rays += 1;
-        if scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
-            return Color::ZERO;
-        }
-        f * ls.li / ls.pdf
-    }
-
     /// Radiance estimate `Σ f Φ / (π r²)` from `tree` at `hit` towards `wo` (normal `n` on
     /// the viewer's side), timed into `counters`.
     #[allow(clippy::too_many_arguments)]
@@ -284,7 +257,7 @@ impl Shading {
             let wo = hit.frame.to_local(-ray.d);
             if material.has_smooth_lobe() {
                 let n = if wo.z >= 0.0 { hit.frame.n } else { -hit.frame.n };
-                let mut l = self.direct(scene, &hit, material, wo, sampler, counters);
+                let mut l = super::direct_light(scene, &hit, material, wo, sampler, counters);
                 l += self.radiance_estimate(scene, &self.global, self.global_density, &hit, material, wo, n, scratch, counters);
                 l += self.radiance_estimate(scene, &self.caustic, self.caustic_density, &hit, material, wo, n, scratch, counters);
                 return (throughput * l, first_t);
@@ -468,7 +441,7 @@ impl PhotonMapIntegrator {
         let material = &scene.materials[v.hit.material as usize];
         match view {
             CacheView::Render => {
-                let mut l = sh.direct(scene, &v.hit, material, v.wo, sampler, counters);
+                let mut l = super::direct_light(scene, &v.hit, material, v.wo, sampler, counters);
                 l += sh.caustics(scene, &v, material, &mut scratch, counters);
                 let n = self.settings.gather_rays;
                 let mut ind = Color::ZERO;

@@ -509,7 +509,7 @@ pub(crate) fn render_vertex(
     let material = &scene.materials[v.hit.material as usize];
     match view {
         CacheView::Render => {
-            let mut l = sh.direct(scene, &v.hit, material, v.wo, sampler, counters);
+            let mut l = super::direct_light(scene, &v.hit, material, v.wo, sampler, counters);
             let e = irradiance(&v, sampler, counters, &mut scratch);
             l += shade_irradiance(scene, &v.hit, material, v.wo, e);
             l += sh.caustics(scene, &v, material, &mut scratch, counters);
