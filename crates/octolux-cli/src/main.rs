@@ -11,7 +11,7 @@ use octolux::accel::BackendKind;
 use octolux::caches::{Estimator, Storage};
 use octolux::integrators::christensen::{ChristensenIntegrator, ChristensenSettings};
 use octolux::integrators::octree::{OctreeBuildStats, OctreeIntegrator, OctreeIntegratorSettings, OctreeView};
-use octolux::integrators::photonmap::{PhotonMapIntegrator, PhotonMapSettings};
+use octolux::integrators::photonmap::{CacheView, PhotonMapIntegrator, PhotonMapSettings};
 use octolux::integrators::ward::{WardIntegrator, WardSettings};
 use octolux::integrators::{path::PathSettings, Integrator};
 use octolux::photon_pass::PhotonSettings;
@@ -112,6 +112,11 @@ struct OctreeArgs {
     /// What to write into the image.
     #[arg(long, value_enum, default_value = "render")]
     view: ViewArg,
+    /// Trace the photons and build the cache on this scene instead (same -D defines), then
+    /// render SCENE with it: e.g. a cache built on simplified geometry, rendered on detailed
+    /// geometry (the paper's figure 4).
+    #[arg(long, value_name = "SCENE")]
+    cache_scene: Option<String>,
     /// h_max of the caustic octree (default: the integrator's).
     #[arg(long)]
     caustic_h_max: Option<u32>,
@@ -288,6 +293,25 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
     if scene.lights.is_empty() {
         eprintln!("warning: the scene has no light; the image will be black");
     }
+    // The scene the photons are traced in (the rendered one unless --cache-scene says otherwise).
+    let cache_scene = match &args.octree.cache_scene {
+        Some(spec) if args.integrator != IntegratorArg::Path => {
+            let other = load(&SceneArgs { scene: spec.clone(), define: args.scene.define.clone() })?;
+            Some(Scene::prepare(other.desc, backend).with_context(|| format!("cannot prepare cache scene '{spec}'"))?)
+        }
+        Some(_) => bail!("--cache-scene needs a cache integrator (octree, ward, christensen, photonmap)"),
+        None => None,
+    };
+    let photon_scene = cache_scene.as_ref().unwrap_or(&scene);
+    let cache_view = match args.octree.view {
+        ViewArg::Render => CacheView::Render,
+        ViewArg::Irradiance => CacheView::Irradiance,
+        ViewArg::IrradianceAll => CacheView::IrradianceAll,
+        ViewArg::Leaves if matches!(args.integrator, IntegratorArg::Ward | IntegratorArg::Christensen | IntegratorArg::Photonmap) => {
+            bail!("--view leaves exists only for --integrator octree")
+        }
+        ViewArg::Leaves => CacheView::Render,
+    };
     let prepare_s = t1.elapsed().as_secs_f64();
     let threads = rayon::current_num_threads();
     let mut build_stats = None;
@@ -302,7 +326,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             if !args.quiet {
                 eprintln!("octree: tracing {} photons and building the octrees ...", s.photons.photons);
             }
-            let built = OctreeIntegrator::build(&scene, s).context("cannot build the octrees")?;
+            let built = OctreeIntegrator::build(photon_scene, s).context("cannot build the octrees")?;
             if !args.quiet {
                 print_octree_stats(&built.stats);
             }
@@ -316,23 +340,23 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             }
             let (integrator, value, stats) = match args.integrator {
                 IntegratorArg::Ward => {
-                    let s = WardSettings { photons, max_depth, ..Default::default() };
+                    let s = WardSettings { photons, max_depth, view: cache_view, ..Default::default() };
                     let value = serde_json::to_value(&s)?;
-                    let built = WardIntegrator::build(&scene, s).context("cannot build the Ward cache")?;
+                    let built = WardIntegrator::build(photon_scene, s).context("cannot build the Ward cache")?;
                     let stats = serde_json::to_value(&built.stats)?;
                     (Integrator::Ward(Box::new(built)), value, stats)
                 }
                 IntegratorArg::Christensen => {
-                    let s = ChristensenSettings { photons, max_depth, ..Default::default() };
+                    let s = ChristensenSettings { photons, max_depth, view: cache_view, ..Default::default() };
                     let value = serde_json::to_value(&s)?;
-                    let built = ChristensenIntegrator::build(&scene, s).context("cannot build the irradiance photon map")?;
+                    let built = ChristensenIntegrator::build(photon_scene, s).context("cannot build the irradiance photon map")?;
                     let stats = serde_json::to_value(&built.stats)?;
                     (Integrator::Christensen(Box::new(built)), value, stats)
                 }
                 _ => {
-                    let s = PhotonMapSettings { photons, max_depth, ..Default::default() };
+                    let s = PhotonMapSettings { photons, max_depth, view: cache_view, ..Default::default() };
                     let value = serde_json::to_value(&s)?;
-                    let built = PhotonMapIntegrator::build(&scene, s).context("cannot build the photon maps")?;
+                    let built = PhotonMapIntegrator::build(photon_scene, s).context("cannot build the photon maps")?;
                     let stats = serde_json::to_value(&built.stats)?;
                     (Integrator::PhotonMap(Box::new(built)), value, stats)
                 }
