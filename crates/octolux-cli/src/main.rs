@@ -536,8 +536,19 @@ fn cmd_export(args: ExportArgs) -> Result<()> {
     Ok(())
 }
 
-fn main() -> Result<()> {
-    let cli = Cli::parse();
+/// Errors are printed as one line with their chain of causes (no stack trace, even when
+/// RUST_BACKTRACE is set: these are user errors, not crashes), and the exit status is 1.
+fn main() -> std::process::ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(a) => cmd_render(a),
         Command::Export(a) => cmd_export(a),

@@ -20,9 +20,11 @@ pub enum IoError {
     /// A syntax or semantic error at a known place.
     #[error("{}:{line}: {msg}", file.display())]
     Parse { file: PathBuf, line: u32, msg: String },
-    /// The operating system refused (missing file, permissions, ...).
-    #[error("{}: {source}", file.display())]
-    Os { file: PathBuf, source: std::io::Error },
+    /// The operating system refused (missing file, permissions, ...). The cause is part of
+    /// the message, so it is deliberately not also exposed as `source()` (which would print it
+    /// twice in an error chain).
+    #[error("{}: {error}", file.display())]
+    Os { file: PathBuf, error: std::io::Error },
     /// The file was read but its content is unusable.
     #[error("{}: {msg}", file.display())]
     Invalid { file: PathBuf, msg: String },
@@ -32,7 +34,7 @@ pub enum IoError {
 
 impl IoError {
     pub fn os(file: &Path, source: std::io::Error) -> Self {
-        IoError::Os { file: file.to_path_buf(), source }
+        IoError::Os { file: file.to_path_buf(), error: source }
     }
     pub fn invalid(file: &Path, msg: impl Into<String>) -> Self {
         IoError::Invalid { file: file.to_path_buf(), msg: msg.into() }

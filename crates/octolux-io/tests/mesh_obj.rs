@@ -112,7 +112,7 @@ fn out_of_range_and_zero_indices_are_errors_with_their_line() {
 fn missing_file_is_an_os_error_naming_it() {
     let path = data("no_such_file.obj");
     match load_obj_mesh(&path) {
-        Err(IoError::Os { file, source }) => {
+        Err(IoError::Os { file, error: source }) => {
             assert_eq!(file, path);
             assert_eq!(source.kind(), std::io::ErrorKind::NotFound);
         }
