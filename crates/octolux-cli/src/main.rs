@@ -9,7 +9,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::accel::BackendKind;
 use octolux::caches::{Estimator, Storage};
-use octolux::integrators::christensen::{ChristensenIntegrator, ChristensenSettings};
+use octolux::integrators::christensen::{AddedSamples, ChristensenIntegrator, ChristensenSettings};
 use octolux::integrators::octree::{OctreeBuildStats, OctreeIntegrator, OctreeIntegratorSettings, OctreeView};
 use octolux::integrators::photonmap::{CacheView, PhotonMapIntegrator, PhotonMapSettings};
 use octolux::integrators::ward::{WardIntegrator, WardSettings};
@@ -76,6 +76,16 @@ enum ViewArg {
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum AddedArg {
+    /// Christensen's method alone.
+    None,
+    /// Configuration C: added samples take the nearest irradiance photon's value.
+    Precomputed,
+    /// Configuration C: added samples take the global map's density estimate.
+    Density,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
 enum EstimatorArg {
     Paper,
     Cosine,
@@ -117,6 +127,12 @@ struct OctreeArgs {
     /// geometry (the paper's figure 4).
     #[arg(long, value_name = "SCENE")]
     cache_scene: Option<String>,
+    /// christensen: precompute irradiance at every N-th global photon (default 4).
+    #[arg(long, value_name = "N")]
+    every: Option<u32>,
+    /// christensen: samples added during rendering (the paper's configuration C).
+    #[arg(long, value_enum, default_value = "none")]
+    added: AddedArg,
     /// h_max of the caustic octree (default: the integrator's).
     #[arg(long)]
     caustic_h_max: Option<u32>,
@@ -347,7 +363,15 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
                     (Integrator::Ward(Box::new(built)), value, stats)
                 }
                 IntegratorArg::Christensen => {
-                    let s = ChristensenSettings { photons, max_depth, view: cache_view, ..Default::default() };
+                    let mut s = ChristensenSettings { photons, max_depth, view: cache_view, ..Default::default() };
+                    if let Some(n) = args.octree.every {
+                        s.every = n;
+                    }
+                    s.added = match args.octree.added {
+                        AddedArg::None => AddedSamples::None,
+                        AddedArg::Precomputed => AddedSamples::Precomputed,
+                        AddedArg::Density => AddedSamples::Density,
+                    };
                     let value = serde_json::to_value(&s)?;
                     let built = ChristensenIntegrator::build(photon_scene, s).context("cannot build the irradiance photon map")?;
                     let stats = serde_json::to_value(&built.stats)?;
