@@ -21,34 +21,13 @@
 
 use octolux::accel::BackendKind;
 use octolux::integrators::{path::PathSettings, Integrator};
-use octolux::material::Image;
+use octolux::metrics::{channel_means, rel_mse_with};
 use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
 use std::path::{Path, PathBuf};
 
 fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn rel_mse_against(a: &Image, b: &Image, reference: &Image) -> f64 {
-    let mut s = 0.0f64;
-    for ((x, y), r) in a.data.iter().zip(&b.data).zip(&reference.data) {
-        for c in 0..3 {
-            let d = (x[c] - y[c]) as f64;
-            s += d * d / ((r[c] as f64).powi(2) + 1e-2);
-        }
-    }
-    s / (3 * a.data.len()) as f64
-}
-
-fn channel_means(img: &Image) -> [f64; 3] {
-    let mut m = [0.0f64; 3];
-    for p in &img.data {
-        for (c, mc) in m.iter_mut().enumerate() {
-            *mc += p[c] as f64;
-        }
-    }
-    m.map(|v| v / img.data.len() as f64)
 }
 
 /// Check one reference of the manifest; returns a message when skipped.
@@ -81,8 +60,8 @@ fn check(name: &str, spp: u32) -> Option<String> {
     let run = |seed| render(&scene, &integrator, &RenderSettings { spp, seed, ..Default::default() }, &|_, _| {}).0;
     let (a, b) = (run(1), run(2));
 
-    let ours_noise = rel_mse_against(&a, &b, &reference) / 2.0;
-    let err = rel_mse_against(&a, &reference, &reference);
+    let ours_noise = rel_mse_with(&a, &b, &reference) / 2.0;
+    let err = rel_mse_with(&a, &reference, &reference);
     let bound = 1.25 * (ours_noise + ref_noise);
     let (ma, mr) = (channel_means(&a), channel_means(&reference));
     println!("{name}: relMSE {err:.3e} (bound {bound:.3e} = 1.25 x ({ours_noise:.3e} ours + {ref_noise:.3e} ref)); means ours {ma:.5?} ref {mr:.5?}");
