@@ -16,7 +16,7 @@ use octolux::integrators::ward::{WardIntegrator, WardSettings};
 use octolux::integrators::{path::PathSettings, Integrator};
 use octolux::photon_pass::PhotonSettings;
 use octolux::prepared::Scene;
-use octolux::render::{render, RenderSettings, RenderStats};
+use octolux::render::{render, Reconstruction, RenderSettings, RenderStats};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -142,6 +142,12 @@ struct OctreeArgs {
 }
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum ReconstructionArg {
+    Splat,
+    Importance,
+}
+
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
 enum BackendArg {
     Auto,
     Embree,
@@ -184,6 +190,11 @@ struct RenderArgs {
     /// Ray-intersection backend.
     #[arg(long, value_enum, default_value = "auto")]
     backend: BackendArg,
+    /// How the film's filter is applied: `splat` (uniform positions in the pixel, weighted into
+    /// the neighbours, as Mitsuba 3 does; about 2.25x less pixel noise with a tent) or
+    /// `importance` (positions drawn from the filter, one pixel per sample).
+    #[arg(long, value_enum, default_value = "splat")]
+    reconstruction: ReconstructionArg,
     #[command(flatten)]
     octree: OctreeArgs,
     /// Output image path; `.exr` (and `.png`, `.json` beside it).
@@ -256,6 +267,7 @@ struct StatsFile<'a> {
     threads: usize,
     triangles: usize,
     seed: u64,
+    render_settings: RenderSettings,
     timings: Timings,
     samples_per_second: f64,
     rays_per_second: f64,
@@ -405,7 +417,11 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
             threads
         );
     }
-    let settings = RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, ..Default::default() };
+    let reconstruction = match args.reconstruction {
+        ReconstructionArg::Splat => Reconstruction::Splat,
+        ReconstructionArg::Importance => Reconstruction::ImportanceSampled,
+    };
+    let settings = RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, reconstruction, ..Default::default() };
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((scene.film.width as u64) * (scene.film.height as u64)) };
     bar.set_style(
         ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
@@ -437,6 +453,7 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         threads,
         triangles: scene.triangle_count(),
         seed: args.seed,
+        render_settings: settings,
         timings: Timings { load_s, prepare_s, render_s: rstats.render_s, write_s, total_s: t0.elapsed().as_secs_f64() },
         samples_per_second: rstats.samples_per_second,
         rays_per_second: rstats.rays_per_second,
