@@ -98,6 +98,10 @@ struct OctreeArgs {
     /// Photon paths emitted from the lights (octree and the baselines).
     #[arg(long, default_value_t = 1_000_000)]
     photons: u64,
+    /// octree: read the global octree one bounce away (a BSDF-sampled gather ray per sample)
+    /// instead of at the first surface: less bias, a little noise.
+    #[arg(long)]
+    gather: bool,
     /// Maximum octree depth h_max.
     #[arg(long)]
     h_max: Option<u32>,
@@ -494,6 +498,7 @@ fn octree_settings(args: &RenderArgs, max_depth: i32) -> OctreeIntegratorSetting
     s.photons.photons = o.photons;
     s.photons.seed = args.seed;
     s.max_depth = max_depth;
+    s.gather = o.gather;
     for t in [&mut s.global, &mut s.caustic] {
         if let Some(v) = o.h_max {
             t.h_max = v;

@@ -164,12 +164,20 @@ impl Scene {
     /// World-space triangles of the whole scene (spheres tessellated), e.g. for geometry-area
     /// estimates.
     pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
+        self.world_triangles_where(|_| true)
+    }
+
+    /// [`Scene::world_triangles`] of the shapes whose material passes `keep`.
+    pub fn world_triangles_where(&self, keep: impl Fn(&Material) -> bool) -> Vec<[Vec3; 3]> {
+        let kept = |shape: u32| keep(&self.materials[self.shapes[shape as usize].material as usize]);
         let mut out: Vec<[Vec3; 3]> = self
             .triangles
             .iter()
-            .map(|t| [self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]])
+            .zip(&self.tri_shape)
+            .filter(|(_, &s)| kept(s))
+            .map(|(t, _)| [self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]])
             .collect();
-        for s in &self.spheres {
+        for s in self.spheres.iter().filter(|s| kept(s.shape)) {
             let (nt, np) = (24usize, 48usize);
             let pt = |i: usize, j: usize| {
                 let th = PI * i as f32 / nt as f32;

@@ -59,6 +59,10 @@ pub struct OctreeIntegratorSettings {
     /// [`MAX_SPECULAR_CHAIN`] vertices.
     pub max_depth: i32,
     pub view: OctreeView,
+    /// Gather the global octree one bounce away instead of reading it where the camera path
+    /// lands (see [`OctreeIntegrator::gathered_global`]): one BSDF-sampled ray per sample, and
+    /// the cache's bias is averaged over the hemisphere instead of showing directly.
+    pub gather: bool,
 }
 
 /// Safety bound on specular chains from the camera when `max_depth` is unbounded (a closed
@@ -86,6 +90,7 @@ impl Default for OctreeIntegratorSettings {
             caustic: OctreeSettings { h_max: CAUSTIC_H_MAX, n_max: CAUSTIC_N_MAX, ..tree },
             max_depth: -1,
             view: OctreeView::Render,
+            gather: false,
         }
     }
 }
@@ -145,7 +150,11 @@ impl OctreeIntegrator {
         let maps = trace_photons(scene, &photon_settings)?;
         let t0 = Instant::now();
         let needs_geometry = |s: &OctreeSettings| s.estimator == crate::caches::Estimator::GeometryArea;
-        let tris = if needs_geometry(&settings.global) || needs_geometry(&settings.caustic) { Some(scene.world_triangles()) } else { None };
+        let tris = if needs_geometry(&settings.global) || needs_geometry(&settings.caustic) {
+            Some(scene.world_triangles_where(Material::has_smooth_lobe))
+        } else {
+            None
+        };
         let global = Octree::build(&maps.global, scene.bounds, &settings.global, tris.as_deref()).map_err(BuildError::Global)?;
         let caustic = if maps.caustic.is_empty() {
             None
@@ -193,10 +202,16 @@ impl OctreeIntegrator {
             let wo = hit.frame.to_local(-ray.d);
             if material.has_smooth_lobe() {
                 match self.settings.view {
+                    OctreeView::Render if self.settings.gather => {
+                        let mut l = direct_light(scene, &hit, material, wo, sampler, counters);
+                        l += self.indirect_from(scene, &hit, material, wo, counters, false, true);
+                        l += self.gathered_global(scene, &hit, material, wo, depth + 1, max_depth, sampler, counters);
+                        result += throughput * l;
+                    }
                     OctreeView::Render => {
                         result += throughput
                             * (direct_light(scene, &hit, material, wo, sampler, counters)
-                                + self.indirect(scene, &hit, material, wo, counters));
+                                + self.indirect_from(scene, &hit, material, wo, counters, true, true));
                     }
                     OctreeView::Irradiance | OctreeView::IrradianceAll => {
                         let n = facing_normal(&hit, ray.d);
@@ -232,18 +247,92 @@ impl OctreeIntegrator {
         result
     }
 
-    /// Indirect light and caustics from the octrees (see the module docs).
-    fn indirect(&self, scene: &Scene, hit: &SurfaceHit, material: &Material, wo: Vec3, counters: &mut RayCounters) -> Color {
+    /// Reflected light from the global and/or the caustic octree at `hit` (see the module docs).
+    #[allow(clippy::too_many_arguments)]
+    fn indirect_from(
+        &self,
+        scene: &Scene,
+        hit: &SurfaceHit,
+        material: &Material,
+        wo: Vec3,
+        counters: &mut RayCounters,
+        global: bool,
+        caustic: bool,
+    ) -> Color {
         // The octree stores incident light on the side the photons came from; query with the
         // shading normal on the side of the viewer.
         let n = if wo.z >= 0.0 { hit.frame.n } else { -hit.frame.n };
+        let trees = global.then_some(&self.global).into_iter().chain(self.caustic.as_ref().filter(|_| caustic));
         let mut l = Color::ZERO;
-        for tree in std::iter::once(&self.global).chain(self.caustic.as_ref()) {
+        for tree in trees {
             if let Some(m) = self.query(tree, hit.p, n, counters) {
                 l += shade_matrix(scene, hit, material, wo, &m);
             }
         }
         l
+    }
+
+    /// The global (indirect) light reflected at `hit`, gathered one bounce away: a BSDF-sampled
+    /// ray follows specular vertices to the first vertex `z` with a non-delta lobe, where the
+    /// light leaving `z` towards `hit` is direct (shadow ray) + global + caustic octrees.
+    /// Emission met on the way is skipped: it is direct light at `hit` (next-event estimation)
+    /// or a caustic at `hit` (caustic octree). The paths counted are therefore exactly those
+    /// of the global photon map — light that met at least one non-specular surface before
+    /// `hit` — so direct + caustic + gathered global still partition the light at `hit`.
+    /// `vertex` is `hit`'s index along the camera path (1 = first surface).
+    #[allow(clippy::too_many_arguments)]
+    fn gathered_global(
+        &self,
+        scene: &Scene,
+        hit: &SurfaceHit,
+        material: &Material,
+        wo: Vec3,
+        vertex: u32,
+        max_depth: u32,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+    ) -> Color {
+        // Surface vertices must stay below max_depth (Mitsuba's count, the light is the last).
+        if vertex + 2 > max_depth {
+            return Color::ZERO;
+        }
+        let u_lobe = sampler.next_1d();
+        let u = sampler.next_2d();
+        let Some(bs) = material.sample(&scene.images, hit.uv, wo, u_lobe, u) else { return Color::ZERO };
+        if !bs.weight.is_finite() {
+            return Color::ZERO;
+        }
+        let mut throughput = bs.weight;
+        let mut ray = hit.spawn(hit.frame.to_world(bs.wi));
+        let mut vertex = vertex + 1;
+        loop {
+            counters.rays += 1;
+            let Some(z) = scene.intersect(&ray) else { return Color::ZERO };
+            let mz = &scene.materials[z.material as usize];
+            let wo_z = z.frame.to_local(-ray.d);
+            if mz.has_smooth_lobe() {
+                let mut l = self.indirect_from(scene, &z, mz, wo_z, counters, true, true);
+                if vertex < max_depth {
+                    l += direct_light(scene, &z, mz, wo_z, sampler, counters);
+                }
+                return throughput * l;
+            }
+            if vertex + 1 >= max_depth {
+                return Color::ZERO;
+            }
+            let u_lobe = sampler.next_1d();
+            let u = sampler.next_2d();
+            let Some(bs) = mz.sample(&scene.images, z.uv, wo_z, u_lobe, u) else { return Color::ZERO };
+            if bs.lobe != Lobe::Specular || !bs.weight.is_finite() {
+                return Color::ZERO;
+            }
+            throughput *= bs.weight;
+            if throughput == Color::ZERO {
+                return Color::ZERO;
+            }
+            ray = z.spawn(z.frame.to_world(bs.wi));
+            vertex += 1;
+        }
     }
 
     #[inline]
