@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::accel::BackendKind;
-use octolux::caches::{Estimator, Storage};
+use octolux::caches::{Estimator, Split, Storage};
 use octolux::integrators::christensen::{AddedSamples, ChristensenIntegrator, ChristensenSettings};
 use octolux::integrators::octree::{OctreeBuildStats, OctreeIntegrator, OctreeIntegratorSettings, OctreeView};
 use octolux::integrators::photonmap::{CacheView, PhotonMapIntegrator, PhotonMapSettings};
@@ -92,6 +92,12 @@ enum EstimatorArg {
     GeometryArea,
 }
 
+#[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
+enum SplitArg {
+    Direction,
+    Normal,
+}
+
 /// Settings of the octree integrator (defaults: the paper's configuration where it has one).
 #[derive(clap::Args)]
 struct OctreeArgs {
@@ -120,6 +126,11 @@ struct OctreeArgs {
     /// Estimator of the leaf matrices.
     #[arg(long, value_enum)]
     estimator: Option<EstimatorArg>,
+    /// How photons go to the six axis matrices: `direction` (the paper's, by the sign of the
+    /// incident direction) or `normal` (by the side of the surface they landed on; the
+    /// integrator's default, exact for planes of any orientation).
+    #[arg(long, value_enum)]
+    split: Option<SplitArg>,
     /// Store full f32 matrices instead of the paper's 36-byte compressed leaves.
     #[arg(long)]
     uncompressed: bool,
@@ -520,6 +531,12 @@ fn octree_settings(args: &RenderArgs, max_depth: i32) -> OctreeIntegratorSetting
                 EstimatorArg::Paper => Estimator::Paper,
                 EstimatorArg::Cosine => Estimator::Cosine,
                 EstimatorArg::GeometryArea => Estimator::GeometryArea,
+            };
+        }
+        if let Some(v) = o.split {
+            t.split = match v {
+                SplitArg::Direction => Split::Direction,
+                SplitArg::Normal => Split::Normal,
             };
         }
         if o.uncompressed {

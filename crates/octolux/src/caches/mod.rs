@@ -11,4 +11,4 @@ pub mod kdtree;
 pub mod octree;
 pub mod ward;
 
-pub use octree::{Enlarge, Estimator, LeafInfo, Octree, OctreeError, OctreeSettings, OctreeStats, Storage};
+pub use octree::{Enlarge, Estimator, LeafInfo, Octree, OctreeError, OctreeSettings, OctreeStats, Split, Storage};

@@ -83,7 +83,11 @@ impl Default for OctreeIntegratorSettings {
     /// (cornell-box 128², 64 spp, 1M photons, relMSE vs Mitsuba 3: paper 8.2e-3 — 8% too dark —,
     /// cosine 1.4e-3, geometry-area 8.5e-4; `--estimator paper` restores the paper's).
     fn default() -> Self {
-        let tree = OctreeSettings { estimator: crate::caches::Estimator::GeometryArea, ..OctreeSettings::default() };
+        let tree = OctreeSettings {
+            estimator: crate::caches::Estimator::GeometryArea,
+            split: crate::caches::Split::Normal,
+            ..OctreeSettings::default()
+        };
         OctreeIntegratorSettings {
             photons: PhotonSettings::default(),
             global: tree.clone(),

@@ -16,9 +16,9 @@
 use super::compress::{compress_leaf, FullLeaf};
 use super::geometry::{lit_areas, projected_lit_area, OrientedArea};
 use super::query::TreeView;
-use super::settings::{Enlarge, Estimator, Storage, MAX_DEPTH};
+use super::settings::{Enlarge, Estimator, Split, Storage, MAX_DEPTH};
 use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg, SortKey, Sorted};
-use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, LEAF_BIT, NO_VALUE};
+use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, ALL_FACING, LEAF_BIT, NO_VALUE};
 use crate::math::Bounds3;
 use crate::photon::Photon;
 use glam::{DVec3, Mat3, Vec3, Vec3A};
@@ -168,6 +168,9 @@ struct LeafEstimate {
     m: FullLeaf,
     gathered: u32,
     fallback: bool,
+    /// Bit `k` (order `+X, −X, +Y, −Y, +Z, −Z`): the cell has surfaces facing that
+    /// half-axis, so matrix `k` carries a value (see [`super::Octree::facing`]).
+    facing: u8,
 }
 
 struct EstimateCtx<'a, R> {
@@ -208,6 +211,63 @@ impl Accumulator {
             }
         }
         self.count = 0;
+    }
+
+    /// [`Split::Normal`]: straight into the axis matrices on the side of `ng` (f64; the
+    /// weights differ per axis, so the octant sums do not apply).
+    #[inline]
+    fn add_by_normal(&mut self, w: Vec3, c: Vec3, weight: f32, ng: Vec3) {
+        let n2 = ng * ng;
+        let norm = n2.dot(n2);
+        if !(norm > 0.0) {
+            return;
+        }
+        let wd = DVec3::from(w * weight);
+        for a in 0..3 {
+            if ng[a] != 0.0 {
+                let g = (n2[a] / norm) as f64;
+                let m = &mut self.zero[2 * a + (ng[a] < 0.0) as usize];
+                m[0] += wd * (g * c.x as f64);
+                m[1] += wd * (g * c.y as f64);
+                m[2] += wd * (g * c.z as f64);
+            }
+        }
+    }
+
+    /// [`Split::Normal`] with [`Estimator::GeometryArea`]: matrix `(a, s)` estimates the
+    /// light on the surfaces facing the half-axis `(a, s)`, weighted by `n_a²`:
+    /// `M_a^s = Σ_p ng_a² Φ_p w_p / A⊥_a^s(w_p)` with `A⊥_a^s(w) = Σ_t n_{t,a}² A_t (n_t·w)₊`
+    /// over the lit pieces whose normal has the sign `s` on axis `a`. Each photon is thus
+    /// divided by the area of the surfaces it can have landed on in that matrix, not by all
+    /// the surfaces of the cell (which would average a dim face with the bright floor
+    /// beside it). For one plane of normal `N`: `M_a^{s(N_a)} = ∫ L w dω` for every axis, so
+    /// the query's `Σ_a N_a² = 1` returns it exactly.
+    #[inline]
+    fn add_by_surface(&mut self, w: Vec3, c: Vec3, ng: Vec3, areas: &[OrientedArea], min_cos: f32) {
+        for a in 0..3 {
+            if ng[a] == 0.0 {
+                continue;
+            }
+            let neg = ng[a] < 0.0;
+            let (mut proj, mut total) = (0.0f32, 0.0f32);
+            for e in areas {
+                if e.n[a] != 0.0 && (e.n[a] < 0.0) == neg {
+                    let g = e.n[a] * e.n[a] * e.area;
+                    total += g;
+                    proj += g * e.n.dot(w).max(0.0);
+                }
+            }
+            let den = proj.max(min_cos * total);
+            if !(den > 0.0) {
+                continue;
+            }
+            let f = (ng[a] * ng[a] / den) as f64;
+            let wd = DVec3::from(w) * f;
+            let m = &mut self.zero[2 * a + neg as usize];
+            m[0] += wd * c.x as f64;
+            m[1] += wd * c.y as f64;
+            m[2] += wd * c.z as f64;
+        }
     }
 
     #[inline(always)]
@@ -349,6 +409,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         }
         let areas = &sc.areas;
         let mut acc = Accumulator::new();
+        let by_normal = self.settings.split == Split::Normal;
         let mut add = |i: u32| {
             let r = &recs[i as usize];
             let w = r.w();
@@ -357,13 +418,30 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
                 Estimator::Paper | Estimator::Cosine => inv_da,
                 Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total),
             };
-            acc.add(w, r.c(), weight);
+            match (by_normal, estimator) {
+                (true, Estimator::GeometryArea) => acc.add_by_surface(w, r.c(), r.ng(), areas, min_cos),
+                (true, _) => acc.add_by_normal(w, r.c(), weight, r.ng()),
+                (false, _) => acc.add(w, r.c(), weight),
+            }
         };
         for &(lo, hi) in &sc.segs {
             (lo..hi).for_each(&mut add);
         }
         sc.singles.iter().for_each(|&i| add(i));
-        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback }
+        let facing = if by_normal && estimator == Estimator::GeometryArea {
+            let mut bits = 0u8;
+            for e in areas.iter() {
+                for a in 0..3 {
+                    if e.n[a] != 0.0 {
+                        bits |= 1 << (2 * a + (e.n[a] < 0.0) as usize);
+                    }
+                }
+            }
+            bits
+        } else {
+            ALL_FACING
+        };
+        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing }
     }
 }
 
@@ -523,11 +601,15 @@ pub(super) fn build(
     // 1.-2. sort and subdivision, 3.-4. estimates
     let cosine_min = (settings.estimator == Estimator::Cosine).then_some(settings.min_cos);
     let kf = KeyFn { origin, inv_quant, h };
-    let (tree, n_kept, est) = match settings.estimator {
-        Estimator::GeometryArea => sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, geometry.unwrap_or(&[])),
-        Estimator::Paper | Estimator::Cosine => sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, &[]),
+    let tris = geometry.filter(|_| settings.estimator == Estimator::GeometryArea).unwrap_or(&[]);
+    let (tree, n_kept, est) = if settings.estimator == Estimator::GeometryArea || settings.split == Split::Normal {
+        sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, tris)
+    } else {
+        sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, &[])
     };
     let Tree { nodes, leaves, valid, .. } = tree;
+    // The facing bits are stored only when they say something (Split::Normal with geometry).
+    let facing_used = est.iter().any(|e| e.facing != ALL_FACING);
     let values = match settings.storage {
         Storage::Compressed => LeafValues::Compressed(est.par_iter().map(|e| compress_leaf(&e.m)).collect()),
         Storage::Full => LeafValues::Full(est.iter().map(|e| e.m).collect()),
@@ -546,7 +628,7 @@ pub(super) fn build(
     }
     let nv = valid.len();
     let mean = |s: f64| if nv > 0 { s / nv as f64 } else { 0.0 };
-    let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes();
+    let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes() + if facing_used { est.len() } else { 0 };
     let stats = OctreeStats {
         t_build_s: 0.0,
         bytes,
@@ -572,6 +654,7 @@ pub(super) fn build(
         h_max: h,
         nodes,
         values,
+        facing: est.iter().map(|e| e.facing).collect(),
         query_half: 0.5 * settings.alpha * min_leaf_size,
         settings: settings.clone(),
         stats,

@@ -62,7 +62,10 @@ mod sort;
 #[cfg(test)]
 mod tests;
 
-pub use settings::{Enlarge, Estimator, OctreeSettings, Storage, MAX_DEPTH};
+/// Every matrix of the leaf carries a value.
+pub(crate) const ALL_FACING: u8 = 0b11_1111;
+
+pub use settings::{Enlarge, Estimator, OctreeSettings, Split, Storage, MAX_DEPTH};
 
 use crate::math::Bounds3;
 use compress::{CompressedLeaf, FullLeaf};
@@ -186,6 +189,12 @@ pub struct Octree {
     h_max: u32,
     nodes: Vec<Node>,
     values: LeafValues,
+    /// Per valid leaf: which of its six matrices describe surfaces in the cell (bit `k` in
+    /// the order `+X, −X, +Y, −Y, +Z, −Z`). With [`Split::Normal`] and the geometry known, a
+    /// matrix whose half-axis no surface of the cell faces carries no value, not a zero, and
+    /// the query leaves it out of that axis's blend (the paper's rule for atmospheric cells,
+    /// per matrix). Otherwise every bit is set.
+    facing: Vec<u8>,
     /// Half side of the query box: `alpha * min_leaf_size / 2`.
     query_half: f32,
     settings: OctreeSettings,

@@ -6,7 +6,9 @@
 //! allocation: the traversal is a recursion of depth at most `h_max`.
 //!
 //! `M_k(N) = Σ_a M_{k,a}^{s(N_a)} N_a²`, `E = M(N)ᵀ N`; with compressed leaves
-//! `M ≈ D Cᵀ`, so `Mᵀ N = C (D·N)` costs one dot product per matrix.
+//! `M ≈ D Cᵀ`, so `Mᵀ N = C (D·N)` costs one dot product per matrix. The blend over leaves
+//! is done per axis, so that a leaf whose matrix `(a, s)` describes no surface (a floor-only
+//! cell queried for a wall's normal) is left out of that axis instead of pulling it to 0.
 
 use super::compress::{decompress_matrix, tables, MATRIX_BYTES};
 use super::{LeafInfo, LeafValues, Node, Octree, NO_VALUE};
@@ -123,80 +125,100 @@ impl Octree {
         });
     }
 
-    /// `M_k(N)ᵀ N` of one leaf.
+    /// `M_{k,a}^{s(N_a)ᵀ} N` of one leaf for the three axes (not yet weighted by `N_a²`).
     #[inline]
-    fn leaf_irradiance(&self, v: usize, n: Vec3, sel: &([usize; 3], [f32; 3])) -> Vec3 {
-        let mut e = Vec3::ZERO;
+    fn leaf_irradiance(&self, v: usize, n: Vec3, sel: &([usize; 3], [f32; 3])) -> [Vec3; 3] {
+        let mut e = [Vec3::ZERO; 3];
         match &self.values {
             LeafValues::Compressed(c) => {
                 let t = tables();
                 let leaf = &c[v];
-                for a in 0..3 {
+                for (a, ea) in e.iter_mut().enumerate() {
                     let b = &leaf[sel.0[a] * MATRIX_BYTES..(sel.0[a] + 1) * MATRIX_BYTES];
                     // inline decode: D·N and C
                     let (st, ct) = (t.sin_t[b[0] as usize], t.cos_t[b[0] as usize]);
                     let d = Vec3::new(st * t.cos_p[b[1] as usize], st * t.sin_p[b[1] as usize], ct);
                     let f = t.exp_scale[b[5] as usize];
                     let col = Vec3::new(b[2] as f32 + 0.5, b[3] as f32 + 0.5, b[4] as f32 + 0.5) * f;
-                    e += col * (sel.1[a] * d.dot(n));
+                    *ea = col * d.dot(n);
                 }
             }
             LeafValues::Full(m) => {
                 let leaf = &m[v];
-                for a in 0..3 {
-                    e += (leaf[sel.0[a]].transpose() * n) * sel.1[a];
+                for (a, ea) in e.iter_mut().enumerate() {
+                    *ea = leaf[sel.0[a]].transpose() * n;
                 }
             }
         }
         e
     }
 
-    /// `M_k(N)` of one leaf.
+    /// `M_{k,a}^{s(N_a)}` of one leaf for the three axes.
     #[inline]
-    fn leaf_matrix(&self, v: usize, sel: &([usize; 3], [f32; 3])) -> Mat3 {
-        let mut m = Mat3::ZERO;
-        for a in 0..3 {
+    fn leaf_matrix(&self, v: usize, sel: &([usize; 3], [f32; 3])) -> [Mat3; 3] {
+        std::array::from_fn(|a| {
             let k = sel.0[a];
-            let mk = match &self.values {
+            match &self.values {
                 LeafValues::Compressed(c) => decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
                 LeafValues::Full(f) => f[v][k],
-            };
-            m += mk * sel.1[a];
+            }
+        })
+    }
+
+    /// The §7 blend, per axis: `M(N) = Σ_a N_a² (Σ_k γ_k M_{k,a}) / (Σ_k γ_k)` where `k` runs
+    /// over the valid leaves whose matrix `(a, s(N_a))` carries a value ([`Octree::facing`];
+    /// all of them unless `Split::Normal` knows the geometry); the `N_a²` are renormalised
+    /// over the axes that got any leaf. `None` when no leaf contributes.
+    #[inline]
+    fn blend<T>(&self, p: Vec3, n: Vec3, zero: T, leaf: impl Fn(usize, &([usize; 3], [f32; 3])) -> [T; 3]) -> Option<T>
+    where
+        T: Copy + std::ops::AddAssign + std::ops::Mul<f32, Output = T>,
+    {
+        if !p.is_finite() || !n.is_finite() {
+            return None;
         }
-        m
+        let sel = selection(n);
+        let mut sum = [zero; 3];
+        let mut wsum = [0.0f32; 3];
+        self.visit_query(p, |v, g| {
+            let bits = self.facing[v];
+            let terms = leaf(v, &sel);
+            for a in 0..3 {
+                if bits & (1 << sel.0[a]) != 0 {
+                    sum[a] += terms[a] * g;
+                    wsum[a] += g;
+                }
+            }
+        });
+        let mut out = zero;
+        let mut norm = 0.0f32;
+        let mut any = false;
+        for a in 0..3 {
+            if wsum[a] > 0.0 {
+                any = true;
+                if sel.1[a] > 0.0 {
+                    out += sum[a] * (sel.1[a] / wsum[a]);
+                    norm += sel.1[a];
+                }
+            }
+        }
+        if !any {
+            return None;
+        }
+        Some(if norm > 0.0 { out * (1.0 / norm) } else { zero })
     }
 
     /// Irradiance (W/m², RGB) at `p` for the unit normal `n`: the §7 blend of `M_k(N)ᵀ N`,
     /// negative channels clamped to 0. `None` when no valid leaf meets the query box (or
     /// `p`/`n` is not finite).
     pub fn irradiance(&self, p: Vec3, n: Vec3) -> Option<Color> {
-        if !p.is_finite() || !n.is_finite() {
-            return None;
-        }
-        let sel = selection(n);
-        let mut sum = Vec3::ZERO;
-        let mut wsum = 0.0f32;
-        self.visit_query(p, |v, g| {
-            sum += self.leaf_irradiance(v, n, &sel) * g;
-            wsum += g;
-        });
-        (wsum > 0.0).then(|| (sum / wsum).max(Vec3::ZERO))
+        self.blend(p, n, Vec3::ZERO, |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
     }
 
     /// The blended incident-radiance matrix `M(N)` at `p` (columns = r, g, b irradiance
     /// vectors), for glossy shading. `None` as for [`Octree::irradiance`].
     pub fn incident_matrix(&self, p: Vec3, n: Vec3) -> Option<Mat3> {
-        if !p.is_finite() || !n.is_finite() {
-            return None;
-        }
-        let sel = selection(n);
-        let mut sum = Mat3::ZERO;
-        let mut wsum = 0.0f32;
-        self.visit_query(p, |v, g| {
-            sum += self.leaf_matrix(v, &sel) * g;
-            wsum += g;
-        });
-        (wsum > 0.0).then(|| sum * (1.0 / wsum))
+        self.blend(p, n, Mat3::ZERO, |v, sel| self.leaf_matrix(v, sel))
     }
 
     /// The six matrices of the valid leaf containing `p` (decompressed), in the order

@@ -559,3 +559,79 @@ fn default_n_max_matches_table_1() {
     assert!((1834.0 * 0.8..1834.0 * 1.2).contains(&(st.valid_leaves as f64)), "{st:?}");
     assert!((st.mean_cell_size / (30.69 / 555.0) - 1.0).abs() < 0.1, "{st:?}");
 }
+
+/// Photons of a diffuse incident field (cosine-weighted directions around `n`, so the
+/// irradiance is `density · power`) at `count` random points `origin + s·u + t·v`, s, t in [0, 1).
+fn diffuse_field(origin: Vec3, u: Vec3, v: Vec3, n: Vec3, power: Vec3, count: u64, seed: u64) -> Vec<Photon> {
+    (0..count)
+        .map(|i| {
+            let mut s = Sampler::new(seed, i, 0);
+            let (a, b) = (s.next_2d(), s.next_2d());
+            Photon { p: origin + u * a.x + v * a.y, wi: around(n, square_to_cosine_hemisphere(b)), power, ng: n }
+        })
+        .collect()
+}
+
+/// Depth-3 leaves (the photon counts below split every cell the surfaces cross).
+fn normal_split(split: Split) -> OctreeSettings {
+    OctreeSettings { h_max: 3, n_min: 0, n_max: 1000, split, ..settings(Estimator::GeometryArea, Storage::Full) }
+}
+
+/// A plane tilted by 30° about the y axis under a diffuse field: the paper's split by the
+/// photons' directions reads ~11% too little irradiance (the query's matrices miss the
+/// photons on the other side of the x axis); the split by surface normal is exact.
+#[test]
+fn a_tilted_plane_reads_its_irradiance_exactly_only_with_the_normal_split() {
+    let th = 30f32.to_radians();
+    let n = Vec3::new(th.sin(), 0.0, th.cos());
+    // the plane through (0.5, 0.5, 0.5) with normal n, a 2x2 patch covering the cube's section
+    let (u, v) = (Vec3::new(th.cos(), 0.0, -th.sin()) * 2.0, Vec3::Y * 2.0);
+    let origin = Vec3::splat(0.5) - 0.5 * u - 0.5 * v;
+    let count = 400_000u64;
+    let photons: Vec<Photon> =
+        diffuse_field(origin, u, v, n, Vec3::splat(PHI), count, 1).into_iter().filter(|p| unit_cube().contains(p.p)).collect();
+    let tri = |a: Vec3, b: Vec3, c: Vec3| [a, b, c];
+    let (p00, p10, p11, p01) = (origin, origin + u, origin + u + v, origin + v);
+    let mut geometry = vec![tri(p00, p10, p11), tri(p00, p11, p01)];
+    if (p10 - p00).cross(p11 - p00).dot(n) < 0.0 {
+        geometry = geometry.into_iter().map(|[a, b, c]| [a, c, b]).collect();
+    }
+    let truth = count as f32 / 4.0 * PHI; // photons per unit area x power
+    let mut read = Vec::new();
+    for split in [Split::Direction, Split::Normal] {
+        let t = Octree::build(&photons, unit_cube(), &normal_split(split), Some(&geometry)).unwrap();
+        let e = t.irradiance(Vec3::splat(0.5), n).unwrap().x / truth;
+        read.push(e);
+    }
+    assert!((read[1] - 1.0).abs() < 0.03, "normal split: {} of the truth", read[1]);
+    assert!(read[0] < 0.93, "direction split: {} of the truth, expected ~0.89", read[0]);
+}
+
+/// A floor (normal +z, irradiance E) meeting a wall (normal −x, irradiance 4E) in the same
+/// cells. With the normal split each surface reads its own irradiance, also where the query
+/// box reaches cells that hold only the floor or only the wall (facing bits); the paper's
+/// split averages the two surfaces' light in the shared cells.
+#[test]
+fn the_normal_split_keeps_a_floor_and_a_wall_apart() {
+    let count = 300_000u64;
+    let (e_floor, e_wall) = (Vec3::splat(PHI), Vec3::splat(4.0 * PHI));
+    // floor z = 0.3 over x in [0, 0.55], wall x = 0.55 over z in [0.3, 1]; both y in [0, 1]
+    let mut photons = diffuse_field(Vec3::new(0.0, 0.0, 0.3), Vec3::X * 0.55, Vec3::Y, Vec3::Z, e_floor, count, 2);
+    photons.extend(diffuse_field(Vec3::new(0.55, 0.0, 0.3), Vec3::Z * 0.7, Vec3::Y, Vec3::NEG_X, e_wall, count, 3));
+    let mut geometry = quad(2, 0.3, [0.0, 0.55], [0.0, 1.0]).to_vec(); // normal +z (quad's u = x, v = y for axis 2)
+    geometry.extend(quad(0, 0.55, [0.0, 1.0], [0.3, 1.0]).map(|[a, b, c]| [a, c, b])); // normal −x
+    let (floor_truth, wall_truth) = (count as f32 / 0.55 * PHI, count as f32 / 0.7 * 4.0 * PHI);
+    let t = Octree::build(&photons, unit_cube(), &normal_split(Split::Normal), Some(&geometry)).unwrap();
+    for y in [0.3, 0.5, 0.7] {
+        // near the corner (same cells) and away from it
+        for d in [0.02, 0.1, 0.2] {
+            let f = t.irradiance(Vec3::new(0.55 - d, y, 0.3), Vec3::Z).unwrap().x / floor_truth;
+            let w = t.irradiance(Vec3::new(0.55, y, 0.3 + d), Vec3::NEG_X).unwrap().x / wall_truth;
+            assert!((f - 1.0).abs() < 0.05, "floor at {d} from the corner: {f} of the truth");
+            assert!((w - 1.0).abs() < 0.05, "wall at {d} from the corner: {w} of the truth");
+        }
+    }
+    let paper = Octree::build(&photons, unit_cube(), &normal_split(Split::Direction), Some(&geometry)).unwrap();
+    let f = paper.irradiance(Vec3::new(0.53, 0.5, 0.3), Vec3::Z).unwrap().x / floor_truth;
+    assert!(f > 1.2, "the direction split mixes the wall's light into the floor's: {f}");
+}
