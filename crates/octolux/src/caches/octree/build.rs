@@ -13,7 +13,7 @@
 //!    they stick out, unless the whole neighbour lies inside), then sum the six matrices
 //!    sequentially (8 octant sums, f32 blocks of 64 photons flushed into f64).
 
-use super::compress::{compress_leaf, FullLeaf};
+use super::compress::{compress_leaf, compress_leaf_for_normals, FullLeaf};
 use super::geometry::{lit_areas, projected_lit_area, OrientedArea};
 use super::query::TreeView;
 use super::settings::{Enlarge, Estimator, Split, Storage, MAX_DEPTH};
@@ -171,6 +171,10 @@ struct LeafEstimate {
     /// Bit `k` (order `+X, −X, +Y, −Y, +Z, −Z`): the cell has surfaces facing that
     /// half-axis, so matrix `k` carries a value (see [`super::Octree::facing`]).
     facing: u8,
+    /// Mean normal of the surfaces matrix `k` describes (weights `n_a² × area`), or the
+    /// half-axis itself when the geometry is unknown: the compression keeps the irradiance
+    /// exact for it.
+    normals: [Vec3; 6],
 }
 
 struct EstimateCtx<'a, R> {
@@ -428,20 +432,33 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
             (lo..hi).for_each(&mut add);
         }
         sc.singles.iter().for_each(|&i| add(i));
+        let mut normals: [Vec3; 6] = std::array::from_fn(|k| {
+            let mut v = Vec3::ZERO;
+            v[k / 2] = if k % 2 == 0 { 1.0 } else { -1.0 };
+            v
+        });
         let facing = if by_normal && estimator == Estimator::GeometryArea {
             let mut bits = 0u8;
+            let mut sums = [Vec3::ZERO; 6];
             for e in areas.iter() {
                 for a in 0..3 {
                     if e.n[a] != 0.0 {
-                        bits |= 1 << (2 * a + (e.n[a] < 0.0) as usize);
+                        let k = 2 * a + (e.n[a] < 0.0) as usize;
+                        bits |= 1 << k;
+                        sums[k] += e.n * (e.n[a] * e.n[a] * e.area);
                     }
+                }
+            }
+            for (n, s) in normals.iter_mut().zip(sums) {
+                if let Some(u) = s.try_normalize() {
+                    *n = u;
                 }
             }
             bits
         } else {
             ALL_FACING
         };
-        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing }
+        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing, normals }
     }
 }
 
@@ -611,6 +628,9 @@ pub(super) fn build(
     // The facing bits are stored only when they say something (Split::Normal with geometry).
     let facing_used = est.iter().any(|e| e.facing != ALL_FACING);
     let values = match settings.storage {
+        Storage::Compressed if settings.split == Split::Normal => {
+            LeafValues::Compressed(est.par_iter().map(|e| compress_leaf_for_normals(&e.m, &e.normals)).collect())
+        }
         Storage::Compressed => LeafValues::Compressed(est.par_iter().map(|e| compress_leaf(&e.m)).collect()),
         Storage::Full => LeafValues::Full(est.iter().map(|e| e.m).collect()),
     };
