@@ -521,6 +521,24 @@ impl PlasticLocal {
 }
 
 impl Material {
+    /// The albedo `ρ` when the side of the surface that `wo` sees is purely Lambertian
+    /// (`f = ρ/π`; zero from behind a one-sided diffuse), `None` for any other BSDF.
+    pub fn lambertian_albedo(&self, images: &[Image], uv: Vec2, wo: Vec3) -> Option<Color> {
+        match self {
+            Material::Diffuse { reflectance } => Some(if wo.z > 0.0 { reflectance.eval(images, uv) } else { Color::ZERO }),
+            Material::TwoSided { front, back } => {
+                if wo.z > 0.0 {
+                    front.lambertian_albedo(images, uv, wo)
+                } else if wo.z < 0.0 {
+                    back.lambertian_albedo(images, uv, flip_z(wo))
+                } else {
+                    Some(Color::ZERO)
+                }
+            }
+            _ => None,
+        }
+    }
+
     /// `f(wo, wi) |cos θ_i|` of the non-delta lobes (local frame).
     pub fn eval(&self, images: &[Image], uv: Vec2, wo: Vec3, wi: Vec3) -> Color {
         match self {
@@ -1268,5 +1286,25 @@ mod tests {
         };
         assert!(nested.validate(0).is_err());
         assert!(nested.has_smooth_lobe());
+    }
+
+    #[test]
+    fn lambertian_albedo_is_what_eval_returns_and_only_for_lambertian_sides() {
+        let d = |c: f32| Material::Diffuse { reflectance: Texture::Const(white(c)) };
+        let two = Material::TwoSided { front: Box::new(d(0.5)), back: Box::new(d(0.7)) };
+        let glossy_back = Material::TwoSided { front: Box::new(d(0.5)), back: Box::new(rough_conductor(0.3)) };
+        for (wo, wi) in [(dir(10.0, 0.0), dir(40.0, 120.0)), (dir(170.0, 30.0), dir(120.0, 200.0)), (dir(60.0, 0.0), dir(150.0, 0.0))] {
+            for m in [d(0.6), two.clone()] {
+                let rho = m.lambertian_albedo(&[], Vec2::ZERO, wo).expect("lambertian");
+                let f = m.eval(&[], Vec2::ZERO, wo, wi);
+                // same side: rho |cos| / pi; across the surface: nothing
+                let expect = if wo.z * wi.z > 0.0 { rho * wi.z.abs() * FRAC_1_PI } else { Color::ZERO };
+                assert!((f - expect).abs().max_element() < 1e-6, "{m:?} {wo:?} {wi:?}: {f:?} vs {expect:?}");
+            }
+        }
+        assert_eq!(d(0.6).lambertian_albedo(&[], Vec2::ZERO, dir(120.0, 0.0)), Some(Color::ZERO), "one-sided, from behind");
+        assert!(glossy_back.lambertian_albedo(&[], Vec2::ZERO, dir(10.0, 0.0)).is_some());
+        assert!(glossy_back.lambertian_albedo(&[], Vec2::ZERO, dir(170.0, 0.0)).is_none());
+        assert!(rough_conductor(0.3).lambertian_albedo(&[], Vec2::ZERO, dir(10.0, 0.0)).is_none());
     }
 }
