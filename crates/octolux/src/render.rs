@@ -140,7 +140,8 @@ pub fn filter_weight(filter: PixelFilter, x: f32) -> f32 {
     }
 }
 
-/// The widest splat margin, in pixels, a filter may have (a Gaussian of stddev up to ~2 px).
+/// The widest splat margin in pixels (a Gaussian of stddev up to 2 px); a wider filter is cut
+/// at this margin, its weights renormalised per pixel as always.
 const MAX_MARGIN: i32 = 8;
 
 /// One tile's contribution: rgb sums and weight sums over the tile plus its margin.
