@@ -417,15 +417,20 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         let mut add = |i: u32| {
             let r = &recs[i as usize];
             let w = r.w();
+            if by_normal && estimator == Estimator::GeometryArea {
+                // per-matrix areas: no single weight
+                acc.add_by_surface(w, r.c(), r.ng(), areas, min_cos);
+                return;
+            }
             let weight = match estimator {
                 // `w` carries the cosine weight
                 Estimator::Paper | Estimator::Cosine => inv_da,
                 Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total),
             };
-            match (by_normal, estimator) {
-                (true, Estimator::GeometryArea) => acc.add_by_surface(w, r.c(), r.ng(), areas, min_cos),
-                (true, _) => acc.add_by_normal(w, r.c(), weight, r.ng()),
-                (false, _) => acc.add(w, r.c(), weight),
+            if by_normal {
+                acc.add_by_normal(w, r.c(), weight, r.ng());
+            } else {
+                acc.add(w, r.c(), weight);
             }
         };
         for &(lo, hi) in &sc.segs {
@@ -625,8 +630,9 @@ pub(super) fn build(
         sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, &[])
     };
     let Tree { nodes, leaves, valid, .. } = tree;
-    // The facing bits are stored only when they say something (Split::Normal with geometry).
-    let facing_used = est.iter().any(|e| e.facing != ALL_FACING);
+    // The facing bits are kept only when they say something (Split::Normal with geometry);
+    // an empty list reads as "every matrix carries a value".
+    let facing: Vec<u8> = if est.iter().any(|e| e.facing != ALL_FACING) { est.iter().map(|e| e.facing).collect() } else { Vec::new() };
     let values = match settings.storage {
         Storage::Compressed if settings.split == Split::Normal => {
             LeafValues::Compressed(est.par_iter().map(|e| compress_leaf_for_normals(&e.m, &e.normals)).collect())
@@ -648,7 +654,7 @@ pub(super) fn build(
     }
     let nv = valid.len();
     let mean = |s: f64| if nv > 0 { s / nv as f64 } else { 0.0 };
-    let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes() + if facing_used { est.len() } else { 0 };
+    let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes() + facing.len();
     let stats = OctreeStats {
         t_build_s: 0.0,
         bytes,
@@ -674,7 +680,7 @@ pub(super) fn build(
         h_max: h,
         nodes,
         values,
-        facing: est.iter().map(|e| e.facing).collect(),
+        facing,
         query_half: 0.5 * settings.alpha * min_leaf_size,
         settings: settings.clone(),
         stats,

@@ -193,7 +193,7 @@ pub struct Octree {
     /// the order `+X, −X, +Y, −Y, +Z, −Z`). With [`Split::Normal`] and the geometry known, a
     /// matrix whose half-axis no surface of the cell faces carries no value, not a zero, and
     /// the query leaves it out of that axis's blend (the paper's rule for atmospheric cells,
-    /// per matrix). Otherwise every bit is set.
+    /// per matrix). Empty otherwise: every matrix then carries a value.
     facing: Vec<u8>,
     /// Half side of the query box: `alpha * min_leaf_size / 2`.
     query_half: f32,

@@ -11,7 +11,7 @@
 //! cell queried for a wall's normal) is left out of that axis instead of pulling it to 0.
 
 use super::compress::{decompress_matrix, tables, MATRIX_BYTES};
-use super::{LeafInfo, LeafValues, Node, Octree, NO_VALUE};
+use super::{LeafInfo, LeafValues, Node, Octree, ALL_FACING, NO_VALUE};
 use crate::math::{Bounds3, Color};
 use glam::{Mat3, Vec3};
 
@@ -181,7 +181,7 @@ impl Octree {
         let mut sum = [zero; 3];
         let mut wsum = [0.0f32; 3];
         self.visit_query(p, |v, g| {
-            let bits = self.facing[v];
+            let bits = self.facing.get(v).copied().unwrap_or(ALL_FACING);
             let terms = leaf(v, &sel);
             for a in 0..3 {
                 if bits & (1 << sel.0[a]) != 0 {
