@@ -355,6 +355,9 @@ fn cmd_render(args: RenderArgs) -> Result<()> {
         }
         ViewArg::Leaves => CacheView::Render,
     };
+    for flag in ignored_octree_flags(&args.octree, args.integrator) {
+        eprintln!("warning: {flag} applies to --integrator octree only; ignored");
+    }
     let prepare_s = t1.elapsed().as_secs_f64();
     let threads = rayon::current_num_threads();
     let mut build_stats = None;
@@ -501,6 +504,27 @@ fn query_share(r: &RenderStats, threads: usize) -> f64 {
     } else {
         0.0
     }
+}
+
+/// The octree-only options given with another integrator (they would be silently ignored).
+fn ignored_octree_flags(o: &OctreeArgs, integrator: IntegratorArg) -> Vec<&'static str> {
+    if integrator == IntegratorArg::Octree {
+        return Vec::new();
+    }
+    let given = [
+        ("--gather", o.gather),
+        ("--h-max", o.h_max.is_some()),
+        ("--n-min", o.n_min.is_some()),
+        ("--n-max", o.n_max.is_some()),
+        ("--epsilon", o.epsilon.is_some()),
+        ("--alpha", o.alpha.is_some()),
+        ("--estimator", o.estimator.is_some()),
+        ("--split", o.split.is_some()),
+        ("--uncompressed", o.uncompressed),
+        ("--caustic-h-max", o.caustic_h_max.is_some()),
+        ("--caustic-n-max", o.caustic_n_max.is_some()),
+    ];
+    given.into_iter().filter(|&(_, g)| g).map(|(f, _)| f).collect()
 }
 
 fn octree_settings(args: &RenderArgs, max_depth: i32) -> OctreeIntegratorSettings {
