@@ -24,11 +24,17 @@
 //! [`load_mesh_scene`] renders a mesh file on its own; its material mapping and default camera
 //! and lighting are documented there.
 
+mod normals;
 mod obj;
 mod ply;
+mod serialized;
 
+pub use normals::{compute_vertex_normals, mirrors, orient_to_given_normals, place_mesh, rebuild_topology, NormalSource};
 pub use obj::{load_obj_mesh, phong_exponent_to_alpha};
 pub use ply::load_ply_mesh;
+pub use serialized::{load_serialized, parse_serialized, serialized_shape_count, SerializedMesh, SERIALIZED_MAGIC};
+
+use normals::merge_normals;
 
 use crate::{IoError, LoadedScene};
 use glam::Vec3;
@@ -51,70 +57,6 @@ fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
     std::fs::read(path).map_err(|e| IoError::os(path, e))
 }
 
-/// Angle-weighted smooth vertex normals (Thürmer & Wüthrich 1998, the scheme of Mitsuba's
-/// `Mesh::recompute_vertex_normals`). Degenerate triangles contribute nothing; a vertex whose
-/// weighted sum vanishes gets the normal of one of its triangles (or +z when it has none).
-pub fn compute_vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
-    let mut acc = vec![Vec3::ZERO; positions.len()];
-    let mut fallback = vec![Vec3::ZERO; positions.len()];
-    for t in indices {
-        let p = [positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]];
-        let n = (p[1] - p[0]).cross(p[2] - p[0]);
-        let len = n.length();
-        if !len.is_finite() || len <= 0.0 {
-            continue;
-        }
-        let n = n / len;
-        for j in 0..3 {
-            let e0 = (p[(j + 1) % 3] - p[j]).normalize_or_zero();
-            let e1 = (p[(j + 2) % 3] - p[j]).normalize_or_zero();
-            let angle = e0.dot(e1).clamp(-1.0, 1.0).acos();
-            let v = t[j] as usize;
-            acc[v] += n * angle;
-            if fallback[v] == Vec3::ZERO {
-                fallback[v] = n;
-            }
-        }
-    }
-    acc.iter()
-        .zip(fallback)
-        .map(|(a, f)| {
-            let l = a.length();
-            if l.is_finite() && l > 1e-30 {
-                *a / l
-            } else if f != Vec3::ZERO {
-                f
-            } else {
-                Vec3::Z
-            }
-        })
-        .collect()
-}
-
-/// Computed normals where `given` has none (or an unusable one); returns how many given normals
-/// were unusable (zero length).
-fn merge_normals(positions: &[Vec3], indices: &[[u32; 3]], given: &[Option<Vec3>]) -> (Vec<Vec3>, usize) {
-    let computed = compute_vertex_normals(positions, indices);
-    let mut bad = 0;
-    let normals = computed
-        .into_iter()
-        .zip(given)
-        .map(|(c, g)| match g {
-            Some(n) => {
-                let m = n.normalize_or_zero();
-                if m == Vec3::ZERO {
-                    bad += 1;
-                    c
-                } else {
-                    m
-                }
-            }
-            None => c,
-        })
-        .collect();
-    (normals, bad)
-}
-
 /// Fan triangulation `(v0, v_k, v_k+1)` of a polygon, appended to `out`.
 fn push_fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
     for k in 1..poly.len().saturating_sub(1) {
@@ -133,15 +75,32 @@ fn remove_degenerate_with_warning(path: &Path, mesh: &mut TriMesh, warnings: &mu
     }
 }
 
+/// An OBJ or PLY mesh as read (object space, degenerate triangles kept).
+#[derive(Clone, Debug)]
+pub struct RawMesh {
+    /// The mesh; its normals are the file's where it has them, computed elsewhere.
+    pub mesh: TriMesh,
+    /// True when the file gives vertex normals (then they are transformed with the mesh; else
+    /// they are recomputed after the transform, see [`NormalSource`]).
+    pub normals_from_file: bool,
+    /// Problems met while reading, each naming the file.
+    pub warnings: Vec<String>,
+}
+
+/// Read a `.obj` or `.ply` mesh (by extension, case-insensitive) without removing anything.
+pub fn load_mesh_raw(path: &Path) -> Result<RawMesh, IoError> {
+    match lower_extension(path).as_str() {
+        "obj" => obj::load_obj_with_warnings(path),
+        "ply" => ply::load_ply_with_warnings(path),
+        other => Err(IoError::invalid(path, format!("unknown mesh format '.{other}' (expected .obj or .ply)"))),
+    }
+}
+
 /// Load a `.obj` or `.ply` mesh (by extension, case-insensitive), remove degenerate triangles
 /// and return the warnings collected (each naming the file). A file with no usable triangle is
 /// an error.
 pub fn load_mesh_checked(path: &Path) -> Result<(TriMesh, Vec<String>), IoError> {
-    let (mut mesh, mut warnings) = match lower_extension(path).as_str() {
-        "obj" => obj::load_obj_with_warnings(path)?,
-        "ply" => ply::load_ply_with_warnings(path)?,
-        other => return Err(IoError::invalid(path, format!("unknown mesh format '.{other}' (expected .obj or .ply)"))),
-    };
+    let RawMesh { mut mesh, mut warnings, .. } = load_mesh_raw(path)?;
     remove_degenerate_with_warning(path, &mut mesh, &mut warnings);
     if mesh.indices.is_empty() {
         return Err(IoError::invalid(path, "the mesh has no (non-degenerate) triangles"));

@@ -1,7 +1,7 @@
 //! OBJ meshes (and their MTL materials when an OBJ file is rendered as a scene); conventions in
 //! the documentation of [`super`].
 
-use super::{compute_vertex_normals, merge_normals, push_fan, read_file, remove_degenerate_with_warning, DEFAULT_REFLECTANCE};
+use super::{compute_vertex_normals, merge_normals, push_fan, read_file, remove_degenerate_with_warning, RawMesh, DEFAULT_REFLECTANCE};
 use crate::image_io::read_image;
 use crate::IoError;
 use glam::{Vec2, Vec3};
@@ -21,6 +21,8 @@ struct ObjData {
     /// `mtllib` file names with the line that named them.
     mtllibs: Vec<(String, u32)>,
     warnings: Vec<String>,
+    /// True when faces reference `vn` normals.
+    normals_from_file: bool,
 }
 
 /// Resolve a 1-based (or negative, relative) OBJ index against `count` elements defined so far.
@@ -164,7 +166,8 @@ fn parse_obj(path: &Path) -> Result<ObjData, IoError> {
     }
 
     let mut warnings = Vec::new();
-    let normals = if out_n.iter().any(|n| n.is_some()) {
+    let normals_from_file = out_n.iter().any(|n| n.is_some());
+    let normals = if normals_from_file {
         let missing = out_n.iter().filter(|n| n.is_none()).count();
         if missing > 0 {
             warnings.push(format!("{}: {missing} face corners have no normal; computed smooth normals for them", path.display()));
@@ -184,6 +187,7 @@ fn parse_obj(path: &Path) -> Result<ObjData, IoError> {
         material_names,
         mtllibs,
         warnings,
+        normals_from_file,
     })
 }
 
@@ -194,9 +198,9 @@ pub fn load_obj_mesh(path: &Path) -> Result<TriMesh, IoError> {
 }
 
 /// The merged mesh of an OBJ file and the warnings of reading it.
-pub(super) fn load_obj_with_warnings(path: &Path) -> Result<(TriMesh, Vec<String>), IoError> {
+pub(super) fn load_obj_with_warnings(path: &Path) -> Result<RawMesh, IoError> {
     let d = parse_obj(path)?;
-    Ok((d.mesh, d.warnings))
+    Ok(RawMesh { mesh: d.mesh, normals_from_file: d.normals_from_file, warnings: d.warnings })
 }
 
 fn color_of(c: Option<[f32; 3]>) -> Option<Color> {

@@ -1,7 +1,7 @@
 //! PLY meshes (ascii, binary little and big endian); conventions in the documentation of
 //! [`super`].
 
-use super::{compute_vertex_normals, merge_normals, push_fan, read_file};
+use super::{compute_vertex_normals, merge_normals, push_fan, read_file, RawMesh};
 use crate::IoError;
 use glam::{Vec2, Vec3};
 use octolux::scene::TriMesh;
@@ -215,10 +215,10 @@ const PLY_UV_NAMES: [(&str, &str); 4] = [("u", "v"), ("texture_u", "texture_v"),
 /// conventions (see the documentation of [`super`]). Degenerate triangles are kept; see
 /// [`super::load_mesh_checked`].
 pub fn load_ply_mesh(path: &Path) -> Result<TriMesh, IoError> {
-    load_ply_with_warnings(path).map(|(m, _)| m)
+    load_ply_with_warnings(path).map(|r| r.mesh)
 }
 
-pub(super) fn load_ply_with_warnings(path: &Path) -> Result<(TriMesh, Vec<String>), IoError> {
+pub(super) fn load_ply_with_warnings(path: &Path) -> Result<RawMesh, IoError> {
     let bytes = read_file(path)?;
     let header = parse_ply_header(path, &bytes)?;
     let body = &bytes[header.body..];
@@ -380,6 +380,7 @@ pub(super) fn load_ply_with_warnings(path: &Path) -> Result<(TriMesh, Vec<String
     }
 
     let mut warnings = Vec::new();
+    let normals_from_file = given_normals.is_some();
     let normals = match given_normals {
         Some(given) => {
             let (normals, bad) = merge_normals(&positions, &indices, &given);
@@ -390,5 +391,5 @@ pub(super) fn load_ply_with_warnings(path: &Path) -> Result<(TriMesh, Vec<String
         }
         None => compute_vertex_normals(&positions, &indices),
     };
-    Ok((TriMesh { positions, normals: Some(normals), uvs, indices }, warnings))
+    Ok(RawMesh { mesh: TriMesh { positions, normals: Some(normals), uvs, indices }, normals_from_file, warnings })
 }

@@ -27,6 +27,10 @@
 //!   `hdrfilm`; tone-mapping and output parameters are ignored with a warning.
 //! - Geometry is transformed to world space here; spheres keep an analytic form when their
 //!   `to_world` is a similarity (uniform scale, rotation, translation), else it is an error.
+//!   Meshes (`obj`, `ply`, `serialized`) and `rectangle`, `disk`, `cube` face the side Mitsuba 3
+//!   gives them under any `to_world`, mirrors included (module `shape`,
+//!   [`crate::mesh::place_mesh`]); a mesh with only degenerate triangles is skipped with one
+//!   warning.
 
 mod bsdf;
 mod emitter;
