@@ -1,0 +1,43 @@
+//! Textures: a reflectance-like parameter that is a constant or a bitmap looked up by uv
+//! (Mitsuba's `bitmap` texture with its default repeat wrap and bilinear filter).
+
+use super::check_color;
+use crate::image::Image;
+use crate::math::Color;
+use glam::Vec2;
+
+/// A reflectance-like parameter: constant or a bitmap looked up by uv.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texture {
+    Const(Color),
+    /// Index into `SceneDesc::images`; `uv_scale` multiplies the uvs (Mitsuba `to_uv` scale).
+    Bitmap {
+        image: u32,
+        uv_scale: Vec2,
+    },
+}
+
+impl Texture {
+    #[inline]
+    pub fn eval(&self, images: &[Image], uv: Vec2) -> Color {
+        match self {
+            Texture::Const(c) => *c,
+            Texture::Bitmap { image, uv_scale } => images.get(*image as usize).map_or(Color::ZERO, |im| im.lookup(uv * *uv_scale)),
+        }
+    }
+
+    pub(crate) fn validate(&self, n_images: usize, what: &str) -> Result<(), String> {
+        match self {
+            Texture::Const(c) => check_color(*c, what),
+            Texture::Bitmap { image, uv_scale } => {
+                if *image as usize >= n_images {
+                    return Err(format!("{what}: bitmap {image} does not exist (the scene has {n_images} bitmaps)"));
+                }
+                if !uv_scale.is_finite() {
+                    return Err(format!("{what}: uv scale {uv_scale} is not finite"));
+                }
+                Ok(())
+            }
+        }
+    }
+}
