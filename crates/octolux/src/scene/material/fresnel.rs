@@ -88,3 +88,18 @@ pub fn thin_dielectric_reflectance(abs_cos_theta: f32, eta: f32) -> f32 {
         r
     }
 }
+
+/// Diffuse Fresnel reflectance `Fdr` of a dielectric boundary of relative IOR `eta`: the
+/// fraction of uniform diffuse illumination it reflects (Mitsuba's
+/// `fresnel_diffuse_reflectance`: the fit of Egan & Hilgeman 1973 for `eta < 1`, of d'Eon &
+/// Irving 2011 otherwise).
+#[inline]
+pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
+    let inv = 1.0 / eta;
+    if eta < 1.0 {
+        0.0636 * inv + eta * (eta * -1.4399 + 0.7099) + 0.6681
+    } else {
+        let c = [0.919317f32, -3.4793, 6.75335, -7.80989, 4.98554, -1.36881];
+        c.iter().rev().fold(0.0, |acc, &k| acc * inv + k)
+    }
+}

@@ -7,52 +7,48 @@
 //!   (already multiplied by the probability of choosing that lobe).
 //! - `sample` returns the weight `f · |cos θ_i| / pdf` (for delta lobes: the lobe's full weight
 //!   divided by its selection probability).
-//! - One-sided materials (diffuse, conductors, plastic) are black when `wo.z <= 0` or
-//!   `wi.z <= 0`, as in Mitsuba 3; `TwoSided` mirrors the directions for the back side.
-//!   Dielectrics are two-sided by nature (`eta` is inside/outside).
+//! - One-sided materials (diffuse, conductors, plastics, ward, phong) are black when
+//!   `wo.z <= 0` or `wi.z <= 0`, as in Mitsuba; `TwoSided` mirrors the directions for the back
+//!   side. Dielectrics are two-sided by nature (`eta` is inside/outside).
 //! - A sample's `eta` is Mitsuba's `bs.eta`: `eta_t / eta_i` of the boundary crossed.
 //! - Radiance transport: a refraction from side i into side t scales radiance by
 //!   `(eta_i / eta_t)²` (Mitsuba's `TransportMode::Radiance`, factor `eta_ti²`); thin
 //!   dielectrics do not scale.
 //!
-//! Formulas follow Mitsuba 3 (`src/bsdfs/*.cpp`, `render/fresnel.h`, `render/microfacet.h`):
-//! - dielectric Fresnel `F(cos θ_i, η)` for unpolarised light, total internal reflection gives
-//!   1, index-matched (`η = 1`) gives 0; reflection vs refraction is picked with probability F;
-//! - conductor Fresnel with complex IOR `η + i k` per RGB channel (Moeller, "Optics");
-//!   `η = k = 0` is Mitsuba's material "none" whose Fresnel factor is exactly 1;
-//! - thin dielectric: `R' = R + T²R / (1 - R²)`, `T' = 1 - R'`, transmission straight through;
-//! - GGX (Trowbridge–Reitz) with Smith's separable masking `G = G1(wo) G1(wi)`, sampled by
-//!   visible normals (Heitz 2018, "Sampling the GGX distribution of visible normals");
-//!   `alpha` is clamped to at least `1e-4` like Mitsuba;
-//! - rough plastic (`nonlinear = false`): specular `F D G / (4 cos θ_o)`, diffuse
-//!   `ρ / (1 - R_int) · T(θ_i) T(θ_o) cos θ_i / (π η²)` where `T(θ)` is the tabulated
-//!   directional transmittance of the rough interface and `R_int` its hemispherical internal
-//!   reflectance (Mitsuba 3 tabulates both with Gauss–Legendre quadrature over the visible-normal
-//!   sample space, 64 entries in cos θ; so do we, cached per `(alpha, eta)`). `R_int` is
-//!   Mitsuba's estimate `mean_i 2 μ_i R(μ_i)` over 64 equally spaced `μ_i ∈ [0,1]`, which sits
-//!   about 1.5% below the exact hemispherical integral; we keep it for agreement.
-//!   Lobe selection weights specular by `(1 - T(θ_o))·s / (…)` with `s = mean(ks) /
-//!   (mean(kd) + mean(ks))` as in Mitsuba; for a bitmap `kd` the texel at `uv` stands in for
-//!   the bitmap mean (a sampling heuristic only: the estimate stays unbiased).
+//! Each material follows the renderer that defines it — Mitsuba 3's `src/bsdfs/*.cpp`,
+//! `render/fresnel.h`, `render/microfacet.h`, or Mitsuba 0.6 for `ward` and `phong` — and lives
+//! in its room: [`fresnel`] (dielectric, conductor, thin-sheet and diffuse Fresnel),
+//! [`microfacet`] (Beckmann and GGX, visible-normal sampling), [`conductor`], [`dielectric`]
+//! (rough dielectric), [`plastic`] (smooth and rough, linear and nonlinear), [`ward`],
+//! [`phong`], [`texture`]. Smooth conductors and dielectrics are a few lines and stay here.
 
+pub mod conductor;
+pub mod dielectric;
 pub mod fresnel;
 pub mod microfacet;
+pub mod phong;
 pub mod plastic;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_models;
 pub mod texture;
+pub mod ward;
 
 // The pieces stay reachable at their old paths (`material::fresnel_dielectric`, ...).
 pub use fresnel::{fresnel_conductor, fresnel_conductor_1, fresnel_dielectric, refract, thin_dielectric_reflectance};
-pub use microfacet::Ggx;
+pub use microfacet::{Microfacet, MicrofacetKind};
 pub use texture::Texture;
+pub use ward::WardVariant;
 
 use crate::image::Image;
-use crate::math::{reflect, Color};
+use crate::math::Color;
 use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
 use glam::{Vec2, Vec3};
+use phong::PhongLocal;
 use plastic::PlasticLocal;
 use std::f32::consts::FRAC_1_PI;
+use ward::WardLocal;
 
 /// Which kind of lobe a sample came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -78,7 +74,8 @@ pub struct BsdfSample {
     pub eta: f32,
 }
 
-/// A material. Colours are linear RGB in [0,1] unless stated.
+/// A material. Colours are linear RGB in [0,1] unless stated; `eta` of dielectric interfaces
+/// is `int_ior / ext_ior`.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
     /// Lambertian reflector (Mitsuba `diffuse`).
@@ -86,15 +83,23 @@ pub enum Material {
     /// Smooth conductor, i.e. a mirror with Fresnel reflectance from complex IOR `eta + i k`
     /// (Mitsuba `conductor`; material "none" is `k = 0, eta = 0` meaning reflectance 1).
     Conductor { eta: Color, k: Color, specular_reflectance: Color },
-    /// GGX rough conductor (Mitsuba `roughconductor`, isotropic, `alpha` = GGX roughness).
-    RoughConductor { alpha: f32, eta: Color, k: Color, specular_reflectance: Color },
-    /// Smooth dielectric interface (Mitsuba `dielectric`); `eta = int_ior / ext_ior`.
+    /// Rough conductor (Mitsuba `roughconductor`), Beckmann or GGX, possibly anisotropic.
+    RoughConductor { distribution: Microfacet, eta: Color, k: Color, specular_reflectance: Color },
+    /// Smooth dielectric interface (Mitsuba `dielectric`).
     Dielectric { eta: f32, specular_reflectance: Color, specular_transmittance: Color },
     /// Thin dielectric sheet (Mitsuba `thindielectric`): reflection + straight transmission.
     ThinDielectric { eta: f32, specular_reflectance: Color, specular_transmittance: Color },
-    /// GGX rough plastic (Mitsuba `roughplastic`, `nonlinear = false`): a diffuse base under a
-    /// rough dielectric coating of relative IOR `eta`.
-    RoughPlastic { diffuse_reflectance: Texture, specular_reflectance: Color, alpha: f32, eta: f32 },
+    /// Rough dielectric interface (Mitsuba `roughdielectric`), Beckmann or GGX.
+    RoughDielectric { distribution: Microfacet, eta: f32, specular_reflectance: Color, specular_transmittance: Color },
+    /// Smooth plastic (Mitsuba `plastic`): a diffuse base under a smooth dielectric coating.
+    Plastic { diffuse_reflectance: Texture, specular_reflectance: Color, eta: f32, nonlinear: bool },
+    /// Rough plastic (Mitsuba `roughplastic`): a diffuse base under a rough dielectric coating
+    /// (isotropic distribution only, like Mitsuba).
+    RoughPlastic { diffuse_reflectance: Texture, specular_reflectance: Color, distribution: Microfacet, eta: f32, nonlinear: bool },
+    /// Mitsuba 0.6's anisotropic Ward BRDF (`ward`).
+    Ward { variant: WardVariant, alpha_u: f32, alpha_v: f32, diffuse_reflectance: Texture, specular_reflectance: Texture },
+    /// Mitsuba 0.6's modified Phong BRDF (`phong`).
+    Phong { exponent: f32, diffuse_reflectance: Texture, specular_reflectance: Texture },
     /// Two-sided wrapper (Mitsuba `twosided`): `front` on the front side, `back` (the same
     /// material when one was given) seen from behind.
     TwoSided { front: Box<Material>, back: Box<Material> },
@@ -116,12 +121,17 @@ fn check_ior(eta: f32, what: &str) -> Result<(), String> {
     }
 }
 
-fn check_alpha(alpha: f32) -> Result<(), String> {
+fn check_alpha(alpha: f32, what: &str) -> Result<(), String> {
     if alpha.is_finite() && alpha >= 0.0 {
         Ok(())
     } else {
-        Err(format!("roughness alpha {alpha} must be finite and non-negative"))
+        Err(format!("{what} {alpha} must be finite and non-negative"))
     }
+}
+
+fn check_distribution(d: &Microfacet) -> Result<(), String> {
+    check_alpha(d.alpha_u, "roughness alpha_u")?;
+    check_alpha(d.alpha_v, "roughness alpha_v")
 }
 
 /// Mean of the three channels (Mitsuba's `Texture::mean` of an RGB value).
@@ -130,9 +140,15 @@ pub(crate) fn channel_mean(c: Color) -> f32 {
     (c.x + c.y + c.z) * (1.0 / 3.0)
 }
 
+/// Luminance of a linear-RGB colour (Mitsuba 0.6's `Spectrum::getLuminance` in RGB mode).
+#[inline]
+pub(crate) fn luminance(c: Color) -> f32 {
+    0.212671 * c.x + 0.715160 * c.y + 0.072169 * c.z
+}
+
 /// Mirror direction about +z.
 #[inline]
-fn reflect_z(w: Vec3) -> Vec3 {
+pub(crate) fn reflect_z(w: Vec3) -> Vec3 {
     Vec3::new(-w.x, -w.y, w.z)
 }
 
@@ -140,6 +156,15 @@ fn reflect_z(w: Vec3) -> Vec3 {
 #[inline]
 fn flip_z(w: Vec3) -> Vec3 {
     Vec3::new(w.x, w.y, -w.z)
+}
+
+/// A sample from a lobe chosen by direction: its pdf and weight from `pdf` and `eval`.
+#[inline]
+fn sample_from(wi: Vec3, lobe: Lobe, pdf: f32, f: Color) -> Option<BsdfSample> {
+    if wi.z <= 0.0 || !(pdf > 0.0) || !pdf.is_finite() {
+        return None;
+    }
+    Some(BsdfSample { wi, weight: f / pdf, pdf, lobe, eta: 1.0 })
 }
 
 impl Material {
@@ -171,29 +196,31 @@ impl Material {
                 reflectance.eval(images, uv) * (wi.z * FRAC_1_PI)
             }
             Material::Conductor { .. } | Material::Dielectric { .. } | Material::ThinDielectric { .. } => Color::ZERO,
-            Material::RoughConductor { alpha, eta, k, specular_reflectance } => {
-                if wo.z <= 0.0 || wi.z <= 0.0 {
-                    return Color::ZERO;
-                }
-                let ggx = Ggx::new(*alpha);
-                let h = (wo + wi).normalize();
-                let d = ggx.d(h);
-                if d == 0.0 {
-                    return Color::ZERO;
-                }
-                let g = ggx.g1(wo, h) * ggx.g1(wi, h);
-                fresnel_conductor(wo.dot(h), *eta, *k) * *specular_reflectance * (d * g / (4.0 * wo.z))
+            Material::RoughConductor { distribution, eta, k, specular_reflectance } => {
+                conductor::eval(distribution, *eta, *k, *specular_reflectance, wo, wi)
             }
-            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, alpha, eta } => {
+            Material::RoughDielectric { distribution, eta, specular_reflectance, specular_transmittance } => {
+                dielectric::eval(distribution, *eta, *specular_reflectance, *specular_transmittance, wo, wi)
+            }
+            Material::Plastic { diffuse_reflectance, eta, nonlinear, .. } => {
+                plastic::smooth_eval(diffuse_reflectance.eval(images, uv), *eta, *nonlinear, wo, wi)
+            }
+            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, eta, nonlinear } => {
                 if wo.z <= 0.0 || wi.z <= 0.0 {
                     return Color::ZERO;
                 }
-                PlasticLocal::new(images, uv, diffuse_reflectance, *specular_reflectance, *alpha, *eta, wo).eval(
+                PlasticLocal::new(images, uv, diffuse_reflectance, *specular_reflectance, distribution, *eta, *nonlinear, wo).eval(
                     *specular_reflectance,
                     *eta,
                     wo,
                     wi,
                 )
+            }
+            Material::Ward { variant, alpha_u, alpha_v, diffuse_reflectance, specular_reflectance } => {
+                WardLocal::new(images, uv, *variant, *alpha_u, *alpha_v, diffuse_reflectance, specular_reflectance).eval(wo, wi)
+            }
+            Material::Phong { exponent, diffuse_reflectance, specular_reflectance } => {
+                PhongLocal::new(images, uv, *exponent, diffuse_reflectance, specular_reflectance).eval(wo, wi)
             }
             Material::TwoSided { front, back } => {
                 if wo.z > 0.0 {
@@ -217,17 +244,22 @@ impl Material {
                 square_to_cosine_hemisphere_pdf(wi)
             }
             Material::Conductor { .. } | Material::Dielectric { .. } | Material::ThinDielectric { .. } => 0.0,
-            Material::RoughConductor { alpha, .. } => {
-                if wo.z <= 0.0 || wi.z <= 0.0 {
-                    return 0.0;
-                }
-                Ggx::new(*alpha).reflection_pdf(wo, wi)
+            Material::RoughConductor { distribution, .. } => conductor::pdf(distribution, wo, wi),
+            Material::RoughDielectric { distribution, eta, .. } => dielectric::pdf(distribution, *eta, wo, wi),
+            Material::Plastic { diffuse_reflectance, specular_reflectance, eta, .. } => {
+                plastic::smooth_pdf(diffuse_reflectance.eval(images, uv), *specular_reflectance, *eta, wo, wi)
             }
-            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, alpha, eta } => {
+            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, eta, nonlinear } => {
                 if wo.z <= 0.0 || wi.z <= 0.0 {
                     return 0.0;
                 }
-                PlasticLocal::new(images, uv, diffuse_reflectance, *specular_reflectance, *alpha, *eta, wo).pdf(wo, wi)
+                PlasticLocal::new(images, uv, diffuse_reflectance, *specular_reflectance, distribution, *eta, *nonlinear, wo).pdf(wo, wi)
+            }
+            Material::Ward { variant, alpha_u, alpha_v, diffuse_reflectance, specular_reflectance } => {
+                WardLocal::new(images, uv, *variant, *alpha_u, *alpha_v, diffuse_reflectance, specular_reflectance).pdf(wo, wi)
+            }
+            Material::Phong { exponent, diffuse_reflectance, specular_reflectance } => {
+                PhongLocal::new(images, uv, *exponent, diffuse_reflectance, specular_reflectance).pdf(wo, wi)
             }
             Material::TwoSided { front, back } => {
                 if wo.z > 0.0 {
@@ -262,22 +294,8 @@ impl Material {
                 let weight = fresnel_conductor(wo.z, *eta, *k) * *specular_reflectance;
                 Some(BsdfSample { wi: reflect_z(wo), weight, pdf: 1.0, lobe: Lobe::Specular, eta: 1.0 })
             }
-            Material::RoughConductor { alpha, eta, k, specular_reflectance } => {
-                if wo.z <= 0.0 {
-                    return None;
-                }
-                let ggx = Ggx::new(*alpha);
-                let m = ggx.sample_visible(wo, u);
-                let wi = reflect(wo, m);
-                if wi.z <= 0.0 {
-                    return None;
-                }
-                let pdf = ggx.d(m) * ggx.g1(wo, m) / (4.0 * wo.z);
-                if not_positive(pdf) || !pdf.is_finite() {
-                    return None;
-                }
-                let weight = fresnel_conductor(wo.dot(m), *eta, *k) * *specular_reflectance * ggx.g1(wi, m);
-                Some(BsdfSample { wi, weight, pdf, lobe: Lobe::Glossy, eta: 1.0 })
+            Material::RoughConductor { distribution, eta, k, specular_reflectance } => {
+                conductor::sample(distribution, *eta, *k, *specular_reflectance, wo, u)
             }
             Material::Dielectric { eta, specular_reflectance, specular_transmittance } => {
                 let (r, cos_t, eta_it, eta_ti) = fresnel_dielectric(wo.z, *eta);
@@ -297,25 +315,40 @@ impl Material {
                     Some(BsdfSample { wi: -wo, weight: *specular_transmittance, pdf: 1.0 - r, lobe: Lobe::Specular, eta: 1.0 })
                 }
             }
-            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, alpha, eta } => {
+            Material::RoughDielectric { distribution, eta, specular_reflectance, specular_transmittance } => {
+                dielectric::sample(distribution, *eta, *specular_reflectance, *specular_transmittance, wo, u_lobe, u)
+            }
+            Material::Plastic { diffuse_reflectance, specular_reflectance, eta, nonlinear } => {
+                plastic::smooth_sample(diffuse_reflectance.eval(images, uv), *specular_reflectance, *eta, *nonlinear, wo, u_lobe, u)
+            }
+            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, eta, nonlinear } => {
                 if wo.z <= 0.0 {
                     return None;
                 }
-                let pl = PlasticLocal::new(images, uv, diffuse_reflectance, *specular_reflectance, *alpha, *eta, wo);
-                let (wi, lobe) = if u_lobe < pl.prob_specular {
-                    (reflect(wo, pl.ggx.sample_visible(wo, u)), Lobe::Glossy)
-                } else {
-                    (square_to_cosine_hemisphere(u), Lobe::Diffuse)
-                };
+                let pl = PlasticLocal::new(images, uv, diffuse_reflectance, *specular_reflectance, distribution, *eta, *nonlinear, wo);
+                let (wi, lobe) = pl.sample_direction(wo, u_lobe, u);
                 if wi.z <= 0.0 {
                     return None;
                 }
-                let pdf = pl.pdf(wo, wi);
-                if not_positive(pdf) || !pdf.is_finite() {
+                sample_from(wi, lobe, pl.pdf(wo, wi), pl.eval(*specular_reflectance, *eta, wo, wi))
+            }
+            Material::Ward { variant, alpha_u, alpha_v, diffuse_reflectance, specular_reflectance } => {
+                if wo.z <= 0.0 {
                     return None;
                 }
-                let weight = pl.eval(*specular_reflectance, *eta, wo, wi) / pdf;
-                Some(BsdfSample { wi, weight, pdf, lobe, eta: 1.0 })
+                let w = WardLocal::new(images, uv, *variant, *alpha_u, *alpha_v, diffuse_reflectance, specular_reflectance);
+                let (wi, specular) = w.sample_direction(wo, u_lobe, u);
+                let lobe = if specular { Lobe::Glossy } else { Lobe::Diffuse };
+                sample_from(wi, lobe, w.pdf(wo, wi), w.eval(wo, wi))
+            }
+            Material::Phong { exponent, diffuse_reflectance, specular_reflectance } => {
+                if wo.z <= 0.0 {
+                    return None;
+                }
+                let p = PhongLocal::new(images, uv, *exponent, diffuse_reflectance, specular_reflectance);
+                let (wi, specular) = p.sample_direction(wo, u_lobe, u);
+                let lobe = if specular { Lobe::Glossy } else { Lobe::Diffuse };
+                sample_from(wi, lobe, p.pdf(wo, wi), p.eval(wo, wi))
             }
             Material::TwoSided { front, back } => {
                 if wo.z > 0.0 {
@@ -332,7 +365,13 @@ impl Material {
     /// True when the material has at least one non-delta lobe (next-event estimation helps).
     pub fn has_smooth_lobe(&self) -> bool {
         match self {
-            Material::Diffuse { .. } | Material::RoughConductor { .. } | Material::RoughPlastic { .. } => true,
+            Material::Diffuse { .. }
+            | Material::RoughConductor { .. }
+            | Material::RoughDielectric { .. }
+            | Material::Plastic { .. }
+            | Material::RoughPlastic { .. }
+            | Material::Ward { .. }
+            | Material::Phong { .. } => true,
             Material::Conductor { .. } | Material::Dielectric { .. } | Material::ThinDielectric { .. } => false,
             Material::TwoSided { front, back } => front.has_smooth_lobe() || back.has_smooth_lobe(),
         }
@@ -347,8 +386,8 @@ impl Material {
                 check_color(*k, "conductor k")?;
                 check_color(*specular_reflectance, "specular reflectance")
             }
-            Material::RoughConductor { alpha, eta, k, specular_reflectance } => {
-                check_alpha(*alpha)?;
+            Material::RoughConductor { distribution, eta, k, specular_reflectance } => {
+                check_distribution(distribution)?;
                 check_color(*eta, "conductor eta")?;
                 check_color(*k, "conductor k")?;
                 check_color(*specular_reflectance, "specular reflectance")
@@ -359,8 +398,25 @@ impl Material {
                 check_color(*specular_reflectance, "specular reflectance")?;
                 check_color(*specular_transmittance, "specular transmittance")
             }
-            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, alpha, eta } => {
-                check_alpha(*alpha)?;
+            Material::RoughDielectric { distribution, eta, specular_reflectance, specular_transmittance } => {
+                check_distribution(distribution)?;
+                check_ior(*eta, "relative index of refraction")?;
+                if *eta == 1.0 {
+                    return Err("rough dielectric: the interior and exterior indices of refraction must differ".into());
+                }
+                check_color(*specular_reflectance, "specular reflectance")?;
+                check_color(*specular_transmittance, "specular transmittance")
+            }
+            Material::Plastic { diffuse_reflectance, specular_reflectance, eta, .. } => {
+                check_ior(*eta, "relative index of refraction")?;
+                diffuse_reflectance.validate(n_images, "diffuse reflectance")?;
+                check_color(*specular_reflectance, "specular reflectance")
+            }
+            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, eta, .. } => {
+                check_distribution(distribution)?;
+                if !distribution.is_isotropic() {
+                    return Err("rough plastic: anisotropic roughness is not supported (as in Mitsuba)".into());
+                }
                 check_ior(*eta, "relative index of refraction")?;
                 if *eta == 1.0 {
                     return Err("rough plastic: the interior and exterior indices of refraction must differ".into());
@@ -368,16 +424,55 @@ impl Material {
                 diffuse_reflectance.validate(n_images, "diffuse reflectance")?;
                 check_color(*specular_reflectance, "specular reflectance")
             }
+            Material::Ward { alpha_u, alpha_v, diffuse_reflectance, specular_reflectance, .. } => {
+                for (a, what) in [(*alpha_u, "ward alpha_u"), (*alpha_v, "ward alpha_v")] {
+                    if !(a.is_finite() && a > 0.0) {
+                        return Err(format!("{what} {a} must be finite and positive"));
+                    }
+                }
+                diffuse_reflectance.validate(n_images, "diffuse reflectance")?;
+                specular_reflectance.validate(n_images, "specular reflectance")
+            }
+            Material::Phong { exponent, diffuse_reflectance, specular_reflectance } => {
+                if !(exponent.is_finite() && *exponent >= 0.0) {
+                    return Err(format!("phong exponent {exponent} must be finite and non-negative"));
+                }
+                diffuse_reflectance.validate(n_images, "diffuse reflectance")?;
+                specular_reflectance.validate(n_images, "specular reflectance")
+            }
             Material::TwoSided { front, back } => {
                 front.validate(n_images)?;
                 back.validate(n_images)
             }
         }
     }
-}
 
-/// False for NaN, zero and negative values.
-#[inline]
-fn not_positive(x: f32) -> bool {
-    x.is_nan() || x <= 0.0
+    /// Mitsuba 0.6's `ensureEnergyConservation` (on by default) for `ward` and `phong`: when
+    /// the per-channel maxima of the specular and diffuse reflectances sum above 1, both are
+    /// scaled by `0.99 / max` (bitmaps through a scaled copy appended to `images`). Returns one
+    /// message per material changed, saying by how much.
+    pub fn ensure_energy_conservation(&mut self, images: &mut Vec<Image>) -> Vec<String> {
+        match self {
+            Material::Ward { diffuse_reflectance: kd, specular_reflectance: ks, .. }
+            | Material::Phong { diffuse_reflectance: kd, specular_reflectance: ks, .. } => {
+                let actual = (kd.max(images) + ks.max(images)).max_element();
+                if actual > 1.0 {
+                    let scale = 0.99 / actual;
+                    *kd = kd.scaled(scale, images);
+                    *ks = ks.scaled(scale, images);
+                    return vec![format!(
+                        "specular and diffuse reflectances sum to a per-channel maximum of {actual} > 1; both are scaled by {scale} \
+                         (Mitsuba 0.6's ensureEnergyConservation)"
+                    )];
+                }
+                Vec::new()
+            }
+            Material::TwoSided { front, back } => {
+                let mut v = front.ensure_energy_conservation(images);
+                v.extend(back.ensure_energy_conservation(images));
+                v
+            }
+            _ => Vec::new(),
+        }
+    }
 }

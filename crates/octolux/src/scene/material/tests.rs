@@ -2,7 +2,7 @@
 //! energy bounds, Fresnel against textbook formulas, validation.
 
 use super::fresnel::*;
-use super::microfacet::Ggx;
+use super::microfacet::{Microfacet, MicrofacetKind};
 use super::plastic::{plastic_tables, PlasticTables};
 use super::*;
 use crate::math::gauss_legendre;
@@ -13,19 +13,23 @@ use std::f32::consts::FRAC_1_PI;
 /// Number of chi-square tests run by `bsdf_sampling_matches_pdf` (Šidák family size).
 const CHI2_TESTS: usize = 16;
 
-fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
+pub(super) fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
     let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
     Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
 }
 
-fn white(c: f32) -> Color {
+pub(super) fn white(c: f32) -> Color {
     Color::splat(c)
+}
+
+fn ggx(alpha: f32) -> Microfacet {
+    Microfacet::isotropic(MicrofacetKind::Ggx, alpha)
 }
 
 fn rough_conductor(alpha: f32) -> Material {
     // gold-like complex IOR
     Material::RoughConductor {
-        alpha,
+        distribution: ggx(alpha),
         eta: Color::new(0.143, 0.374, 1.442),
         k: Color::new(3.983, 2.385, 1.603),
         specular_reflectance: white(1.0),
@@ -33,7 +37,13 @@ fn rough_conductor(alpha: f32) -> Material {
 }
 
 fn rough_plastic(alpha: f32, kd: Color) -> Material {
-    Material::RoughPlastic { diffuse_reflectance: Texture::Const(kd), specular_reflectance: white(1.0), alpha, eta: 1.49 }
+    Material::RoughPlastic {
+        diffuse_reflectance: Texture::Const(kd),
+        specular_reflectance: white(1.0),
+        distribution: ggx(alpha),
+        eta: 1.49,
+        nonlinear: false,
+    }
 }
 
 #[test]
@@ -132,7 +142,7 @@ fn visible_normal_pdf_integrates_to_one_over_normals() {
     // ∫ D(m) G1(v,m) max(0, v·m) / v.z dm = 1 (visible normal distribution)
     for &alpha in &[0.05f32, 0.3, 0.8] {
         for &theta in &[0.0f32, 45.0, 80.0] {
-            let g = Ggx::new(alpha);
+            let g = ggx(alpha);
             let v = dir(theta, 20.0);
             let (nodes, w) = gauss_legendre(256);
             let mut acc = 0.0f64;
@@ -334,7 +344,7 @@ fn reflection_lobes_are_reciprocal() {
 }
 
 /// Monte Carlo directional albedo: mean sample weight (0 for failed samples).
-fn albedo(m: &Material, wo: Vec3, n: usize) -> Color {
+pub(super) fn albedo(m: &Material, wo: Vec3, n: usize) -> Color {
     let mut s = Sampler::new(11, 0, 0);
     let mut acc = glam::DVec3::ZERO;
     for _ in 0..n {
@@ -347,7 +357,7 @@ fn albedo(m: &Material, wo: Vec3, n: usize) -> Color {
 }
 
 /// `∫ eval(wo, wi) dwi` over the upper hemisphere by Gauss–Legendre quadrature in (θ, φ).
-fn hemisphere_integral(m: &Material, wo: Vec3) -> f64 {
+pub(super) fn hemisphere_integral(m: &Material, wo: Vec3) -> f64 {
     let (x, w) = gauss_legendre(256);
     let (hp, tp) = (std::f64::consts::FRAC_PI_2, std::f64::consts::TAU);
     let mut acc = 0.0;
@@ -384,7 +394,7 @@ fn white_furnace_albedo_bounds() {
     // mean weight equals the hemispherical integral of eval (checked by quadrature)
     let mut prev = 1.0f32;
     for &alpha in &[0.2f32, 0.5, 0.8] {
-        let m = Material::RoughConductor { alpha, eta: Color::ZERO, k: Color::ZERO, specular_reflectance: white(1.0) };
+        let m = Material::RoughConductor { distribution: ggx(alpha), eta: Color::ZERO, k: Color::ZERO, specular_reflectance: white(1.0) };
         let a = albedo(&m, wo, n).x;
         let q = hemisphere_integral(&m, wo);
         assert!(a <= 1.0 + 1e-3 && a < prev, "alpha {alpha}: {a}");
@@ -412,7 +422,7 @@ fn white_furnace_albedo_bounds() {
 #[test]
 fn plastic_tables_approach_smooth_fresnel() {
     let eta = 1.5f32;
-    let t = PlasticTables::compute(1e-3, eta);
+    let t = PlasticTables::compute(MicrofacetKind::Ggx, 1e-3, eta);
     for i in (4..64).step_by(6) {
         let mu = i as f32 / 63.0;
         let smooth = 1.0 - fresnel_dielectric(mu, eta).0;
@@ -442,10 +452,10 @@ fn plastic_tables_approach_smooth_fresnel() {
     let exact = 1.0 - (1.0 - fdr_ext) / (eta * eta) as f64;
     assert!((t.internal_reflectance as f64 - exact).abs() < 0.02 * exact, "{} vs {exact}", t.internal_reflectance);
     // rougher interfaces transmit less at grazing angles, tables stay in [0,1]
-    let r = plastic_tables(0.4, eta);
+    let r = plastic_tables(MicrofacetKind::Ggx, 0.4, eta);
     assert!(r.external_transmittance.iter().all(|&v| (0.0..=1.0).contains(&v)));
     assert!(r.internal_reflectance > 0.0 && r.internal_reflectance < 1.0);
-    assert!(std::ptr::eq(r, plastic_tables(0.4, eta)), "cached");
+    assert!(std::ptr::eq(r, plastic_tables(MicrofacetKind::Ggx, 0.4, eta)), "cached");
 }
 
 #[test]
@@ -458,8 +468,13 @@ fn validation_rejects_bad_parameters() {
         .validate(0)
         .is_err());
     assert!(rough_plastic(-0.1, white(0.5)).validate(0).is_err());
-    let matched =
-        Material::RoughPlastic { diffuse_reflectance: Texture::Const(white(0.5)), specular_reflectance: white(1.0), alpha: 0.1, eta: 1.0 };
+    let matched = Material::RoughPlastic {
+        diffuse_reflectance: Texture::Const(white(0.5)),
+        specular_reflectance: white(1.0),
+        distribution: ggx(0.1),
+        eta: 1.0,
+        nonlinear: false,
+    };
     assert!(matched.validate(0).is_err());
     let nested = Material::TwoSided {
         front: Box::new(rough_conductor(0.2)),

@@ -40,4 +40,30 @@ impl Texture {
             }
         }
     }
+
+    /// Per-channel maximum over the texture (Mitsuba's `Texture::getMaximum`).
+    pub fn max(&self, images: &[Image]) -> Color {
+        match self {
+            Texture::Const(c) => *c,
+            Texture::Bitmap { image, .. } => {
+                images.get(*image as usize).map_or(Color::ZERO, |im| im.data.iter().fold(Color::ZERO, |m, &c| m.max(c)))
+            }
+        }
+    }
+
+    /// This texture times `scale`: a constant directly, a bitmap through a scaled copy
+    /// appended to `images`.
+    pub fn scaled(&self, scale: f32, images: &mut Vec<Image>) -> Texture {
+        match self {
+            Texture::Const(c) => Texture::Const(*c * scale),
+            Texture::Bitmap { image, uv_scale } => match images.get(*image as usize) {
+                Some(im) => {
+                    let copy = Image { width: im.width, height: im.height, data: im.data.iter().map(|&c| c * scale).collect() };
+                    images.push(copy);
+                    Texture::Bitmap { image: (images.len() - 1) as u32, uv_scale: *uv_scale }
+                }
+                None => self.clone(),
+            },
+        }
+    }
 }
