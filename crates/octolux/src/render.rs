@@ -12,6 +12,9 @@
 //!
 //! Both converge to the same image ∫w(x−p)L(x)dx / ∫w.
 //!
+//! Positions and samplers come from [`crate::film::camera_sample`], the rule the priming
+//! passes of the irradiance-cache baselines replay.
+//!
 //! Determinism: pixel `(x, y)` sample `s` uses `Sampler::new(seed, y·width + x, s)`; each tile
 //! splats into its own buffer (the tile plus a margin of the filter's radius) and the buffers
 //! are added to the image in tile order, so the image is bit-identical for any thread count.

@@ -144,6 +144,7 @@ impl Shading {
 
     /// Radiance estimate `Σ f Φ / (π r²)` from `tree` at vertex `v` towards `v.wo`, one timed
     /// cache query.
+    #[allow(clippy::too_many_arguments)]
     pub fn radiance_estimate(
         &self,
         scene: &Scene,

@@ -149,7 +149,7 @@ impl WardCacheSettings {
 
 /// Which camera samples prime the cache.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum PrimePoints {
     /// One ray through the centre of each cell of a grid of `columns` columns (rows from the
     /// film's aspect); `None`: the film width, one ray per pixel.
@@ -230,10 +230,9 @@ impl<'a> Primer<'a> {
                 let (sx, sy) = (self.scene.film.width.max(1) as f32 / self.w as f32, self.scene.film.height.max(1) as f32 / self.h as f32);
                 (Sampler::new(self.photon_seed, pixel.index(), PRIME_STREAM), Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy))
             }
+            // The render's own rule: uniform positions with splatting, filter samples otherwise.
             PrimePoints::RenderSamples { seed, reconstruction, .. } => {
-                // BUG KEPT FOR THE FAILING TEST: the filter is sampled whatever the reconstruction.
-                let _ = reconstruction;
-                camera_sample(seed, pixel, sample, self.scene.film.filter, Reconstruction::ImportanceSampled)
+                camera_sample(seed, pixel, sample, self.scene.film.filter, reconstruction)
             }
         };
         let (o, d, tmin) = self.scene.camera.generate_ray(film);
