@@ -1,9 +1,9 @@
 //! The command line: clap structures, their parsers, and the key paths the integrator flags
 //! write in the integrator settings (see [`crate::settings`]).
 
+use crate::compat::IntegratorSettings; // until the library has it
 use crate::settings::FlagSetting;
 use clap::{Parser, Subcommand, ValueEnum};
-use crate::compat::IntegratorSettings; // until the library has it
 use serde_json::{json, Value};
 use std::path::PathBuf;
 
@@ -153,7 +153,7 @@ impl OctreeArgs {
         };
         let oct = Some("octree");
         add("--photons", None, vec![keys::PHOTON_COUNT.into()], self.photons.map(|v| json!(v)));
-        add("--gather", oct, vec!["gather".into()], self.gather.then(|| json!(true)));
+        add("--gather", oct, vec!["gather".into()], self.gather.then_some(Value::Bool(true)));
         add("--h-max", oct, both_trees("h_max"), self.h_max.map(|v| json!(v)));
         add("--n-min", oct, both_trees("n_min"), self.n_min.map(|v| json!(v)));
         add("--n-max", oct, both_trees("n_max"), self.n_max.map(|v| json!(v)));
@@ -161,7 +161,7 @@ impl OctreeArgs {
         add("--alpha", oct, both_trees("alpha"), self.alpha.map(|v| json!(v)));
         add("--estimator", oct, both_trees("estimator"), self.estimator.map(serde_name));
         add("--split", oct, both_trees("split"), self.split.map(serde_name));
-        add("--uncompressed", oct, both_trees("storage"), self.uncompressed.then(|| json!("full")));
+        add("--uncompressed", oct, both_trees("storage"), self.uncompressed.then(|| Value::from("full")));
         add("--view", None, vec!["view".into()], self.view.map(serde_name));
         add("--every", Some("christensen"), vec!["every".into()], self.every.map(|v| json!(v)));
         add("--added", Some("christensen"), vec!["added".into()], self.added.map(serde_name));

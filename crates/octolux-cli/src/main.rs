@@ -79,14 +79,17 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
     // The integrator's settings, checked before any long work.
     let mut flags = args.octree.settings();
     if let Some(d) = args.max_depth {
-        flags.push(settings::FlagSetting { flag: "--max-depth", only: None, keys: vec![keys::MAX_DEPTH.into()], value: json!(d), at_most: false });
+        flags.push(settings::FlagSetting {
+            flag: "--max-depth",
+            only: None,
+            keys: vec![keys::MAX_DEPTH.into()],
+            value: json!(d),
+            at_most: false,
+        });
     }
     let resolved = settings::resolve(&SettingsInput {
         integrator: args.integrator.as_deref(),
-        derived: vec![
-            (keys::MAX_DEPTH, json!(desc.hints.max_depth.unwrap_or(-1))),
-            (keys::PHOTON_SEED, json!(args.seed)),
-        ],
+        derived: vec![(keys::MAX_DEPTH, json!(desc.hints.max_depth.unwrap_or(-1))), (keys::PHOTON_SEED, json!(args.seed))],
         file: args.settings.as_deref(),
         flags,
         sets: &args.set,
@@ -155,8 +158,7 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
         ReconstructionArg::Splat => Reconstruction::Splat,
         ReconstructionArg::Importance => Reconstruction::ImportanceSampled,
     };
-    let render_settings =
-        RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, reconstruction, ..Default::default() };
+    let render_settings = RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, reconstruction, ..Default::default() };
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((scene.film.width as u64) * (scene.film.height as u64)) };
     bar.set_style(
         ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}")

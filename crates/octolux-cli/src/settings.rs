@@ -72,7 +72,10 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
     let file = input.file.map(read_settings_file).transpose()?;
     let name = match (input.integrator, file.as_ref().and_then(|f| f.integrator.as_deref())) {
         (Some(flag), Some(ty)) if flag != ty => {
-            bail!("settings file {} is for --integrator {ty}, but --integrator {flag} was given", input.file.unwrap_or(Path::new("")).display())
+            bail!(
+                "settings file {} is for --integrator {ty}, but --integrator {flag} was given",
+                input.file.unwrap_or(Path::new("")).display()
+            )
         }
         (Some(flag), _) => flag.to_string(),
         (None, Some(ty)) => ty.to_string(),
@@ -247,8 +250,9 @@ fn place(merged: &mut Value, created: &mut HashSet<String>, key: &str, value: Va
         return true;
     }
     let prefix = parts[..i].join(".");
+    let in_created = (1..=i).any(|j| created.contains(&parts[..j].join(".")));
     match slot {
-        Value::Object(m) if created.contains(&prefix) => {
+        Value::Object(m) if in_created => {
             insert_nested(m, &parts[i..], value);
         }
         Value::Null => {
@@ -369,7 +373,13 @@ mod tests {
 
     #[test]
     fn flags_write_their_keys_and_set_wins() {
-        let flag = |flag, keys: &[&str], value| FlagSetting { flag, only: None, keys: keys.iter().map(|k| k.to_string()).collect(), value, at_most: false };
+        let flag = |flag, keys: &[&str], value| FlagSetting {
+            flag,
+            only: None,
+            keys: keys.iter().map(|k| k.to_string()).collect(),
+            value,
+            at_most: false,
+        };
         let sets = vec!["global.h_max=3".to_string()];
         let r = resolve(&input("octree", vec![flag("--h-max", &["global.h_max", "caustic.h_max"], json!(7))], &sets)).unwrap();
         let v = serde_json::to_value(&r.settings).unwrap();

@@ -90,7 +90,10 @@ fn a_json_settings_file_chooses_the_integrator_and_its_settings() {
 #[test]
 fn a_toml_settings_file_is_read_and_out_json_settings_read_back_the_same() {
     let d = Scratch::new("toml");
-    let f = d.file("s.toml", "type = \"ward\"\nmax_depth = 5\n[photons]\nphotons = 2500\n[cache]\nbatch = 64\n[density.r_max]\nabsolute = 30.0\n");
+    let f = d.file(
+        "s.toml",
+        "type = \"ward\"\nmax_depth = 5\n[photons]\nphotons = 2500\n[cache]\nbatch = 64\n[density.r_max]\nabsolute = 30.0\n",
+    );
     let (json, _) = rendered(&d.0, &["--settings", f.to_str().unwrap()]);
     assert_eq!(json["integrator"], "ward");
     assert_eq!(setting(&json, "photons.photons"), 2500);
@@ -127,7 +130,18 @@ fn set_values_are_json_when_they_parse_and_strings_otherwise() {
     let d = Scratch::new("values");
     let (json, _) = rendered(
         &d.0,
-        &["--integrator", "octree", "--set", "photons.photons=2000", "--set", "gather=true", "--set", "view=irradiance", "--set", "global.epsilon=0.5"],
+        &[
+            "--integrator",
+            "octree",
+            "--set",
+            "photons.photons=2000",
+            "--set",
+            "gather=true",
+            "--set",
+            "view=irradiance",
+            "--set",
+            "global.epsilon=0.5",
+        ],
     );
     assert_eq!(setting(&json, "gather"), true);
     assert_eq!(setting(&json, "view"), "irradiance");
@@ -144,7 +158,10 @@ fn options_the_integrator_does_not_have_warn_and_name_it() {
     let d = Scratch::new("warn");
     // a flag meant for the baselines' photons, given to `path`
     let (json, err) = rendered(&d.0, &["--integrator", "path", "--photons", "2000", "--view", "irradiance"]);
-    assert!(err.contains("warning: --photons applies to --integrator octree, photonmap, ward, christensen only; ignored by --integrator path"), "{err}");
+    assert!(
+        err.contains("warning: --photons applies to --integrator octree, photonmap, ward, christensen only; ignored by --integrator path"),
+        "{err}"
+    );
     assert!(err.contains("warning: --view applies to"), "{err}");
     assert!(json["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().contains("--photons")), "{json}");
     // christensen's option given to ward
@@ -152,7 +169,8 @@ fn options_the_integrator_does_not_have_warn_and_name_it() {
     assert!(err.contains("warning: --every applies to --integrator christensen only; ignored by --integrator ward"), "{err}");
     // an octree key set for ward, and a file key of christensen's
     let f = d.file("s.toml", "every = 8\n");
-    let (json, err) = rendered(&d.0, &["--integrator", "ward", "--photons", "2000", "--set", "gather=true", "--settings", f.to_str().unwrap()]);
+    let (json, err) =
+        rendered(&d.0, &["--integrator", "ward", "--photons", "2000", "--set", "gather=true", "--settings", f.to_str().unwrap()]);
     assert!(err.contains("warning: --set gather=true: `gather` is a setting of --integrator octree, not of ward; ignored"), "{err}");
     assert!(err.contains("s.toml: `every` is a setting of --integrator christensen, not of ward; ignored"), "{err}");
     assert!(setting(&json, "gather").is_null() && setting(&json, "every").is_null());
