@@ -6,13 +6,13 @@
 pub mod accel;
 pub mod caches;
 pub mod camera;
+pub mod film;
 pub mod integrators;
 pub mod light;
 pub mod material;
 pub mod math;
 pub mod metrics;
 pub mod photon;
-pub mod photon_pass;
 pub mod prepared;
 pub mod render;
 pub mod sampling;
@@ -22,3 +22,4 @@ pub mod testing;
 
 pub use glam;
 pub use math::Color;
+pub use photon::trace as photon_pass; // TEMP-ALIAS: moved to photon::trace
