@@ -1,9 +1,9 @@
 //! The command line: clap structures, their parsers, and the key paths the integrator flags
 //! write in the integrator settings (see [`crate::settings`]).
 
-use crate::compat::IntegratorSettings; // until the library has it
 use crate::settings::FlagSetting;
 use clap::{Parser, Subcommand, ValueEnum};
+use octolux::integrators::IntegratorSettings;
 use serde_json::{json, Value};
 use std::path::PathBuf;
 

@@ -8,17 +8,15 @@
 //! into the library's integrator settings), [`stats`] (`OUT.json` and the build log).
 
 mod args;
-mod compat;
 mod settings;
 mod stats;
 
 use anyhow::{bail, Context, Result};
 use args::{keys, BackendArg, Cli, Command, ExportArgs, ReconstructionArg, RenderArgs, SceneArgs};
 use clap::Parser;
-use compat::{build, Reports}; // until the library has them
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::accel::BackendKind;
-use octolux::integrators::Integrator;
+use octolux::integrators::{build, Integrator};
 use octolux::prepared::Scene;
 use octolux::render::{render, Reconstruction, RenderSettings};
 use serde_json::json;
@@ -130,7 +128,7 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
     if let (Some(n), false) = (photon_count, args.quiet) {
         eprintln!("{name}: tracing {n} photons and building the cache ...");
     }
-    let integrator = build(&integrator_settings, photon_scene).with_context(|| format!("cannot build the {name} integrator"))?;
+    let integrator = build(&integrator_settings, photon_scene).context("cannot build the integrator")?;
     let build_s = t_build.elapsed().as_secs_f64();
     let build_report = integrator.build_report();
     if !args.quiet {

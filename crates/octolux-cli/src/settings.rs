@@ -18,8 +18,8 @@
 //! density.r_max.absolute=30` replaces `{"relative": ...}` by `{"absolute": 30}`. The
 //! deserialization then decides, and a key it drops is reported as unknown too.
 
-use crate::compat::IntegratorSettings; // until the library has it
 use anyhow::{anyhow, bail, Context, Result};
+use octolux::integrators::IntegratorSettings;
 use serde_json::{Map, Value};
 use std::collections::HashSet;
 use std::path::Path;
