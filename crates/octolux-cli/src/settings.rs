@@ -126,8 +126,11 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
                 (true, Some(cur), Some(v)) if cur <= v => {}
                 _ => *slot = f.value.clone(),
             }
+            // kept to name the flag in a deserialization error
+            writes.push(Write { source: f.flag.to_string(), key: key.clone(), value: f.value.clone() });
         }
     }
+    let set_writes = writes.len();
     // layer 4: --set
     for s in input.sets {
         let (key, raw) = s.split_once('=').with_context(|| format!("--set {s}: expected KEY=VALUE (e.g. photons.photons=2000000)"))?;
@@ -138,7 +141,7 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
         let value = serde_json::from_str(raw).unwrap_or_else(|_| Value::String(raw.to_string()));
         writes.push(Write { source: format!("--set {s}"), key: key.to_string(), value });
     }
-    for w in &writes[file_writes..] {
+    for w in &writes[set_writes..] {
         place_checked(&mut merged, &mut created, w, &name, &others, &mut warnings)?;
     }
 

@@ -150,7 +150,7 @@ fn set_values_are_json_when_they_parse_and_strings_otherwise() {
     assert_eq!(setting(&json, "gather"), true);
     assert_eq!(setting(&json, "view"), "irradiance");
     assert_eq!(setting(&json, "global.epsilon"), 0.5);
-    assert_eq!(setting(&json, "caustic.epsilon"), 0.2, "--set writes one key; --epsilon writes both trees");
+    assert_eq!(setting(&json, "caustic.epsilon").as_f64(), Some(0.2f32 as f64), "--set writes one key; --epsilon writes both trees");
     // the scene's seed and max_depth reach the settings when nothing else gives them
     let (json, _) = rendered(&d.0, &["--integrator", "ward", "--photons", "2000", "--seed", "7"]);
     assert_eq!(setting(&json, "photons.seed"), 7);
