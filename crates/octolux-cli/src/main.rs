@@ -16,9 +16,9 @@ use args::{keys, BackendArg, Cli, Command, ExportArgs, ReconstructionArg, Render
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::accel::BackendKind;
+use octolux::film::Reconstruction;
 use octolux::integrators::{build, Integrator};
 use octolux::prepared::Scene;
-use octolux::film::Reconstruction;
 use octolux::render::{render, RenderSettings};
 use serde_json::json;
 use settings::SettingsInput;
