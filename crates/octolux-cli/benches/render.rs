@@ -6,7 +6,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use octolux::accel::BackendKind;
 use octolux::integrators::octree::{OctreeIntegrator, OctreeIntegratorSettings};
 use octolux::integrators::{path::PathSettings, Integrator};
-use octolux::prepared::Scene;
+use octolux::scene::Scene;
 use octolux::render::{render, RenderSettings};
 
 fn scene(name: &str, backend: BackendKind, res: u32) -> Option<Scene> {

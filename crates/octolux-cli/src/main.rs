@@ -18,7 +18,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use octolux::accel::BackendKind;
 use octolux::film::Reconstruction;
 use octolux::integrators::{build, Integrator};
-use octolux::prepared::Scene;
+use octolux::scene::Scene;
 use octolux::render::{render, RenderSettings};
 use serde_json::json;
 use settings::SettingsInput;

@@ -22,7 +22,7 @@
 use octolux::accel::BackendKind;
 use octolux::integrators::{path::PathSettings, Integrator};
 use octolux::metrics::{channel_means, rel_mse_with};
-use octolux::prepared::Scene;
+use octolux::scene::Scene;
 use octolux::render::{render, RenderSettings};
 use std::path::{Path, PathBuf};
 

@@ -15,7 +15,7 @@ use octolux::caches::{Estimator, Split};
 use octolux::integrators::octree::{OctreeIntegrator, OctreeIntegratorSettings};
 use octolux::integrators::Integrator;
 use octolux::metrics::compare;
-use octolux::prepared::Scene;
+use octolux::scene::Scene;
 use octolux::render::{render, RenderSettings};
 use std::path::Path;
 
