@@ -60,7 +60,7 @@ pub struct OctreeIntegratorSettings {
     pub max_depth: i32,
     pub view: OctreeView,
     /// Gather the global octree one bounce away instead of reading it where the camera path
-    /// lands (see [`OctreeIntegrator::gathered_global`]): one BSDF-sampled ray per sample, and
+    /// lands (see `OctreeIntegrator::gathered_global`): one BSDF-sampled ray per sample, and
     /// the cache's bias is averaged over the hemisphere instead of showing directly.
     pub gather: bool,
 }

@@ -355,6 +355,7 @@ mod tests {
             assert_eq!(w.temporary_samples(), 0, "{filter:?}, {reconstruction:?}");
             render(&scene, &integ, &RenderSettings { spp: 2, seed: 8, reconstruction, ..Default::default() }, &|_, _| {});
             assert!(w.temporary_samples() > 0, "{filter:?}, {reconstruction:?}");
+            assert_eq!(integ.render_report()["temporaries"], w.temporary_samples());
         }
     }
 
