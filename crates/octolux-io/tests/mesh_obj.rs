@@ -7,6 +7,7 @@ use octolux::material::{Material, Texture};
 use octolux::math::Color;
 use octolux::scene::{Geometry, TriMesh};
 use octolux_io::mesh::{load_mesh_checked, load_mesh_scene, load_obj_mesh, phong_exponent_to_alpha};
+use octolux_io::shared::shared_scene;
 use octolux_io::IoError;
 use std::path::{Path, PathBuf};
 
@@ -133,12 +134,8 @@ fn checked_loading_removes_degenerate_triangles_with_a_warning() {
 
 #[test]
 fn mitsuba_cbox_small_box_keeps_its_file_normals() {
-    let path = Path::new("/work/shared/scenes/mitsuba-tutorials-cbox/meshes/cbox_smallbox.obj");
-    if !path.exists() {
-        eprintln!("skipped: {} not present", path.display());
-        return;
-    }
-    let (m, warnings) = load_mesh_checked(path).unwrap();
+    let Some(path) = shared_scene("mitsuba-tutorials-cbox/meshes/cbox_smallbox.obj") else { return };
+    let (m, warnings) = load_mesh_checked(&path).unwrap();
     assert!(warnings.is_empty(), "{warnings:?}");
     assert_eq!(m.positions.len(), 24);
     assert_eq!(m.indices.len(), 12);
@@ -188,10 +185,11 @@ fn obj_scene_maps_mtl_materials_and_emission() {
         Material::Dielectric { eta: 1.33, specular_reflectance: Color::ONE, specular_transmittance: Color::ONE }
     );
     match mat("materials:plastic") {
-        Material::RoughPlastic { diffuse_reflectance, specular_reflectance, alpha, eta } => {
+        Material::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, eta, nonlinear } => {
             assert_eq!(diffuse_reflectance, Texture::Const(Color::new(0.2, 0.3, 0.4)));
             assert_eq!(specular_reflectance, Color::splat(0.5));
-            assert!((alpha - (2.0f32 / 100.0).sqrt()).abs() < 1e-6);
+            assert!(!nonlinear && distribution.is_isotropic());
+            assert!((distribution.alpha_u - (2.0f32 / 100.0).sqrt()).abs() < 1e-6);
             assert_eq!(eta, 1.5);
         }
         other => panic!("expected rough plastic, got {other:?}"),
