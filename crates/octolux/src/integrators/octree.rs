@@ -20,11 +20,11 @@
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
-use crate::material::Material;
 use crate::math::{Color, Frame, Ray};
 use crate::photon::trace::{trace_photons, PhotonError, PhotonSettings};
-use crate::prepared::{Scene, SurfaceHit};
 use crate::sampling::Sampler;
+use crate::scene::material::Material;
+use crate::scene::{Scene, SurfaceHit};
 use glam::{Mat3, Vec3};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;

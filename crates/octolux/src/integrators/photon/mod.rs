@@ -28,11 +28,11 @@ use super::common::{direct_light, walk_specular, RayCounters};
 use crate::caches::kdtree::{
     gather_photons, photon_irradiance, scene_size, Density, DensityEstimate, DensitySettings, Neighbor, PhotonTree, SettingsError,
 };
-use crate::material::Material;
 use crate::math::{Color, Frame, Ray};
 use crate::photon::trace::{PhotonError, PhotonMaps, PhotonSettings};
-use crate::prepared::{Scene, SurfaceHit};
 use crate::sampling::{square_to_cosine_hemisphere, Sampler};
+use crate::scene::material::Material;
+use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;
