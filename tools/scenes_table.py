@@ -27,6 +27,7 @@ import argparse
 import datetime
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -60,7 +61,9 @@ def run_octolux(binary: str, scene: str, out: str, spp: int, res, depth: int, th
     wall = time.time() - t0
     stderr_lines = [ln.strip() for ln in p.stderr.splitlines() if ln.strip()]
     if p.returncode != 0:
-        return {"ok": False, "error": " / ".join(stderr_lines[-3:]) or f"exit code {p.returncode}", "wall_s": wall}
+        errs = [ln for ln in stderr_lines if ln.startswith("error") or ln.startswith("Error")] or stderr_lines[-1:]
+        return {"ok": False, "error": scrub(" / ".join(errs)) or f"exit code {p.returncode}", "wall_s": wall,
+                "warnings": [ln[len("warning: "):] for ln in stderr_lines if ln.startswith("warning: ")]}
     with open(os.path.splitext(out)[0] + ".json") as f:
         stats = json.load(f)
     warnings = list(stats.get("warnings") or [])
@@ -117,6 +120,33 @@ def contact_sheet(path: str, ours, ref) -> None:
     sheet = np.concatenate([panels[0], gap, panels[1], gap, panels[2]], axis=1)
     os.makedirs(os.path.dirname(path), exist_ok=True)
     mi.util.write_bitmap(path, (np.clip(sheet, 0, 1) * 255 + 0.5).astype(np.uint8))
+
+
+def scrub(text: str) -> str:
+    """No machine path in the document: the shared folder and the repository become relative."""
+    for base, label in ((locations.shared_dir(), "../shared"), (os.path.realpath(locations.shared_dir()), "../shared"),
+                        (REPO, "."), (os.path.realpath(REPO), ".")):
+        text = text.replace(base + os.sep, label + "/")
+    return text
+
+
+def grouped(warnings: list[str]) -> list[str]:
+    """Warnings with their `file:line: <element ...>:` prefix folded: one line per message, with
+    how often it was printed and where first."""
+    order, count, first = [], {}, {}
+    for w in warnings:
+        w = scrub(w)
+        m = re.match(r"^(\S+:\d+): (<[^>]*>): (.*)$", w)
+        key, where = (m.group(3), f"{m.group(1)} {m.group(2)}") if m else (w, None)
+        if key not in count:
+            order.append(key)
+            count[key], first[key] = 0, where
+        count[key] += 1
+    out = []
+    for k in order:
+        n = count[k]
+        out.append((f"({n}x) " if n > 1 else "") + k + (f" (first: `{first[k]}`)" if first[k] else ""))
+    return out
 
 
 def fmt_rel(v) -> str:
@@ -176,7 +206,7 @@ def write_doc(args, rows) -> None:
              f"(`--spp {args.spp} --threads {args.threads}`, Mitsuba variant `{args.variant}`); rerun it "
              "to refresh. Both renderers render the same file at the reference's size and the file's max "
              "depth, at equal spp, in the same run; errors are against the Mitsuba 3 references of "
-             "`tests/refs/collection/` (1024 spp or more; see its `manifest.json`). Mean error: the relative "
+             "`tests/refs/collection/` (their spp and own noise are given per scene below and in its `manifest.json`). Mean error: the relative "
              "difference of the image mean per channel (R / G / B, %). relMSE = mean((a-b)^2 / (ref^2 + 0.01)); "
              "at equal spp the two renderers' relMSE should be close (the issue's target: octolux at most "
              "1.25x Mitsuba's). Load: parse + prepare (octolux), `load_file` (Mitsuba). "
@@ -205,12 +235,12 @@ def write_doc(args, rows) -> None:
         L.append(f"![{name}: octolux | reference | error](img/scenes/{name}.png)\n")
         L.append("octolux | Mitsuba 3 reference | relative squared error (log scale, black 1e-4 to white 1)\n")
         if not o["ok"]:
-            L.append(f"octolux does not load it: `{o['error']}`\n")
-        elif o["warnings"]:
+            L.append(f"octolux does not render it: `{o['error']}`\n")
+        if o["warnings"]:
             L.append("Warnings octolux printed:\n")
-            L += [f"- {w}" for w in o["warnings"]]
+            L += [f"- {w}" for w in grouped(o["warnings"])]
             L.append("")
-        else:
+        elif o["ok"]:
             L.append("octolux printed no warning.\n")
         if not m["ok"]:
             L.append(f"Mitsuba 3 failed: `{m['error']}`\n")
