@@ -31,6 +31,8 @@ the rest; each rule below is something it refused or read differently):
 * `ward` (no Mitsuba 3 plugin) -> Beckmann `roughconductor` (material none) with the Ward
   alphas (both are Gaussian slope distributions of that RMS slope) and `specularReflectance`,
   blended with `diffuse` when `diffuseReflectance` is non-zero. Recorded as an approximation;
+* conductors with no `material`/`eta`/`k`: `material="Cu"` made explicit (0.6's default; Mitsuba
+  3's default is a perfect mirror);
 * `alpha`/`distribution` given to smooth `dielectric`/`conductor`/`plastic` (which 0.6 ignored
   with a warning) are dropped; `extEta` of conductors (not in Mitsuba 3) is dropped when it is air
   (1.0), otherwise an error;
@@ -483,6 +485,9 @@ def fix_bsdfs(root: ET.Element, notes: list[str], approx: list[str]) -> None:
                 if del_prop(b, k) is not None:
                     notes.append(f"{label}: dropped '{k}' (0.6 ignores it on a smooth BSDF)")
         if t in ("conductor", "roughconductor"):
+            if all(find_prop(b, k) is None for k in ("material", "eta", "k")):
+                ET.SubElement(b, "string", {"name": "material", "value": "Cu"})
+                notes.append(f"{label}: material Cu made explicit (0.6's default; Mitsuba 3's is a perfect mirror)")
             e = find_prop(b, "ext_eta")
             if e is not None:
                 v = e.get("value", "").strip().lower()
