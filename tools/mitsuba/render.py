@@ -133,7 +133,7 @@ def fix_framing(sensor: ET.Element, w0: int, h0: int, w: int, h: int, notes: lis
 
 
 def patch_scene(path: str, *, resolution=None, max_depth=None, spp=None, sampler_mode="keep",
-                overrides=None, rfilter=None) -> tuple[str, dict]:
+                overrides=None, rfilter=None, mesh_dir=None) -> tuple[str, dict]:
     """Return (patched xml text, info dict)."""
     tree = ET.parse(path)
     root = tree.getroot()
@@ -146,7 +146,7 @@ def patch_scene(path: str, *, resolution=None, max_depth=None, spp=None, sampler
     approximations: list[str] = []
     if parse_version(version)[0] < 2:
         notes.append(f"scene version {version}: translating the Mitsuba 0.x dialect (translate.py)")
-        approximations = translate_tree(root, notes)
+        approximations = translate_tree(root, notes, scene_dir, mesh_dir)
 
     absolute_filenames(root, scene_dir)
 
@@ -291,17 +291,6 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     overrides = dict(d.split("=", 1) for d in args.defines)
-    xml, info = patch_scene(args.scene, resolution=args.resolution, max_depth=args.max_depth,
-                            spp=args.spp, sampler_mode=args.sampler, overrides=overrides,
-                            rfilter=args.rfilter)
-    for n in info["notes"]:
-        log(n)
-    for a in info["approximations"]:
-        log("APPROXIMATION " + a)
-    if args.write_patched:
-        with open(args.write_patched, "w") as f:
-            f.write(xml)
-
     load_env_file()
     import drjit as dr
     import mitsuba as mi
@@ -316,6 +305,16 @@ def main(argv=None) -> int:
     fr.prepend(os.path.dirname(os.path.abspath(args.scene)))
 
     with tempfile.TemporaryDirectory(prefix="octolux-mi-") as td:
+        xml, info = patch_scene(args.scene, resolution=args.resolution, max_depth=args.max_depth,
+                                spp=args.spp, sampler_mode=args.sampler, overrides=overrides,
+                                rfilter=args.rfilter, mesh_dir=os.path.join(td, "meshes"))
+        for n in info["notes"]:
+            log(n)
+        for a in info["approximations"]:
+            log("APPROXIMATION " + a)
+        if args.write_patched:
+            with open(args.write_patched, "w") as f:
+                f.write(xml)
         tmp = os.path.join(td, "scene.xml")
         with open(tmp, "w") as f:
             f.write(xml)

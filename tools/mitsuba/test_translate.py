@@ -110,6 +110,24 @@ class Translate(unittest.TestCase):
                 self.assertAlmostEqual((1 - t) * dr[c], kd[c], places=6)
                 self.assertAlmostEqual(t * sr[c], ks[c], places=6)
 
+    def test_crease_normals(self):
+        import numpy as np
+        # A unit cube of 8 vertices and 12 triangles: 90-degree edges.
+        p = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+        quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+        f = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+        src, n, nf = translate.crease_normals(p, f, 40.0)
+        self.assertEqual(len(src), 24)  # every corner split three ways: flat faces
+        for fi in range(len(f)):
+            fn = np.cross(p[f[fi, 1]] - p[f[fi, 0]], p[f[fi, 2]] - p[f[fi, 0]])
+            for k in range(3):
+                self.assertAlmostEqual(float(n[nf[fi, k]] @ fn / np.linalg.norm(fn)), 1.0)
+                self.assertEqual(src[nf[fi, k]], f[fi, k])
+        src, n, nf = translate.crease_normals(p, f, 100.0)
+        self.assertEqual(len(src), 8)  # all smooth: one normal per corner, pointing outwards
+        for i, v in enumerate(src):
+            self.assertGreater(float(n[i] @ (p[v] - 0.5)), 0.5)
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -36,6 +36,9 @@ the rest; each rule below is something it refused or read differently):
 * `alpha`/`distribution` given to smooth `dielectric`/`conductor`/`plastic` (which 0.6 ignored
   with a warning) are dropped; `extEta` of conductors (not in Mitsuba 3) is dropped when it is air
   (1.0), otherwise an error;
+* `maxSmoothAngle` (no Mitsuba 3 equivalent): when render.py renders, the mesh is rewritten as a
+  temporary PLY whose normals are rebuilt with that crease angle; elsewhere it is dropped and
+  reported as an approximation;
 * bitmap `filterType` `trilinear`/`ewa` (mipmapped in 0.6) -> `bilinear` (Mitsuba 3 has no
   mipmaps; noted);
 * film: reduced to what defines the picture (render.py); samplers Mitsuba 3 lacks -> independent.
@@ -497,14 +500,107 @@ def fix_bsdfs(root: ET.Element, notes: list[str], approx: list[str]) -> None:
                 notes.append(f"{label}: dropped extEta={v} (Mitsuba 3 conductors are in vacuum)")
 
 
-def fix_shapes(root: ET.Element, notes: list[str], approx: list[str]) -> None:
+def crease_normals(positions, faces, max_angle_deg: float):
+    """Split vertices where the faces around them meet at more than `max_angle_deg` and give each
+    copy the area-weighted normal of its faces (0.6's `maxSmoothAngle` rebuild). Returns
+    (vertex index of each new vertex, new normals, new faces)."""
+    import numpy as np
+    p, f = np.asarray(positions, dtype=np.float64), np.asarray(faces, dtype=np.int64)
+    fn = np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]])  # |fn| = 2 area
+    unit = fn / np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-30)
+    cos_max = math.cos(math.radians(max_angle_deg))
+    incident: dict[int, list[tuple[int, int]]] = {}
+    for fi in range(len(f)):
+        for k in range(3):
+            incident.setdefault(int(f[fi, k]), []).append((fi, k))
+    src, normals = [], []
+    new_faces = np.empty_like(f)
+    for v, corners in incident.items():
+        # Union-find of the faces around v: joined when their normals are within the angle.
+        parent = list(range(len(corners)))
+
+        def find(i):
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+        for i in range(len(corners)):
+            for j in range(i + 1, len(corners)):
+                if float(unit[corners[i][0]] @ unit[corners[j][0]]) >= cos_max:
+                    parent[find(i)] = find(j)
+        groups: dict[int, list[int]] = {}
+        for i in range(len(corners)):
+            groups.setdefault(find(i), []).append(i)
+        for members in groups.values():
+            n = sum(fn[corners[i][0]] for i in members)
+            n = n / max(float(np.linalg.norm(n)), 1e-30)
+            idx = len(src)
+            src.append(v)
+            normals.append(n)
+            for i in members:
+                fi, k = corners[i]
+                new_faces[fi, k] = idx
+    return np.array(src), np.array(normals), new_faces
+
+
+def crease_mesh_ply(sh: ET.Element, filename: str, angle: float, mesh_dir: str) -> str:
+    """Load the mesh `sh` names with Mitsuba 3 (untransformed), rebuild its normals with the
+    crease angle and write it as PLY into mesh_dir; returns the PLY path."""
+    import mitsuba as mi
+    import numpy as np
+    if mi.variant() is None:
+        mi.set_variant("scalar_rgb")
+    d = {"type": sh.get("type"), "filename": filename}
+    idx = find_prop(sh, "shape_index")
+    if idx is not None:
+        d["shape_index"] = int(idx.get("value"))
+    mesh = mi.load_dict(d)
+    params = mi.traverse(mesh)
+    pos = np.array(params["vertex_positions"]).reshape(-1, 3)
+    faces = np.array(params["faces"]).reshape(-1, 3)
+    uv = np.array(params["vertex_texcoords"]).reshape(-1, 2) if mesh.has_vertex_texcoords() else None
+    src, normals, new_faces = crease_normals(pos, faces, angle)
+    out = mi.Mesh(f"crease_{os.path.basename(filename)}", len(src), len(new_faces),
+                  has_vertex_normals=True, has_vertex_texcoords=uv is not None)
+    op = mi.traverse(out)
+
+    def put(key, arr, dtype):
+        op[key] = type(op[key])(np.ascontiguousarray(arr.reshape(-1).astype(dtype)))
+    put("vertex_positions", pos[src], np.float32)
+    put("vertex_normals", normals, np.float32)
+    if uv is not None:
+        put("vertex_texcoords", uv[src], np.float32)
+    put("faces", new_faces, np.uint32)
+    op.update()
+    os.makedirs(mesh_dir, exist_ok=True)
+    path = os.path.join(mesh_dir, f"crease_{len(os.listdir(mesh_dir))}_{os.path.basename(filename)}.ply")
+    out.write_ply(path)
+    return path
+
+
+def fix_shapes(root: ET.Element, notes: list[str], approx: list[str], scene_dir: str | None,
+               mesh_dir: str | None) -> None:
     for sh in root.iter("shape"):
         p = find_prop(sh, "max_smooth_angle")
-        if p is not None:
-            sh.remove(p)
-            label = f"shape {sh.get('type')}" + (f" '{sh.get('id')}'" if sh.get("id") else "")
+        if p is None:
+            continue
+        sh.remove(p)
+        label = f"shape {sh.get('type')}" + (f" '{sh.get('id')}'" if sh.get("id") else "")
+        fn = find_prop(sh, "filename")
+        if mesh_dir is None or scene_dir is None or fn is None or sh.get("type") not in ("serialized", "obj", "ply"):
             approx.append(f"{label}: maxSmoothAngle={p.get('value')} dropped (Mitsuba 3 has no crease-angle "
                           "normals; the mesh's own normals, or smooth ones, are used)")
+            continue
+        filename = fn.get("value")
+        if not os.path.isabs(filename):
+            filename = os.path.normpath(os.path.join(scene_dir, filename))
+        ply = crease_mesh_ply(sh, filename, float(p.get("value")), mesh_dir)
+        sh.set("type", "ply")
+        for k in ("shape_index", "face_normals", "flip_normals"):
+            del_prop(sh, k)
+        fn.set("value", ply)
+        notes.append(f"{label}: maxSmoothAngle={p.get('value')}: normals rebuilt with that crease angle "
+                     "(area-weighted per smooth group) into a temporary PLY")
 
 
 def fix_textures(root: ET.Element, notes: list[str]) -> None:
@@ -522,16 +618,20 @@ def fix_textures(root: ET.Element, notes: list[str]) -> None:
 # Entry points
 # ---------------------------------------------------------------------------------------------
 
-def translate_tree(root: ET.Element, notes: list[str]) -> list[str]:
+def translate_tree(root: ET.Element, notes: list[str], scene_dir: str | None = None,
+                   mesh_dir: str | None = None) -> list[str]:
     """Translate a parsed Mitsuba 0.x scene (its `$params` already resolved) in place.
-    Appends what it did to `notes`; returns the approximations (what renders differently)."""
+    Appends what it did to `notes`; returns the approximations (what renders differently).
+    With `mesh_dir` (and `scene_dir`, the scene file's folder), meshes with `maxSmoothAngle` are
+    rewritten as PLY files there with crease-angle normals (needs Mitsuba 3 to read the mesh);
+    without it that parameter is dropped and reported as an approximation."""
     approx: list[str] = []
     upgrade_names(root, notes)
     fix_integrator(root, notes, approx)
     fix_srgb(root, notes)
     fix_sunsky(root, notes, approx)
     fix_bsdfs(root, notes, approx)
-    fix_shapes(root, notes, approx)
+    fix_shapes(root, notes, approx, scene_dir, mesh_dir)
     fix_textures(root, notes)
     root.set("version", "3.0.0")
     return approx
