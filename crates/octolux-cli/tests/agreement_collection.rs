@@ -65,8 +65,8 @@ fn sci3(v: [f64; 3]) -> String {
 fn check(name: &str) {
     let root = repo_root();
     let manifest_path = root.join("tests/refs/collection/manifest.json");
-    let manifest: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&manifest_path).expect("collection manifest"))
-        .expect("collection manifest is JSON");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&manifest_path).expect("collection manifest")).expect("collection manifest is JSON");
     let entry = &manifest["references"][name];
     if !entry.is_object() {
         println!("skip: {name}: no reference in {} yet (tools/mitsuba/make_refs.py --collection --only {name})", manifest_path.display());
