@@ -6,6 +6,7 @@
 pub mod accel;
 pub mod caches;
 pub mod camera;
+pub mod envmap;
 pub mod integrators;
 pub mod light;
 pub mod material;

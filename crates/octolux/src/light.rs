@@ -16,7 +16,13 @@
 //! - directional: `E · π R²`, the flux through the disk of the scene bounding sphere (radius
 //!   `R`) facing the light;
 //! - constant environment: `L · 4π · π R²` (for each direction, the flux through the disk of
-//!   the bounding sphere perpendicular to it).
+//!   the bounding sphere perpendicular to it);
+//! - environment map: `π R² ∫ L dω` (the same, with the map's exact integral).
+//!
+//! Environment lights (constant and maps) act as one emitter towards next-event estimation:
+//! a direction sampled from any of them carries the radiance of all of them ([`LightSet::env_le`])
+//! with the mixture density [`LightSet::pdf_li_env`], which is also what the path tracer's MIS
+//! uses when a ray escapes.
 //!
 //! Area lights are sampled uniformly by area (triangles through an area CDF). A sphere seen from
 //! outside is sampled uniformly inside the cone it subtends (its visible cap); from inside, or
@@ -28,7 +34,8 @@
 //! Photon emission (`sample_emission`) returns `power` such that its mean over samples is the
 //! total emitted power: area lights by area then cosine-weighted direction; point uniform;
 //! spot uniform in the cutoff cone; directional and environment from a disk of the scene
-//! bounding sphere, placed outside the sphere.
+//! bounding sphere, placed outside the sphere (environment maps: direction importance-sampled
+//! from the map).
 
 use crate::math::{Color, Frame};
 use crate::sampling::{
@@ -36,7 +43,9 @@ use crate::sampling::{
     square_to_uniform_triangle, uniform_cone_pdf, UNIFORM_SPHERE_PDF,
 };
 use crate::scene::Geometry;
-use glam::Vec3;
+use crate::envmap::EnvMap;
+use crate::material::Image;
+use glam::{Mat3, Vec3};
 use std::f32::consts::PI;
 
 /// A light source as described by a scene.
@@ -55,6 +64,10 @@ pub enum Light {
     Directional { direction: Vec3, irradiance: Color },
     /// Constant environment of radiance `radiance` from every direction.
     Constant { radiance: Color },
+    /// Latitude-longitude environment map (Mitsuba `envmap`, see [`crate::envmap`]): image
+    /// `image` (index into the scene's images, linear RGB) times `scale`, oriented by the
+    /// orthogonal `to_world` (local `+y` is up).
+    Envmap { image: u32, scale: f32, to_world: Mat3 },
 }
 
 use crate::math::Bounds3;
@@ -110,6 +123,10 @@ pub struct LightSet {
     env_radiance: Color,
     /// Constant environment lights (indices), for `pdf_li_env`.
     env_lights: Vec<u32>,
+    /// Prepared environment maps: (light index, map).
+    env_maps: Vec<(u32, EnvMap)>,
+    /// Per light: index into `env_maps` (`u32::MAX` for other lights).
+    env_map_of: Vec<u32>,
 }
 
 /// Geometry of an area light prepared for sampling by area.
@@ -120,8 +137,17 @@ pub enum AreaGeometry {
 }
 
 impl LightSet {
-    /// Build from the non-area lights of a scene plus one area light per emitting shape.
+    /// Build from the non-area lights of a scene plus one area light per emitting shape
+    /// (scenes without environment maps; see [`LightSet::with_images`]).
     pub fn new(lights: &[Light], shapes: &[ShapeDesc], bounds: Bounds3) -> LightSet {
+        LightSet::with_images(lights, shapes, &[], bounds)
+    }
+
+    /// Build from the non-area lights of a scene plus one area light per emitting shape;
+    /// `images` are the scene's images (environment maps refer to them by index). An
+    /// environment map whose image is missing or invalid emits nothing (`SceneDesc::validate`
+    /// rejects such scenes first).
+    pub fn with_images(lights: &[Light], shapes: &[ShapeDesc], images: &[Image], bounds: Bounds3) -> LightSet {
         let mut all: Vec<Light> = lights.to_vec();
         for (i, s) in shapes.iter().enumerate() {
             if let Some(radiance) = s.emission {
@@ -142,7 +168,15 @@ impl LightSet {
         let mut power = Vec::with_capacity(all.len());
         let mut env_radiance = Color::ZERO;
         let mut env_lights = Vec::new();
+        let mut env_maps = Vec::new();
+        let mut env_map_of = vec![u32::MAX; all.len()];
         for (li, l) in all.iter().enumerate() {
+            if let Light::Envmap { image, scale, to_world } = l {
+                if let Some(map) = images.get(*image as usize).and_then(|img| EnvMap::new(img, *scale, *to_world).ok()) {
+                    env_map_of[li] = env_maps.len() as u32;
+                    env_maps.push((li as u32, map));
+                }
+            }
             let geom = match l {
                 Light::Area { shape, .. } => {
                     if let Some(slot) = shape_light.get_mut(*shape as usize) {
@@ -156,12 +190,13 @@ impl LightSet {
                 env_radiance += *radiance;
                 env_lights.push(li as u32);
             }
-            power.push(light_power(l, geom.as_ref(), scene_sphere.1));
+            let map = env_map_of.get(li).and_then(|&m| env_maps.get(m as usize)).map(|(_, m)| m);
+            power.push(light_power(l, geom.as_ref(), map, scene_sphere.1));
             area.push(geom);
         }
         let weights: Vec<f32> = power.iter().map(|p| (p.x + p.y + p.z) / 3.0).collect();
         let select = Distribution1D::new(&weights);
-        LightSet { lights: all, shape_light, select, area, scene_sphere, power, env_radiance, env_lights }
+        LightSet { lights: all, shape_light, select, area, scene_sphere, power, env_radiance, env_lights, env_maps, env_map_of }
     }
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
@@ -285,9 +320,18 @@ impl LightSet {
             Light::Directional { direction, irradiance } => {
                 Some(LightSample { wi: -*direction, dist: f32::INFINITY, li: *irradiance, pdf: psel, delta: true })
             }
-            Light::Constant { radiance } => {
+            // All environment lights act as one emitter towards the path tracer, which adds
+            // their radiance on escape with the pdf `pdf_li_env`: a sampled environment
+            // direction carries the radiance and the mixture density of all of them.
+            Light::Constant { .. } => {
                 let wi = square_to_uniform_sphere(u);
-                Some(LightSample { wi, dist: f32::INFINITY, li: *radiance, pdf: psel * UNIFORM_SPHERE_PDF, delta: false })
+                Some(LightSample { wi, dist: f32::INFINITY, li: self.env_le(wi), pdf: self.pdf_li_env(wi), delta: false })
+            }
+            Light::Envmap { .. } => {
+                let (_, map) = self.env_maps.get(*self.env_map_of.get(l)? as usize)?;
+                let (wi, _, _) = map.sample(u)?;
+                let pdf = self.pdf_li_env(wi);
+                (pdf > 0.0).then(|| LightSample { wi, dist: f32::INFINITY, li: self.env_le(wi), pdf, delta: false })
             }
         }
     }
@@ -338,14 +382,22 @@ impl LightSet {
 
     /// Radiance of environment lights along direction `dir` (a ray that escaped the scene).
     #[inline]
-    pub fn env_le(&self, _dir: Vec3) -> Color {
-        self.env_radiance
+    pub fn env_le(&self, dir: Vec3) -> Color {
+        let mut le = self.env_radiance;
+        for (_, map) in &self.env_maps {
+            le += map.eval(dir);
+        }
+        le
     }
 
     /// Solid-angle pdf (with selection) that `sample_li` picks direction `dir` on environment lights.
     #[inline]
-    pub fn pdf_li_env(&self, _dir: Vec3) -> f32 {
-        self.env_lights.iter().map(|&l| self.select_pmf(l)).sum::<f32>() * UNIFORM_SPHERE_PDF
+    pub fn pdf_li_env(&self, dir: Vec3) -> f32 {
+        let mut pdf = self.env_lights.iter().map(|&l| self.select_pmf(l)).sum::<f32>() * UNIFORM_SPHERE_PDF;
+        for (l, map) in &self.env_maps {
+            pdf += self.select_pmf(*l) * map.pdf(dir);
+        }
+        pdf
     }
 
     /// Emit a photon: light chosen by power, then position and direction.
@@ -396,6 +448,15 @@ impl LightSet {
                 let power = *radiance * (PI * radius * radius / (UNIFORM_SPHERE_PDF * psel));
                 Some(Emission { p, dir, power, n: Vec3::ZERO, light })
             }
+            Light::Envmap { .. } => {
+                let (_, map) = self.env_maps.get(*self.env_map_of.get(l)? as usize)?;
+                // `wi` points towards the map; the photon travels the other way.
+                let (wi, radiance, pdf) = map.sample(u_dir)?;
+                let dir = -wi;
+                let p = disk_origin(center, radius, dir, u_pos);
+                let power = radiance * (PI * radius * radius / (pdf * psel));
+                power.is_finite().then_some(Emission { p, dir, power, n: Vec3::ZERO, light })
+            }
         }
     }
 
@@ -444,7 +505,7 @@ fn spot_falloff(cos_theta: f32, cos_cutoff: f32, cos_falloff_start: f32) -> f32 
 
 /// Emitted power of a light (see the module documentation); `scene_radius` is the radius of
 /// the scene bounding sphere.
-fn light_power(l: &Light, geom: Option<&AreaGeometry>, scene_radius: f32) -> Color {
+fn light_power(l: &Light, geom: Option<&AreaGeometry>, map: Option<&EnvMap>, scene_radius: f32) -> Color {
     match l {
         Light::Area { radiance, .. } => {
             let area = match geom {
@@ -463,6 +524,7 @@ fn light_power(l: &Light, geom: Option<&AreaGeometry>, scene_radius: f32) -> Col
         }
         Light::Directional { irradiance, .. } => *irradiance * (PI * scene_radius * scene_radius),
         Light::Constant { radiance } => *radiance * (4.0 * PI * PI * scene_radius * scene_radius),
+        Light::Envmap { .. } => map.map_or(Color::ZERO, |m| m.integral() * (PI * scene_radius * scene_radius)),
     }
 }
 
@@ -553,6 +615,7 @@ impl Light {
                 color(*irradiance, "irradiance")
             }
             Light::Constant { radiance } => color(*radiance, "radiance"),
+            Light::Envmap { scale, to_world, .. } => crate::envmap::check_frame(*scale, to_world),
         }
     }
 }
@@ -869,7 +932,7 @@ mod tests {
                 })
                 .sum::<f64>()
                 * std::f64::consts::TAU;
-            let p = light_power(&l, None, 1.0).x as f64;
+            let p = light_power(&l, None, None, 1.0).x as f64;
             assert!((p - numeric).abs() < 1e-4 * numeric, "cutoff {cutoff} beam {beam}: {p} vs {numeric}");
             // for narrow transitions the approximation 2π(1 - (cos c + cos b)/2) is close
             let approx = std::f64::consts::TAU * (1.0 - (cc + cb) as f64 / 2.0);

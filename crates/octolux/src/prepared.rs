@@ -124,7 +124,7 @@ impl Scene {
         }
         let bounds = desc.bounds();
         let accel = Accel::build(&positions, &triangles, backend).map_err(|e| SceneError::Accel(e.to_string()))?;
-        let lights = LightSet::new(&desc.lights, &desc.shapes, bounds);
+        let lights = LightSet::with_images(&desc.lights, &desc.shapes, &desc.images, bounds);
         let camera = Camera::new(&desc.camera, desc.film.width, desc.film.height);
         Ok(Scene {
             materials: desc.materials,

@@ -283,6 +283,16 @@ impl SceneDesc {
         }
         for (index, l) in self.lights.iter().enumerate() {
             l.validate().map_err(|problem| SceneError::BadLight { index, problem })?;
+            if let Light::Envmap { image, .. } = l {
+                let Some(img) = self.images.get(*image as usize) else {
+                    return Err(SceneError::BadLight {
+                        index,
+                        problem: format!("environment map image {image} is missing (the scene has {} images)", self.images.len()),
+                    });
+                };
+                crate::envmap::LatLong::new(img.width as usize, img.height as usize, &img.data)
+                    .map_err(|problem| SceneError::BadLight { index, problem })?;
+            }
         }
         Ok(())
     }
