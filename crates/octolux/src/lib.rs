@@ -18,6 +18,7 @@ pub mod prepared;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod sunsky;
 #[doc(hidden)]
 pub mod testing;
 

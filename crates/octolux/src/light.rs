@@ -17,7 +17,7 @@
 //!   `R`) facing the light;
 //! - constant environment: `L · 4π · π R²` (for each direction, the flux through the disk of
 //!   the bounding sphere perpendicular to it);
-//! - environment map: `π R² ∫ L dω` (the same, with the map's exact integral).
+//! - environment map and sun-and-sky: `π R² ∫ L dω` (the same, with the emitter's integral).
 //!
 //! Environment lights (constant and maps) act as one emitter towards next-event estimation:
 //! a direction sampled from any of them carries the radiance of all of them ([`LightSet::env_le`])
@@ -44,6 +44,7 @@ use crate::sampling::{
 };
 use crate::scene::Geometry;
 use crate::envmap::EnvMap;
+use crate::sunsky::{SunSky, SunSkyDesc};
 use crate::material::Image;
 use glam::{Mat3, Vec3};
 use std::f32::consts::PI;
@@ -68,6 +69,49 @@ pub enum Light {
     /// `image` (index into the scene's images, linear RGB) times `scale`, oriented by the
     /// orthogonal `to_world` (local `+y` is up).
     Envmap { image: u32, scale: f32, to_world: Mat3 },
+    /// Sun and sky (Mitsuba 3 `sunsky`, see [`crate::sunsky`]).
+    Sunsky(SunSkyDesc),
+}
+
+/// A prepared environment emitter other than the constant one.
+#[derive(Clone, Debug)]
+pub enum Environment {
+    Map(EnvMap),
+    SunSky(Box<SunSky>),
+}
+
+impl Environment {
+    /// Radiance arriving from world direction `dir`.
+    #[inline]
+    pub fn eval(&self, dir: Vec3) -> Color {
+        match self {
+            Environment::Map(m) => m.eval(dir),
+            Environment::SunSky(s) => s.eval(dir),
+        }
+    }
+    /// Sample a direction towards the emitter: (direction, radiance, solid-angle pdf).
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> Option<(Vec3, Color, f32)> {
+        match self {
+            Environment::Map(m) => m.sample(u),
+            Environment::SunSky(s) => s.sample(u),
+        }
+    }
+    /// Solid-angle density of `sample`.
+    #[inline]
+    pub fn pdf(&self, dir: Vec3) -> f32 {
+        match self {
+            Environment::Map(m) => m.pdf(dir),
+            Environment::SunSky(s) => s.pdf(dir),
+        }
+    }
+    /// `∫ L dω` over the sphere.
+    pub fn integral(&self) -> Color {
+        match self {
+            Environment::Map(m) => m.integral(),
+            Environment::SunSky(s) => s.integral(),
+        }
+    }
 }
 
 use crate::math::Bounds3;
@@ -123,8 +167,8 @@ pub struct LightSet {
     env_radiance: Color,
     /// Constant environment lights (indices), for `pdf_li_env`.
     env_lights: Vec<u32>,
-    /// Prepared environment maps: (light index, map).
-    env_maps: Vec<(u32, EnvMap)>,
+    /// Prepared environment maps and skies: (light index, emitter).
+    env_maps: Vec<(u32, Environment)>,
     /// Per light: index into `env_maps` (`u32::MAX` for other lights).
     env_map_of: Vec<u32>,
 }
@@ -171,11 +215,16 @@ impl LightSet {
         let mut env_maps = Vec::new();
         let mut env_map_of = vec![u32::MAX; all.len()];
         for (li, l) in all.iter().enumerate() {
-            if let Light::Envmap { image, scale, to_world } = l {
-                if let Some(map) = images.get(*image as usize).and_then(|img| EnvMap::new(img, *scale, *to_world).ok()) {
-                    env_map_of[li] = env_maps.len() as u32;
-                    env_maps.push((li as u32, map));
+            let env = match l {
+                Light::Envmap { image, scale, to_world } => {
+                    images.get(*image as usize).and_then(|img| EnvMap::new(img, *scale, *to_world).ok()).map(Environment::Map)
                 }
+                Light::Sunsky(desc) => SunSky::new(desc).ok().map(|s| Environment::SunSky(Box::new(s))),
+                _ => None,
+            };
+            if let Some(env) = env {
+                env_map_of[li] = env_maps.len() as u32;
+                env_maps.push((li as u32, env));
             }
             let geom = match l {
                 Light::Area { shape, .. } => {
@@ -327,7 +376,7 @@ impl LightSet {
                 let wi = square_to_uniform_sphere(u);
                 Some(LightSample { wi, dist: f32::INFINITY, li: self.env_le(wi), pdf: self.pdf_li_env(wi), delta: false })
             }
-            Light::Envmap { .. } => {
+            Light::Envmap { .. } | Light::Sunsky(_) => {
                 let (_, map) = self.env_maps.get(*self.env_map_of.get(l)? as usize)?;
                 let (wi, _, _) = map.sample(u)?;
                 let pdf = self.pdf_li_env(wi);
@@ -448,7 +497,7 @@ impl LightSet {
                 let power = *radiance * (PI * radius * radius / (UNIFORM_SPHERE_PDF * psel));
                 Some(Emission { p, dir, power, n: Vec3::ZERO, light })
             }
-            Light::Envmap { .. } => {
+            Light::Envmap { .. } | Light::Sunsky(_) => {
                 let (_, map) = self.env_maps.get(*self.env_map_of.get(l)? as usize)?;
                 // `wi` points towards the map; the photon travels the other way.
                 let (wi, radiance, pdf) = map.sample(u_dir)?;
@@ -505,7 +554,7 @@ fn spot_falloff(cos_theta: f32, cos_cutoff: f32, cos_falloff_start: f32) -> f32 
 
 /// Emitted power of a light (see the module documentation); `scene_radius` is the radius of
 /// the scene bounding sphere.
-fn light_power(l: &Light, geom: Option<&AreaGeometry>, map: Option<&EnvMap>, scene_radius: f32) -> Color {
+fn light_power(l: &Light, geom: Option<&AreaGeometry>, map: Option<&Environment>, scene_radius: f32) -> Color {
     match l {
         Light::Area { radiance, .. } => {
             let area = match geom {
@@ -524,7 +573,7 @@ fn light_power(l: &Light, geom: Option<&AreaGeometry>, map: Option<&EnvMap>, sce
         }
         Light::Directional { irradiance, .. } => *irradiance * (PI * scene_radius * scene_radius),
         Light::Constant { radiance } => *radiance * (4.0 * PI * PI * scene_radius * scene_radius),
-        Light::Envmap { .. } => map.map_or(Color::ZERO, |m| m.integral() * (PI * scene_radius * scene_radius)),
+        Light::Envmap { .. } | Light::Sunsky(_) => map.map_or(Color::ZERO, |m| m.integral() * (PI * scene_radius * scene_radius)),
     }
 }
 
@@ -616,6 +665,7 @@ impl Light {
             }
             Light::Constant { radiance } => color(*radiance, "radiance"),
             Light::Envmap { scale, to_world, .. } => crate::envmap::check_frame(*scale, to_world),
+            Light::Sunsky(desc) => desc.validate(),
         }
     }
 }

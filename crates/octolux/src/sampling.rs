@@ -360,7 +360,7 @@ mod tests {
 
     #[test]
     fn distribution_2d_sampling_matches_its_pdf() {
-        use crate::testing::{chi2_2d, Chi2Config};
+        use crate::testing::{chi2_2d_piecewise as chi2_2d, Chi2Config};
         // 4 x 3 grid with an empty row and an empty cell
         let w = [1.0, 2.0, 0.0, 4.0, 0.0, 0.0, 0.0, 0.0, 3.0, 1.0, 1.0, 8.0];
         let d = Distribution2D::new(&w, 4, 3).unwrap();
