@@ -17,7 +17,7 @@
 //! so 25% of slack keeps the test stable while a bias of about a quarter of the per-pixel noise
 //! standard deviation already fails it.
 //!
-//! Scenes from `../shared/scenes` are skipped (with a note) when that folder is absent.
+//! Scenes from the shared folder (`octolux_io::shared`) are skipped with one `skip:` line when absent.
 
 use octolux::accel::BackendKind;
 use octolux::integrators::{path::PathSettings, Integrator};
@@ -40,9 +40,9 @@ fn check(name: &str, spp: u32) -> Option<String> {
     let reference = octolux_io::image_io::read_exr(&root.join("tests/refs").join(entry["file"].as_str().unwrap())).expect("reference exr");
     let source = entry["source_scene"].as_str().unwrap();
     let scene_spec = if let Some(rel) = source.strip_prefix("scenes/") {
-        let p = root.join("../shared/scenes").join(rel);
+        let p = octolux_io::shared::scenes_dir().join(rel);
         if !p.exists() {
-            return Some(format!("skipped {name}: {} is absent (needs ../shared/scenes)", p.display()));
+            return Some(octolux_io::shared::skip_line(name, &p));
         }
         p.to_string_lossy().into_owned()
     } else {

@@ -9,7 +9,8 @@
 //! on a 25 mm film gives a field of view of 2·atan(12.5/35) = 39.3077°.
 //!
 //! Materials: Cornell's spectral data reduced to RGB as in Benedikt Bitterli's "Cornell Box"
-//! (Rendering Resources, CC0; the version shipped in `/work/shared/scenes/bitterli-cornell-box`):
+//! (Rendering Resources, CC0; the version in the shared folder's `scenes/bitterli-cornell-box`, see
+//! [`crate::shared`]):
 //! white (0.725, 0.71, 0.68), red (0.63, 0.065, 0.05), green (0.14, 0.45, 0.091), light
 //! radiance (17, 12, 4) W/(m² sr), and a black (non-reflecting) luminaire.
 //!

@@ -10,6 +10,7 @@ pub mod export;
 pub mod image_io;
 pub mod mesh;
 pub mod mitsuba;
+pub mod shared;
 
 use octolux::scene::SceneDesc;
 use std::path::{Path, PathBuf};

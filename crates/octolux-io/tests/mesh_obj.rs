@@ -7,6 +7,7 @@ use octolux::material::{Material, Texture};
 use octolux::math::Color;
 use octolux::scene::{Geometry, TriMesh};
 use octolux_io::mesh::{load_mesh_checked, load_mesh_scene, load_obj_mesh, phong_exponent_to_alpha};
+use octolux_io::shared::shared_scene;
 use octolux_io::IoError;
 use std::path::{Path, PathBuf};
 
@@ -133,12 +134,8 @@ fn checked_loading_removes_degenerate_triangles_with_a_warning() {
 
 #[test]
 fn mitsuba_cbox_small_box_keeps_its_file_normals() {
-    let path = Path::new("/work/shared/scenes/mitsuba-tutorials-cbox/meshes/cbox_smallbox.obj");
-    if !path.exists() {
-        eprintln!("skipped: {} not present", path.display());
-        return;
-    }
-    let (m, warnings) = load_mesh_checked(path).unwrap();
+    let Some(path) = shared_scene("mitsuba-tutorials-cbox/meshes/cbox_smallbox.obj") else { return };
+    let (m, warnings) = load_mesh_checked(&path).unwrap();
     assert!(warnings.is_empty(), "{warnings:?}");
     assert_eq!(m.positions.len(), 24);
     assert_eq!(m.indices.len(), 12);

@@ -6,6 +6,7 @@ use octolux::material::{Material, Texture};
 use octolux::math::Color;
 use octolux::scene::{Geometry, TriMesh};
 use octolux_io::mesh::{load_mesh_checked, load_mesh_scene, load_ply_mesh};
+use octolux_io::shared::shared_scene;
 use octolux_io::IoError;
 use std::path::{Path, PathBuf};
 
@@ -152,11 +153,8 @@ fn header_count(text: &str, element: &str) -> usize {
 
 #[test]
 fn stanford_bunny_loads_with_smooth_outward_normals() {
-    let path = Path::new("/work/shared/scenes/stanford-bunny/bun_zipper.ply");
-    if !path.exists() {
-        eprintln!("skipped: {} not present", path.display());
-        return;
-    }
+    let Some(path) = shared_scene("stanford-bunny/bun_zipper.ply") else { return };
+    let path = path.as_path();
     let text = std::fs::read_to_string(path).unwrap();
     let nv = header_count(&text, "vertex");
     let nf = header_count(&text, "face");
@@ -183,11 +181,7 @@ fn stanford_bunny_loads_with_smooth_outward_normals() {
 
 #[test]
 fn bitterli_binary_meshes_match_a_direct_decoding() {
-    let dir = Path::new("/work/shared/scenes/bitterli-cornell-box/ply");
-    if !dir.exists() {
-        eprintln!("skipped: {} not present", dir.display());
-        return;
-    }
+    let Some(dir) = shared_scene("bitterli-cornell-box/ply") else { return };
     for name in ["Floor", "Ceiling", "BackWall", "LeftWall", "RightWall", "Light", "ShortBox", "TallBox"] {
         let path = dir.join(format!("{name}.ply"));
         let bytes = std::fs::read(&path).unwrap();

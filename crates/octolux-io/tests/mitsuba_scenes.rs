@@ -1,5 +1,5 @@
 //! The shared reference scenes load with the right camera, film, materials and lights. Each
-//! test passes with a note when the shared folder is absent.
+//! test passes with one `skip:` line when its scene is absent (see `octolux_io::shared`).
 
 use glam::Vec3;
 use octolux::camera::FovAxis;
@@ -9,14 +9,9 @@ use octolux::scene::{Geometry, PixelFilter};
 use octolux_io::mitsuba::load;
 use std::path::PathBuf;
 
+/// The scene `rel` of the shared folder, or `None` after one skip line.
 fn shared(rel: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/scenes")).join(rel);
-    if p.is_file() {
-        Some(p)
-    } else {
-        eprintln!("note: {} is absent; test skipped", p.display());
-        None
-    }
+    octolux_io::shared::shared_scene(rel)
 }
 
 fn defs(pairs: &[(&str, &str)]) -> Vec<(String, String)> {

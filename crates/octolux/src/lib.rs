@@ -5,22 +5,38 @@
 
 pub mod accel;
 pub mod caches;
-pub mod camera;
-pub mod envmap;
+pub mod image;
 pub mod integrators;
-pub mod light;
-pub mod material;
 pub mod math;
 pub mod metrics;
 pub mod photon;
 pub mod photon_pass;
-pub mod prepared;
 pub mod render;
 pub mod sampling;
 pub mod scene;
-pub mod sunsky;
-#[doc(hidden)]
+/// Chi-square test tooling for the crate's tests; outside them only with the `testing`
+/// feature, which this crate's own dev-dependency on itself enables (never a user build).
+#[cfg(any(test, feature = "testing"))]
 pub mod testing;
 
 pub use glam;
 pub use math::Color;
+
+/// TEMP-ALIAS: moved to [`scene::material`] (and `Image` to [`image`]).
+pub mod material {
+    pub use crate::image::Image; // TEMP-ALIAS
+    pub use crate::scene::material::*; // TEMP-ALIAS
+}
+/// TEMP-ALIAS: moved to [`scene::lights`] (and the description enum `Light` to [`scene::desc`]).
+pub mod light {
+    pub use crate::scene::desc::Light; // TEMP-ALIAS
+    pub use crate::scene::lights::*; // TEMP-ALIAS
+}
+/// TEMP-ALIAS: moved to [`scene::camera`].
+pub mod camera {
+    pub use crate::scene::camera::*; // TEMP-ALIAS
+}
+/// TEMP-ALIAS: the prepared scene moved to [`scene`].
+pub mod prepared {
+    pub use crate::scene::{intersect_sphere, Scene, SphereShape, SurfaceHit}; // TEMP-ALIAS
+}

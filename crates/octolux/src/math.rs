@@ -164,6 +164,45 @@ where
     a * (1.0 - uv.x - uv.y) + b * uv.x + c * uv.y
 }
 
+/// Gauss–Legendre nodes and weights on [-1, 1] (Newton iteration on `P_n`), in f64.
+pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut nodes = vec![0.0; n];
+    let mut weights = vec![0.0; n];
+    for i in 0..n.div_ceil(2) {
+        let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            // P_n(x) and P_n'(x) by the three-term recurrence
+            let (mut p0, mut p1) = (1.0f64, x);
+            for k in 2..=n {
+                let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+                p0 = p1;
+                p1 = p2;
+            }
+            let pn = if n == 0 {
+                1.0
+            } else if n == 1 {
+                x
+            } else {
+                p1
+            };
+            let pn1 = if n == 1 { 1.0 } else { p0 };
+            dp = n as f64 * (x * pn - pn1) / (x * x - 1.0);
+            let dx = pn / dp;
+            x -= dx;
+            if dx.abs() < 1e-15 {
+                break;
+            }
+        }
+        let w = 2.0 / ((1.0 - x * x) * dp * dp);
+        nodes[i] = -x;
+        weights[i] = w;
+        nodes[n - 1 - i] = x;
+        weights[n - 1 - i] = w;
+    }
+    (nodes, weights)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,5 +231,19 @@ mod tests {
         assert!((a.overlap_volume(&b) - 0.125).abs() < 1e-7);
         let c = Bounds3 { min: Vec3::splat(3.0), max: Vec3::splat(4.0) };
         assert_eq!(a.overlap_volume(&c), 0.0);
+    }
+
+    #[test]
+    fn gauss_legendre_is_exact_for_polynomials() {
+        for n in [1usize, 2, 5, 32, 128] {
+            let (x, w) = gauss_legendre(n);
+            assert!((w.iter().sum::<f64>() - 2.0).abs() < 1e-12, "n {n}");
+            // ∫ x^k over [-1,1] = 2/(k+1) for even k, exact up to degree 2n-1
+            for k in (0..2 * n).step_by(2).take(8) {
+                let q: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(k as i32)).sum();
+                assert!((q - 2.0 / (k as f64 + 1.0)).abs() < 1e-11, "n {n} k {k}: {q}");
+            }
+            assert!(x.windows(2).all(|p| p[0] < p[1]));
+        }
     }
 }

@@ -4,7 +4,7 @@
 //! the rendering literature and by `tools/mitsuba/compare.py`; the 0.01 keeps black pixels from
 //! dominating), `rmse = sqrt(mean (a − r)²)`. Sums in f64.
 
-use crate::material::Image;
+use crate::image::Image;
 use serde::Serialize;
 
 /// Regulariser of the relative MSE denominator.

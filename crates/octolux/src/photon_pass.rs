@@ -20,11 +20,11 @@
 //! Transport is adjoint (importance-like) for photons: a refraction sampled by a radiance-mode
 //! BSDF carries the `1/η²` radiance scaling, which flux must not have, so it is undone here.
 
-use crate::material::Lobe;
 use crate::math::{max_component, Ray};
 use crate::photon::Photon;
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
+use crate::scene::material::Lobe;
+use crate::scene::Scene;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

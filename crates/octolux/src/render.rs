@@ -18,12 +18,12 @@
 //! With a time budget, whole passes of `spp` samples are added until the budget is spent (the
 //! result then depends on the machine's speed).
 
+use crate::image::Image;
 use crate::integrators::{Integrator, RayCounters};
-use crate::material::Image;
 use crate::math::{Color, Ray};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
 use crate::scene::PixelFilter;
+use crate::scene::Scene;
 use glam::Vec2;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

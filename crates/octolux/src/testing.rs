@@ -21,9 +21,10 @@
 //! cell boundaries follow the discontinuities of the pdf (for example the horizon `z = 0`,
 //! which is a cell boundary when `cos_bins` is even).
 
-use crate::material::{Image, Lobe, Material};
+use crate::image::Image;
 use crate::math::Color;
 use crate::sampling::Sampler;
+use crate::scene::material::{Lobe, Material};
 use glam::{Vec2, Vec3};
 
 /// Settings of one chi-square test.

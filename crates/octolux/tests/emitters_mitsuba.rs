@@ -10,10 +10,10 @@
 //! envmap.
 
 use glam::{Mat3, Mat4, Vec3};
-use octolux::envmap::EnvMap;
+use octolux::scene::envmap::EnvMap;
 use octolux::material::Image;
 use octolux::math::Color;
-use octolux::sunsky::{SolarTime, SunSky, SunSkyDesc};
+use octolux::scene::sunsky::{SolarTime, SunSky, SunSkyDesc};
 use serde_json::Value;
 
 fn load() -> Value {

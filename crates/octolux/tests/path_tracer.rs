@@ -9,14 +9,12 @@
 //! - Bit-identical images for 1 and 2 threads.
 
 use octolux::accel::BackendKind;
-use octolux::camera::{look_at, CameraDesc, FovAxis};
 use octolux::glam::{Mat4, Vec3};
 use octolux::integrators::{path::PathSettings, Integrator};
-use octolux::light::Light;
-use octolux::material::{Material, Texture};
-use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
-use octolux::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
+use octolux::scene::camera::{look_at, CameraDesc, FovAxis};
+use octolux::scene::material::{Material, Texture};
+use octolux::scene::{FilmDesc, Geometry, Light, PixelFilter, Scene, SceneDesc, ShapeDesc, TriMesh};
 use octolux::Color;
 
 fn furnace_scene(albedo: f32) -> SceneDesc {
@@ -41,7 +39,7 @@ fn furnace_scene(albedo: f32) -> SceneDesc {
     }
 }
 
-fn render_desc(desc: SceneDesc, spp: u32, max_depth: i32, seed: u64) -> octolux::material::Image {
+fn render_desc(desc: SceneDesc, spp: u32, max_depth: i32, seed: u64) -> octolux::image::Image {
     let scene = Scene::prepare(desc, BackendKind::Auto).expect("valid scene");
     let integrator = Integrator::Path(PathSettings { max_depth, ..Default::default() });
     let settings = RenderSettings { spp, seed, ..Default::default() };

@@ -34,8 +34,8 @@ use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SceneLength, 
 use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache, WardCacheStats};
 use crate::math::{Color, Ray};
 use crate::photon_pass::{trace_photons, PhotonSettings};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
+use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;

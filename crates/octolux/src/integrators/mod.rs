@@ -10,10 +10,10 @@ pub mod path;
 pub mod photonmap;
 pub mod ward;
 
-use crate::material::Material;
 use crate::math::{Color, Ray};
-use crate::prepared::{Scene, SurfaceHit};
 use crate::sampling::Sampler;
+use crate::scene::material::Material;
+use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 

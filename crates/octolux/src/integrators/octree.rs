@@ -20,11 +20,11 @@
 
 use super::{direct_light, RayCounters};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
-use crate::material::{Lobe, Material};
 use crate::math::{Color, Frame, Ray};
 use crate::photon_pass::{trace_photons, PhotonError, PhotonSettings};
-use crate::prepared::{Scene, SurfaceHit};
 use crate::sampling::Sampler;
+use crate::scene::material::{Lobe, Material};
+use crate::scene::{Scene, SurfaceHit};
 use glam::{Mat3, Vec3};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;

@@ -28,11 +28,11 @@
 
 use super::RayCounters;
 use crate::caches::kdtree::{gather_photons, scene_size, Density, DensitySettings, Neighbor, PhotonTree, SettingsError};
-use crate::material::{Lobe, Material};
 use crate::math::{Color, Frame, Ray};
 use crate::photon_pass::{trace_photons, PhotonError, PhotonMaps, PhotonSettings};
-use crate::prepared::{Scene, SurfaceHit};
 use crate::sampling::{square_to_cosine_hemisphere, Sampler};
+use crate::scene::material::{Lobe, Material};
+use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;
@@ -474,8 +474,8 @@ impl PhotonMapIntegrator {
 pub(crate) mod tests {
     use super::*;
     use crate::accel::BackendKind;
-    use crate::camera::{look_at, CameraDesc, FovAxis};
-    use crate::material::Texture;
+    use crate::scene::camera::{look_at, CameraDesc, FovAxis};
+    use crate::scene::material::Texture;
     use crate::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
     use glam::Mat4;
 

@@ -45,9 +45,9 @@ use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SceneLength, 
 use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache, WardCacheStats};
 use crate::math::{Color, Ray};
 use crate::photon_pass::{trace_photons, PhotonSettings};
-use crate::prepared::Scene;
 use crate::render::sample_filter;
 use crate::sampling::Sampler;
+use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

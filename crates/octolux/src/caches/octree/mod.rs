@@ -1,5 +1,5 @@
 //! The photon-built octree of incident radiance (Pacanowski, Granier & Schlick, AFIG 2005,
-//! §3–§7 of the paper; `/work/shared/paper/METHOD.md` §3–§7).
+//! §3–§7 of the paper; `docs/octree.md`).
 //!
 //! # Structure (§3)
 //! A cubic octree over the photon hit positions. A cell with more than `n_max` photons is

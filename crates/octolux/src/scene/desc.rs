@@ -1,5 +1,6 @@
 //! Scene description: plain data produced by loaders (built-in scenes, Mitsuba XML, OBJ, PLY)
-//! and consumed by [`crate::prepared::Scene::prepare`].
+//! and consumed by [`crate::scene::Scene::prepare`]. Nothing here depends on the prepared
+//! scene: the description types (shapes, meshes, film, the light enum) sit upstream of it.
 //!
 //! Invariants a loader must establish (checked again by `validate`):
 //! - geometry is in world space (loaders apply `to_world`);
@@ -9,11 +10,12 @@
 //! Units are the scene's own (metres for Mitsuba scenes, millimetres for the built-in Cornell
 //! box, whose published geometry is in mm); radiance is in W/(m² sr) per RGB channel.
 
-use crate::camera::CameraDesc;
-use crate::light::Light;
-use crate::material::{Image, Material};
-use crate::math::{Bounds3, Color};
-use glam::{Mat4, Vec2, Vec3};
+use super::camera::CameraDesc;
+use super::material::Material;
+use super::sunsky::SunSkyDesc;
+use crate::image::Image;
+use crate::math::{Bounds3, Color, Frame};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 
 /// An indexed triangle mesh in world space.
@@ -160,6 +162,86 @@ pub struct ShapeDesc {
     pub flip_normals: bool,
 }
 
+/// A light source as described by a scene (area lights may also be given as
+/// [`ShapeDesc::emission`]; [`crate::scene::lights::LightSet`] prepares them for sampling).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    /// Diffuse area emitter on shape `shape` (index into the scene's shapes) of radiance
+    /// `radiance` (W/(m² sr)).
+    Area { shape: u32, radiance: Color },
+    /// Isotropic point light of intensity `intensity` (W/sr).
+    Point { position: Vec3, intensity: Color },
+    /// Spot light at `position` shining along `frame.n` (Mitsuba `spot`): full intensity
+    /// inside `cos_falloff_start`, smooth falloff to zero at `cos_cutoff`.
+    Spot { position: Vec3, frame: Frame, intensity: Color, cos_cutoff: f32, cos_falloff_start: f32 },
+    /// Distant light travelling along `direction` (unit) with irradiance `irradiance` (W/m²)
+    /// on a surface perpendicular to it.
+    Directional { direction: Vec3, irradiance: Color },
+    /// Constant environment of radiance `radiance` (W/(m² sr)) from every direction.
+    Constant { radiance: Color },
+    /// Latitude-longitude environment map (Mitsuba `envmap`, see [`super::envmap`]): image
+    /// `image` (index into [`SceneDesc::images`], linear RGB radiance in W/(m² sr)) times
+    /// `scale`, oriented by the orthogonal `to_world` (local `+y` is up).
+    Envmap { image: u32, scale: f32, to_world: Mat3 },
+    /// Sun and sky (Mitsuba 3 `sunsky`, see [`super::sunsky`]).
+    Sunsky(SunSkyDesc),
+}
+
+impl Light {
+    /// Check the parameters: finite, non-negative colours, unit directions, a spot's cone.
+    pub fn validate(&self) -> Result<(), String> {
+        let color = |c: Color, what: &str| -> Result<(), String> {
+            if c.is_finite() && c.min_element() >= 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{what} {c} must be finite and non-negative"))
+            }
+        };
+        let point = |p: Vec3| -> Result<(), String> {
+            if p.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("position {p} is not finite"))
+            }
+        };
+        let unit = |d: Vec3, what: &str| -> Result<(), String> {
+            if d.is_finite() && (d.length() - 1.0).abs() < 1e-3 {
+                Ok(())
+            } else {
+                Err(format!("{what} {d} must be a unit vector"))
+            }
+        };
+        match self {
+            Light::Area { radiance, .. } => color(*radiance, "radiance"),
+            Light::Point { position, intensity } => {
+                point(*position)?;
+                color(*intensity, "intensity")
+            }
+            Light::Spot { position, frame, intensity, cos_cutoff, cos_falloff_start } => {
+                point(*position)?;
+                unit(frame.n, "spot direction")?;
+                unit(frame.s, "spot frame tangent")?;
+                unit(frame.t, "spot frame bitangent")?;
+                color(*intensity, "intensity")?;
+                if !(cos_cutoff.is_finite() && (-1.0..1.0).contains(cos_cutoff)) {
+                    return Err(format!("cosine of the cutoff angle {cos_cutoff} must lie in [-1, 1)"));
+                }
+                if !(cos_falloff_start.is_finite() && *cos_falloff_start >= *cos_cutoff && *cos_falloff_start <= 1.0) {
+                    return Err(format!("cosine of the beam width {cos_falloff_start} must lie in [cos cutoff = {cos_cutoff}, 1]"));
+                }
+                Ok(())
+            }
+            Light::Directional { direction, irradiance } => {
+                unit(*direction, "direction")?;
+                color(*irradiance, "irradiance")
+            }
+            Light::Constant { radiance } => color(*radiance, "radiance"),
+            Light::Envmap { scale, to_world, .. } => super::envmap::check_frame(*scale, to_world),
+            Light::Sunsky(desc) => desc.validate(),
+        }
+    }
+}
+
 /// Reconstruction filter of the film (Mitsuba's `rfilter`); realised by filter importance
 /// sampling of the pixel sample positions.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Default)]
@@ -172,6 +254,31 @@ pub enum PixelFilter {
     Tent,
     /// Gaussian of standard deviation `stddev` pixels, truncated at 4 stddev (Mitsuba: 0.5).
     Gaussian { stddev: f32 },
+}
+
+impl PixelFilter {
+    /// Smallest accepted Gaussian standard deviation (pixels): below it the filter's weights
+    /// underflow to NaN in f32.
+    pub const MIN_STDDEV: f32 = 1e-3;
+    /// Largest accepted Gaussian standard deviation (pixels): a filter 4·64 pixels wide is far
+    /// past any use (the renderer cuts splats at a margin of 8 pixels anyway).
+    pub const MAX_STDDEV: f32 = 64.0;
+
+    /// Check the filter's parameters: a Gaussian's `stddev` must lie in
+    /// [[`Self::MIN_STDDEV`], [`Self::MAX_STDDEV`]] (zero, negative or NaN would make the
+    /// renderer's filter sampling loop forever).
+    pub fn validate(&self) -> Result<(), String> {
+        match *self {
+            PixelFilter::Box | PixelFilter::Tent => Ok(()),
+            PixelFilter::Gaussian { stddev } => {
+                if (Self::MIN_STDDEV..=Self::MAX_STDDEV).contains(&stddev) {
+                    Ok(())
+                } else {
+                    Err(format!("Gaussian filter stddev {stddev} pixels is out of range [{}, {}]", Self::MIN_STDDEV, Self::MAX_STDDEV))
+                }
+            }
+        }
+    }
 }
 
 /// Film description.
@@ -236,6 +343,7 @@ impl SceneDesc {
         if self.film.width == 0 || self.film.height == 0 || self.film.width > 1 << 15 || self.film.height > 1 << 15 {
             return Err(SceneError::BadFilm(format!("resolution {}x{} is out of range 1..32768", self.film.width, self.film.height)));
         }
+        self.film.filter.validate().map_err(SceneError::BadFilm)?;
         self.camera.validate().map_err(SceneError::BadCamera)?;
         for s in &self.shapes {
             if s.material as usize >= self.materials.len() {
@@ -290,7 +398,7 @@ impl SceneDesc {
                         problem: format!("environment map image {image} is missing (the scene has {} images)", self.images.len()),
                     });
                 };
-                crate::envmap::LatLong::new(img.width as usize, img.height as usize, &img.data)
+                super::envmap::LatLong::new(img.width as usize, img.height as usize, &img.data)
                     .map_err(|problem| SceneError::BadLight { index, problem })?;
             }
         }
@@ -334,6 +442,28 @@ mod tests {
         assert!((d.area() - std::f64::consts::PI).abs() / std::f64::consts::PI < 1e-3);
     }
 
+    /// A valid one-triangle scene with the given film filter.
+    fn scene_with_filter(filter: PixelFilter) -> SceneDesc {
+        let mesh = TriMesh { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![[0, 1, 2]], ..Default::default() };
+        SceneDesc {
+            shapes: vec![ShapeDesc { name: "t".into(), geometry: Geometry::Mesh(mesh), material: 0, emission: None, flip_normals: false }],
+            materials: vec![Material::Diffuse { reflectance: crate::scene::material::Texture::Const(Color::splat(0.5)) }],
+            film: FilmDesc { width: 8, height: 8, filter },
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn validation_rejects_out_of_range_filters() {
+        for filter in [PixelFilter::Box, PixelFilter::Tent, PixelFilter::Gaussian { stddev: 0.5 }, PixelFilter::Gaussian { stddev: 2.0 }] {
+            assert_eq!(scene_with_filter(filter).validate(), Ok(()), "{filter:?}");
+        }
+        for stddev in [0.0, -0.5, f32::NAN, f32::INFINITY, 1e-30, 1e6] {
+            let err = scene_with_filter(PixelFilter::Gaussian { stddev }).validate();
+            assert!(matches!(&err, Err(SceneError::BadFilm(m)) if m.contains("stddev")), "stddev {stddev}: {err:?}");
+        }
+    }
+
     #[test]
     fn degenerate_triangles_are_removed() {
         let mut m = TriMesh {
@@ -343,5 +473,22 @@ mod tests {
         };
         assert_eq!(m.remove_degenerate(), 1);
         assert_eq!(m.indices.len(), 1);
+    }
+
+    #[test]
+    fn validation_rejects_bad_lights() {
+        let f = Frame::from_normal(Vec3::Z);
+        assert!(Light::Point { position: Vec3::ZERO, intensity: Color::ONE }.validate().is_ok());
+        assert!(Light::Point { position: Vec3::splat(f32::NAN), intensity: Color::ONE }.validate().is_err());
+        assert!(Light::Point { position: Vec3::ZERO, intensity: -Color::ONE }.validate().is_err());
+        let spot =
+            |cc: f32, cb: f32| Light::Spot { position: Vec3::ZERO, frame: f, intensity: Color::ONE, cos_cutoff: cc, cos_falloff_start: cb };
+        assert!(spot(0.8, 0.9).validate().is_ok());
+        assert!(spot(0.9, 0.8).validate().is_err(), "beam wider than the cutoff");
+        assert!(spot(1.0, 1.0).validate().is_err(), "zero cutoff angle");
+        assert!(spot(-1.5, 0.5).validate().is_err());
+        assert!(Light::Directional { direction: Vec3::new(0.0, 0.0, 2.0), irradiance: Color::ONE }.validate().is_err());
+        assert!(Light::Constant { radiance: Color::new(0.0, f32::INFINITY, 0.0) }.validate().is_err());
+        assert!(Light::Area { shape: 0, radiance: Color::ONE }.validate().is_ok());
     }
 }

@@ -4,14 +4,35 @@
 //!
 //! Invariant: built once by [`Scene::prepare`], then only read (shared across threads without
 //! locks).
+//!
+//! The scene's rooms, upstream to downstream (no module imports one further down):
+//! - [`camera`]: camera description and the prepared pinhole camera;
+//! - [`material`]: the BSDFs (closed enum), their Fresnel, microfacet and texture pieces;
+//! - [`envmap`], [`sunsky`]: the environment emitters' models (latitude-longitude map; Mitsuba
+//!   3's sun and sky with its tables), with their importance sampling;
+//! - [`desc`]: the plain-data description loaders produce ([`SceneDesc`], shapes, meshes,
+//!   film, the light enum [`Light`]), with its validation;
+//! - [`environment`]: the prepared environment emitters behind one enum;
+//! - [`lights`]: the prepared [`lights::LightSet`] that samples the lights;
+//! - this module: the prepared [`Scene`] and its [`SurfaceHit`].
+
+pub mod camera;
+pub mod desc;
+pub mod environment;
+pub mod envmap;
+pub mod lights;
+pub mod material;
+pub mod sunsky;
+
+pub use desc::{FilmDesc, Geometry, Light, PixelFilter, SceneDesc, SceneError, SceneHints, ShapeDesc, TriMesh};
 
 use crate::accel::{Accel, BackendKind};
-use crate::camera::Camera;
-use crate::light::LightSet;
-use crate::material::{Image, Material};
+use crate::image::Image;
 use crate::math::{bary, offset_origin, Bounds3, Frame, Ray};
-use crate::scene::{FilmDesc, Geometry, SceneDesc, SceneError, SceneHints};
+use camera::Camera;
 use glam::{Vec2, Vec3};
+use lights::LightSet;
+use material::Material;
 use std::f32::consts::PI;
 
 /// An analytic sphere of the prepared scene.
@@ -70,7 +91,6 @@ pub struct Scene {
     pub lights: LightSet,
     pub camera: Camera,
     pub film: FilmDesc,
-    pub hints: SceneHints,
     pub bounds: Bounds3,
     accel: Accel,
     positions: Vec<Vec3>,
@@ -132,7 +152,6 @@ impl Scene {
             lights,
             camera,
             film: desc.film,
-            hints: desc.hints,
             bounds,
             accel,
             positions,
@@ -154,20 +173,8 @@ impl Scene {
         self.triangles.len()
     }
 
-    /// Change the film resolution (and the camera's aspect with it).
-    pub fn set_resolution(&mut self, width: u32, height: u32, camera: &crate::camera::CameraDesc) {
-        self.film.width = width;
-        self.film.height = height;
-        self.camera = Camera::new(camera, width, height);
-    }
-
-    /// World-space triangles of the whole scene (spheres tessellated), e.g. for geometry-area
-    /// estimates.
-    pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
-        self.world_triangles_where(|_| true)
-    }
-
-    /// [`Scene::world_triangles`] of the shapes whose material passes `keep`.
+    /// World-space triangles of the shapes whose material passes `keep` (spheres tessellated),
+    /// e.g. for geometry-area estimates.
     pub fn world_triangles_where(&self, keep: impl Fn(&Material) -> bool) -> Vec<[Vec3; 3]> {
         let kept = |shape: u32| keep(&self.materials[self.shapes[shape as usize].material as usize]);
         let mut out: Vec<[Vec3; 3]> = self

@@ -19,7 +19,7 @@
 //! (uniform in φ and in `cos θ`). The solid-angle density of a direction is therefore
 //! `P(cell) / (Δφ (cos θ₀ − cos θ₁))`: bounded, and positive wherever the radiance is.
 
-use crate::material::Image;
+use crate::image::Image;
 use crate::math::{luminance, Color};
 use crate::sampling::Distribution2D;
 use glam::{DVec3, Mat3, Vec2, Vec3};

@@ -26,16 +26,16 @@
 //!
 //! Sampling (ours, not Mitsuba's truncated Gaussian mixtures): with probability `p_sun` (the
 //! sun's share of the emitted luminance) a direction uniform in the sun's cone, otherwise a
-//! direction drawn from a latitude-longitude table of the sky ([`crate::envmap::LatLong`],
+//! direction drawn from a latitude-longitude table of the sky ([`super::envmap::LatLong`],
 //! 256 × 129 lookup points); the pdf is the mixture of both densities.
 
-use crate::envmap::LatLong;
+use super::envmap::LatLong;
 use crate::math::{luminance, Color, Frame};
 use glam::{DVec3, Mat3, Vec2, Vec3};
 use std::f64::consts::PI;
 
 /// The tables (little-endian f32): sky parameters, sky radiance, sun irradiance (RGB).
-static DATA: &[u8] = include_bytes!("../data/sunsky/sunsky_rgb.bin");
+static DATA: &[u8] = include_bytes!("../../data/sunsky/sunsky_rgb.bin");
 const SKY_PARAMS_LEN: usize = 10 * 2 * 6 * 3 * 9;
 const SKY_RAD_LEN: usize = 10 * 2 * 6 * 3;
 const SUN_LEN: usize = 10 * 30 * 3;
@@ -90,7 +90,7 @@ impl Default for SunSkyDesc {
 
 impl SunSkyDesc {
     pub fn validate(&self) -> Result<(), String> {
-        crate::envmap::check_frame(1.0, &self.to_world)?;
+        super::envmap::check_frame(1.0, &self.to_world)?;
         if !(self.sun_direction.is_finite() && (self.sun_direction.length() - 1.0).abs() < 1e-3) {
             return Err(format!("sun direction {} must be a unit vector", self.sun_direction));
         }
@@ -312,7 +312,7 @@ impl SunSky {
         for j in 0..table_h {
             for i in 0..table_w {
                 let uv = Vec2::new((i as f32 + 0.5) / table_w as f32, j as f32 / (table_h - 1) as f32);
-                pixels.push(s.sky_local(from_table(crate::envmap::uv_to_direction(uv)).as_dvec3()));
+                pixels.push(s.sky_local(from_table(super::envmap::uv_to_direction(uv)).as_dvec3()));
             }
         }
         s.table = LatLong::new(table_w, table_h, &pixels)?;
@@ -427,7 +427,7 @@ mod tests {
     /// sun's frame over its cone. The mixture of both is covered by the unbiasedness test.
     #[test]
     fn sampling_matches_pdf_chi2() {
-        use crate::envmap::{direction_to_uv, uv_to_direction};
+        use super::super::envmap::{direction_to_uv, uv_to_direction};
         let base = SunSkyDesc {
             sun_direction: Vec3::new(0.3, 0.5, 0.4).normalize(),
             sun_aperture_deg: 12.0,

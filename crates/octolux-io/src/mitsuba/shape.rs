@@ -1,0 +1,194 @@
+//! Mitsuba `shape` plugins (`obj`, `ply`, `serialized`, `sphere`, `rectangle`, `cube`, `disk`)
+//! with their bsdf and area emitter, transformed to world space.
+//!
+//! Meshes are placed as Mitsuba 3 places them (`mesh::place_mesh`): normals stored in the file
+//! are transformed, missing ones are computed after the transform, and the winding is reversed
+//! under a mirroring `to_world` where the normals are transformed ones, so that octolux's
+//! winding normal (which decides the emitting side) is Mitsuba's shading normal. Degenerate
+//! triangles are removed in world space with one warning; a mesh left without any triangle is
+//! skipped with one warning (Mitsuba 3 loads such files and renders nothing of them).
+//! `serialized` reads `shape_index` (0.6: `shapeIndex`), `face_normals` and, from Mitsuba 0.6
+//! (Mitsuba 3 has no such parameter), `max_smooth_angle` (`maxSmoothAngle`: creases sharper than
+//! the angle stay sharp, see `mesh::rebuild_topology`).
+
+use super::props::{ColorKind, Props};
+use super::tree::{resolve_file, Elem};
+use super::Builder;
+use crate::mesh::{load_mesh_raw, load_serialized, orient_to_given_normals, place_mesh, rebuild_topology, NormalSource};
+use crate::IoError;
+use glam::{Mat4, Vec3};
+use octolux::scene::{Geometry, ShapeDesc, TriMesh};
+
+impl<'t> Builder<'t> {
+    pub(super) fn shape(&mut self, e: &'t Elem) -> Result<(), IoError> {
+        let ty = e.req_attr("type")?;
+        let p = self.props(e)?;
+        let to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let mut name = e.attr("id").map(str::to_string);
+        let mut geometry = match ty {
+            "obj" | "ply" | "serialized" => {
+                let (mesh, stem) = self.mesh_file(e, &p, ty, &to_world)?;
+                if name.is_none() {
+                    name = Some(stem);
+                }
+                Geometry::Mesh(mesh)
+            }
+            "sphere" => {
+                let center = p.vec3("center")?.unwrap_or(Vec3::ZERO);
+                let radius = p.float_or("radius", 1.0)?;
+                let m = to_world * Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius));
+                let (x, y, z) = (m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate());
+                let r = x.length();
+                let tol = 1e-4 * r;
+                let similar = (y.length() - r).abs() <= tol
+                    && (z.length() - r).abs() <= tol
+                    && x.dot(y).abs() <= tol * r
+                    && x.dot(z).abs() <= tol * r
+                    && y.dot(z).abs() <= tol * r;
+                if !similar || m.row(3) != glam::Vec4::W {
+                    return Err(e
+                        .loc
+                        .error(format!("{}: to_world of a sphere may only rotate, translate and scale uniformly", e.describe())));
+                }
+                if !(r > 0.0 && r.is_finite() && m.w_axis.is_finite()) {
+                    return Err(e.loc.error(format!("{}: the sphere radius {r} must be positive", e.describe())));
+                }
+                Geometry::Sphere { center: m.w_axis.truncate(), radius: r }
+            }
+            // Their normals are transformed ones (Mitsuba 3's inverse transpose): under a mirror
+            // the winding is reversed to agree with them (see `mesh::normals`).
+            "rectangle" | "cube" | "disk" => {
+                let mut mesh = match ty {
+                    "rectangle" => TriMesh::rectangle(&to_world),
+                    "cube" => TriMesh::cube(&to_world),
+                    _ => TriMesh::disk(&to_world, 128),
+                };
+                orient_to_given_normals(&mut mesh, &to_world);
+                Geometry::Mesh(mesh)
+            }
+            other => {
+                self.warn(e, format!("unsupported shape type \"{other}\"; skipped"));
+                return Ok(());
+            }
+        };
+        if let Geometry::Mesh(m) = &mut geometry {
+            if !m.positions.iter().all(|v| v.is_finite()) {
+                return Err(e.loc.error(format!("{}: vertices are not finite (check to_world)", e.describe())));
+            }
+            // In world space, where a transform may also flatten triangles.
+            let before = m.indices.len();
+            let removed = m.remove_degenerate();
+            if m.indices.is_empty() {
+                let what = if before == 0 { "has no triangles".to_string() } else { format!("has only degenerate triangles ({before})") };
+                self.warn(e, format!("the mesh {what}; the shape is skipped"));
+                return Ok(());
+            }
+            if removed > 0 {
+                self.warn(e, format!("removed {removed} degenerate triangle{} of {before}", if removed == 1 { "" } else { "s" }));
+            }
+        }
+        let flip_normals = p.bool_or("flip_normals", false)?;
+        let mut material = None;
+        let mut emission = None;
+        for (i, o) in p.objects() {
+            match o.target.tag.as_str() {
+                "bsdf" => {
+                    p.mark(i);
+                    if material.is_some() {
+                        return Err(o.elem.loc.error(format!("{} has more than one bsdf", e.describe())));
+                    }
+                    material = Some(self.material_index(o.target)?);
+                }
+                "emitter" => {
+                    p.mark(i);
+                    let em = o.target;
+                    let ety = em.req_attr("type")?;
+                    if ety != "area" {
+                        self.warn(em, format!("emitter type \"{ety}\" cannot be attached to a shape; ignored"));
+                        continue;
+                    }
+                    if emission.is_some() {
+                        return Err(em.loc.error(format!("{} has more than one area emitter", e.describe())));
+                    }
+                    let ep = self.props(em)?;
+                    let radiance = self.color_param(&ep, "radiance", ColorKind::Unbounded, 1.0)?;
+                    if !radiance.is_finite() {
+                        return Err(em.loc.error(format!("{}: radiance {radiance} is not finite", em.describe())));
+                    }
+                    emission = Some(radiance);
+                    ep.accept(&["sampling_weight"]);
+                    ep.finish(&mut self.warnings);
+                }
+                "medium" => {
+                    p.mark(i);
+                    self.warn(o.target, "participating media are not supported; ignored");
+                }
+                _ => {}
+            }
+        }
+        let material = match material {
+            Some(m) => m,
+            None => self.default_material(),
+        };
+        p.finish(&mut self.warnings);
+        let name = name.unwrap_or_else(|| format!("{ty}@{}", e.loc));
+        self.desc.shapes.push(ShapeDesc { name, geometry, material, emission, flip_normals });
+        Ok(())
+    }
+    /// Load the mesh file of an `obj`, `ply` or `serialized` shape and place it in world space.
+    /// Returns the mesh and a default shape name (file stem, `@index` for serialized).
+    fn mesh_file(&mut self, e: &'t Elem, p: &Props<'t>, ty: &str, to_world: &Mat4) -> Result<(TriMesh, String), IoError> {
+        let file = p.string("filename")?.ok_or_else(|| e.loc.error(format!("{} needs a \"filename\"", e.describe())))?;
+        let path = resolve_file(&e.loc, file, &self.main_dir, self.search_dirs)
+            .ok_or_else(|| e.loc.error(format!("{}: mesh file \"{file}\" not found", e.describe())))?;
+        let mut stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| ty.to_string());
+        let face_normals = p.bool_or("face_normals", false)?;
+        let (mut mesh, from_file, file_face_normals) = if ty == "serialized" {
+            let index = p.int("shape_index")?.unwrap_or(0);
+            let Ok(index) = u32::try_from(index) else {
+                return Err(e.loc.error(format!("{}: shape_index {index} must be a non-negative integer", e.describe())));
+            };
+            let s = load_serialized(&path, index).map_err(|err| e.loc.error(format!("{}: {err}", e.describe())))?;
+            for w in s.warnings {
+                self.warn(e, w);
+            }
+            stem = format!("{stem}@{index}");
+            (s.mesh, s.normals_from_file, s.face_normals)
+        } else {
+            let raw = load_mesh_raw(&path)?;
+            for w in raw.warnings {
+                self.warn(e, w);
+            }
+            (raw.mesh, raw.normals_from_file, false)
+        };
+        if ty == "obj" && !p.bool_or("flip_tex_coords", true)? {
+            // The OBJ reader flips v like Mitsuba's default; undo it.
+            if let Some(uvs) = &mut mesh.uvs {
+                for uv in uvs.iter_mut() {
+                    uv.y = 1.0 - uv.y;
+                }
+            }
+        }
+        let source = if face_normals || file_face_normals {
+            NormalSource::Face
+        } else if from_file {
+            NormalSource::Given
+        } else {
+            NormalSource::Computed
+        };
+        match p.float("max_smooth_angle")? {
+            Some(angle) => {
+                if face_normals {
+                    return Err(e.loc.error(format!("{}: give either max_smooth_angle or face_normals, not both", e.describe())));
+                }
+                if !(0.0..=180.0).contains(&angle) {
+                    return Err(e.loc.error(format!("{}: max_smooth_angle {angle} must lie in [0, 180] degrees", e.describe())));
+                }
+                place_mesh(&mut mesh, to_world, NormalSource::Face);
+                mesh = rebuild_topology(&mesh, angle);
+            }
+            None => place_mesh(&mut mesh, to_world, source),
+        }
+        Ok((mesh, stem))
+    }
+}

@@ -1,0 +1,96 @@
+//! Mitsuba `texture` plugins (`bitmap`, `checkerboard`) and colour parameters that may be
+//! textured.
+
+use super::props::{ColorKind, Props, Spec};
+use super::tree::{resolve_file, Elem};
+use super::Builder;
+use crate::IoError;
+use glam::Vec2;
+use octolux::material::Texture;
+use octolux::math::Color;
+
+impl<'t> Builder<'t> {
+    /// A colour parameter as a texture (default when absent).
+    pub(super) fn texture_param(&mut self, p: &Props<'t>, name: &str, kind: ColorKind, default: f32) -> Result<Texture, IoError> {
+        match p.spec(name, kind, &mut self.warnings)? {
+            None => Ok(Texture::Const(Color::splat(default))),
+            Some(Spec::Const(c)) => Ok(Texture::Const(c)),
+            Some(Spec::Texture(t)) => self.texture(t),
+        }
+    }
+
+    /// A colour parameter that must be constant; a bitmap is replaced by its average.
+    pub(super) fn color_param(&mut self, p: &Props<'t>, name: &str, kind: ColorKind, default: f32) -> Result<Color, IoError> {
+        match self.texture_param(p, name, kind, default)? {
+            Texture::Const(c) => Ok(c),
+            Texture::Bitmap { image, .. } => {
+                let img = &self.desc.images[image as usize];
+                let avg = img.data.iter().fold(Color::ZERO, |a, &c| a + c) / img.data.len().max(1) as f32;
+                self.warn(p.owner, format!("a textured \"{name}\" is not supported here; using the image average {avg}"));
+                Ok(avg)
+            }
+        }
+    }
+
+    pub(super) fn texture(&mut self, e: &'t Elem) -> Result<Texture, IoError> {
+        let ty = e.req_attr("type")?;
+        let p = self.props(e)?;
+        let tex = match ty {
+            "bitmap" => {
+                let name = p.string("filename")?.ok_or_else(|| e.loc.error(format!("{} needs a \"filename\"", e.describe())))?;
+                let path = resolve_file(&e.loc, name, &self.main_dir, self.search_dirs)
+                    .ok_or_else(|| e.loc.error(format!("{}: image file \"{name}\" not found", e.describe())))?;
+                let image = match self.images.get(&path) {
+                    Some(&i) => i,
+                    None => {
+                        let img = crate::image_io::read_image(&path)?;
+                        self.desc.images.push(img);
+                        let i = (self.desc.images.len() - 1) as u32;
+                        self.images.insert(path.clone(), i);
+                        i
+                    }
+                };
+                let mut uv_scale = Vec2::ONE;
+                if let Some(m) = p.transform("to_uv")? {
+                    uv_scale = Vec2::new(m.x_axis.x, m.y_axis.y);
+                    let off = [m.x_axis.y, m.y_axis.x, m.w_axis.x, m.w_axis.y];
+                    if off.iter().any(|v| *v != 0.0) {
+                        self.warn(e, "only the scale part of to_uv is supported (rotation and offset ignored)");
+                    }
+                }
+                // Mitsuba 0.5 names.
+                uv_scale *= Vec2::new(p.float_or("uscale", 1.0)?, p.float_or("vscale", 1.0)?);
+                if p.float_or("uoffset", 0.0)? != 0.0 || p.float_or("voffset", 0.0)? != 0.0 {
+                    self.warn(e, "texture offsets (uoffset/voffset) are not supported; ignored");
+                }
+                if p.bool_or("raw", false)?
+                    && !path.extension().is_some_and(|x| x.eq_ignore_ascii_case("exr") || x.eq_ignore_ascii_case("hdr"))
+                {
+                    self.warn(e, "raw = true is not supported: 8-bit images are always decoded from sRGB");
+                }
+                for (param, default) in [("filter_type", "bilinear"), ("wrap_mode", "repeat")] {
+                    if let Some(v) = p.string(param)? {
+                        if !v.eq_ignore_ascii_case(default) {
+                            self.warn(e, format!("{param} \"{v}\" is not supported; using {default}"));
+                        }
+                    }
+                }
+                Texture::Bitmap { image, uv_scale }
+            }
+            "checkerboard" => {
+                let c0 = self.color_param(&p, "color0", ColorKind::Bounded, 0.4)?;
+                let c1 = self.color_param(&p, "color1", ColorKind::Bounded, 0.2)?;
+                self.warn(e, "checkerboard textures are not supported; using the average of its two colours");
+                p.accept_all();
+                Texture::Const((c0 + c1) * 0.5)
+            }
+            other => {
+                self.warn(e, format!("unsupported texture type \"{other}\"; using a constant 0.5"));
+                p.accept_all();
+                Texture::Const(Color::splat(0.5))
+            }
+        };
+        p.finish(&mut self.warnings);
+        Ok(tex)
+    }
+}

@@ -1,0 +1,560 @@
+//! The prepared [`LightSet`]: the scene's lights (the description enum
+//! [`Light`](super::desc::Light)) plus what sampling them needs.
+//!
+//! Conventions: `LightSample::wi` points from the shading point towards the light;
+//! `LightSample::pdf` is a solid-angle density that already includes the probability of
+//! choosing the light (by power); for delta lights (point, spot, directional) `pdf` is just
+//! that selection probability and `delta` is true. Area lights emit from the front side of
+//! their shape only (`dot(ng, w_out) > 0`), like Mitsuba's `area` emitter.
+//!
+//! Light selection (for next-event estimation and photon emission) is proportional to each
+//! light's emitted power (mean over RGB). Powers:
+//! - area: `π · L · A` (Lambertian emitter, one side);
+//! - point: `4π · I`;
+//! - spot: Mitsuba's falloff is linear in angle, full intensity inside the beam angle `b`,
+//!   zero beyond the cutoff `c`; integrating `I(θ)` over the sphere gives
+//!   `2π I (1 - (sin c - sin b) / (c - b))` (→ `2π I (1 - cos c)` when `b → c`);
+//! - directional: `E · π R²`, the flux through the disk of the scene bounding sphere (radius
+//!   `R`) facing the light;
+//! - constant environment: `L · 4π · π R²` (for each direction, the flux through the disk of
+//!   the bounding sphere perpendicular to it);
+//! - environment map and sun-and-sky: `π R² ∫ L dω` (the same, with the emitter's integral).
+//!
+//! Environment lights (constant, maps, sun-and-sky) act as one emitter towards next-event
+//! estimation: a direction sampled from any of them carries the radiance of all of them
+//! ([`LightSet::env_le`]) with the mixture density [`LightSet::pdf_li_env`], which is also what
+//! the path tracer's MIS uses when a ray escapes.
+//!
+//! Area lights are sampled uniformly by area (triangles through an area CDF), by one routine
+//! ([`AreaGeometry::sample_point`]) for both next-event estimation and emission. A sphere seen from
+//! outside is sampled uniformly inside the cone it subtends (its visible cap); from inside, or
+//! when its normals are flipped, by area. `pdf_li_area` returns exactly the density of
+//! `sample_li` (zero for points whose back faces the shading point, which `sample_li` never
+//! returns). Triangle normals are the winding normals `(p1 - p0) × (p2 - p0)` (negated for
+//! `flip_normals`); `area_le` and `pdf_li_area` use the `ng` the caller passes.
+//!
+//! Photon emission (`sample_emission`) returns `power` such that its mean over samples is the
+//! total emitted power: area lights by area then cosine-weighted direction; point uniform;
+//! spot uniform in the cutoff cone; directional and environment from a disk of the scene
+//! bounding sphere, placed outside the sphere (maps and sun-and-sky: the direction
+//! importance-sampled from the emitter).
+
+use super::desc::{Geometry, Light, ShapeDesc};
+use super::envmap::EnvMap;
+use super::environment::Environment;
+use super::sunsky::SunSky;
+use crate::image::Image;
+use crate::math::{Bounds3, Color, Frame};
+use crate::sampling::{
+    square_to_cosine_hemisphere, square_to_uniform_cone, square_to_uniform_disk_concentric, square_to_uniform_sphere,
+    square_to_uniform_triangle, uniform_cone_pdf, Distribution1D, UNIFORM_SPHERE_PDF,
+};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// A sampled connection from a shading point to a light (next-event estimation).
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Distance to the sampled point (`f32::INFINITY` for directional and environment lights).
+    pub dist: f32,
+    /// Incident radiance arriving along `-wi` (for delta lights: intensity / distance² or
+    /// irradiance), not yet divided by `pdf`.
+    pub li: Color,
+    /// Solid-angle density including the light-selection probability; for delta lights the
+    /// selection probability only.
+    pub pdf: f32,
+    pub delta: bool,
+}
+
+/// An emitted photon (or light-path start).
+#[derive(Clone, Copy, Debug)]
+pub struct Emission {
+    pub p: Vec3,
+    /// Unit direction of travel.
+    pub dir: Vec3,
+    /// Flux carried by the path (W), already divided by all sampling densities, for one sample.
+    pub power: Color,
+    /// Geometric normal at the emission point (zero for point/directional/environment lights).
+    pub n: Vec3,
+    pub light: u32,
+}
+
+/// All lights of a prepared scene, with what sampling them needs.
+#[derive(Clone, Debug)]
+pub struct LightSet {
+    pub lights: Vec<Light>,
+    /// Light index per shape (`u32::MAX` for shapes that do not emit).
+    shape_light: Vec<u32>,
+    /// Power-proportional light-selection distribution (None when the scene has no light).
+    select: Option<Distribution1D>,
+    /// Per light: prepared geometry for area lights (world triangles with an area CDF, or the
+    /// sphere), `None` for others.
+    area: Vec<Option<AreaGeometry>>,
+    /// Scene bounding sphere (centre, radius), for distant and environment lights.
+    scene_sphere: (Vec3, f32),
+    /// Emitted power per light (W, RGB).
+    power: Vec<Color>,
+    /// Sum of the radiance of all constant environment lights.
+    env_radiance: Color,
+    /// Constant environment lights (indices), for `pdf_li_env`.
+    env_lights: Vec<u32>,
+    /// Prepared environment maps and skies: (light index, emitter).
+    env_maps: Vec<(u32, Environment)>,
+    /// Per light: index into `env_maps` (`u32::MAX` for other lights).
+    env_map_of: Vec<u32>,
+}
+
+/// Geometry of an area light prepared for sampling by area.
+#[derive(Clone, Debug)]
+pub enum AreaGeometry {
+    Triangles { tris: Vec<[Vec3; 3]>, normals: Vec<Vec3>, cdf: Distribution1D, area: f32 },
+    Sphere { center: Vec3, radius: f32, flip: bool },
+}
+
+impl LightSet {
+    /// Build from the non-area lights of a scene plus one area light per emitting shape
+    /// (scenes without environment maps; see [`LightSet::with_images`]).
+    pub fn new(lights: &[Light], shapes: &[ShapeDesc], bounds: Bounds3) -> LightSet {
+        LightSet::with_images(lights, shapes, &[], bounds)
+    }
+
+    /// Build from the non-area lights of a scene plus one area light per emitting shape;
+    /// `images` are the scene's images (environment maps refer to them by index). An
+    /// environment emitter that cannot be prepared (missing image, invalid parameters) emits
+    /// nothing: `SceneDesc::validate` rejects such scenes first.
+    pub fn with_images(lights: &[Light], shapes: &[ShapeDesc], images: &[Image], bounds: Bounds3) -> LightSet {
+        let mut all: Vec<Light> = lights.to_vec();
+        for (i, s) in shapes.iter().enumerate() {
+            if let Some(radiance) = s.emission {
+                let already = all.iter().any(|l| matches!(l, Light::Area { shape, .. } if *shape as usize == i));
+                if !already {
+                    all.push(Light::Area { shape: i as u32, radiance });
+                }
+            }
+        }
+        let scene_sphere = {
+            let (c, r) = if bounds.is_empty() { (Vec3::ZERO, 0.0) } else { bounds.bounding_sphere() };
+            let c = if c.is_finite() { c } else { Vec3::ZERO };
+            let r = if r.is_finite() && r > 0.0 { r } else { 1e-3 };
+            (c, r)
+        };
+        let mut shape_light = vec![u32::MAX; shapes.len()];
+        let mut area = Vec::with_capacity(all.len());
+        let mut power = Vec::with_capacity(all.len());
+        let mut env_radiance = Color::ZERO;
+        let mut env_lights = Vec::new();
+        let mut env_maps = Vec::new();
+        let mut env_map_of = vec![u32::MAX; all.len()];
+        for (li, l) in all.iter().enumerate() {
+            let env = match l {
+                Light::Envmap { image, scale, to_world } => {
+                    images.get(*image as usize).and_then(|img| EnvMap::new(img, *scale, *to_world).ok()).map(Environment::Map)
+                }
+                Light::Sunsky(desc) => SunSky::new(desc).ok().map(|s| Environment::SunSky(Box::new(s))),
+                _ => None,
+            };
+            if let Some(env) = env {
+                env_map_of[li] = env_maps.len() as u32;
+                env_maps.push((li as u32, env));
+            }
+            let geom = match l {
+                Light::Area { shape, .. } => {
+                    if let Some(slot) = shape_light.get_mut(*shape as usize) {
+                        *slot = li as u32;
+                    }
+                    shapes.get(*shape as usize).and_then(AreaGeometry::new)
+                }
+                _ => None,
+            };
+            if let Light::Constant { radiance } = l {
+                env_radiance += *radiance;
+                env_lights.push(li as u32);
+            }
+            let env = env_map_of.get(li).and_then(|&m| env_maps.get(m as usize)).map(|(_, e)| e);
+            power.push(light_power(l, geom.as_ref(), env, scene_sphere.1));
+            area.push(geom);
+        }
+        let weights: Vec<f32> = power.iter().map(|p| (p.x + p.y + p.z) / 3.0).collect();
+        let select = Distribution1D::new(&weights);
+        LightSet { lights: all, shape_light, select, area, scene_sphere, power, env_radiance, env_lights, env_maps, env_map_of }
+    }
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+    /// Area light id of a shape, if it emits.
+    #[inline]
+    pub fn shape_light(&self, shape: u32) -> Option<u32> {
+        self.shape_light.get(shape as usize).copied().filter(|&l| l != u32::MAX)
+    }
+
+    /// Probability of selecting light `l`.
+    #[inline]
+    pub fn select_pmf(&self, l: u32) -> f32 {
+        match &self.select {
+            None => 0.0,
+            Some(_) if self.lights.len() == 1 => 1.0,
+            Some(d) if (l as usize) < d.len() => d.pmf(l as usize),
+            Some(_) => 0.0,
+        }
+    }
+
+    /// Pick a light by power; returns the index and its probability (no work for one light).
+    #[inline]
+    fn pick(&self, u: f32) -> Option<(usize, f32)> {
+        let d = self.select.as_ref()?;
+        if self.lights.len() == 1 {
+            return Some((0, 1.0));
+        }
+        let (i, p, _) = d.sample(u);
+        if p > 0.0 {
+            Some((i, p))
+        } else {
+            None
+        }
+    }
+
+    /// Sample a light (by power) and a point on it as seen from `p`.
+    pub fn sample_li(&self, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        let (l, psel) = self.pick(u_select)?;
+        match &self.lights[l] {
+            Light::Area { radiance, .. } => {
+                let geom = self.area[l].as_ref()?;
+                if let Some(one_minus_cos_max) = geom.visible_cone(p) {
+                    // A sphere seen from outside: uniform in the cone it subtends.
+                    let AreaGeometry::Sphere { center, radius, .. } = geom else { return None };
+                    let dc = *center - p;
+                    let d2 = dc.length_squared();
+                    let x = u.y * one_minus_cos_max; // 1 - cos θ
+                    let cos_t = 1.0 - x;
+                    let sin2_t = x * (2.0 - x);
+                    let phi = 2.0 * PI * u.x;
+                    let d = d2.sqrt();
+                    let local = crate::math::spherical_direction(sin2_t.max(0.0).sqrt(), cos_t, phi);
+                    let wi = Frame::from_normal(dc / d).to_world(local).normalize();
+                    let dist = d * cos_t - (radius * radius - d2 * sin2_t).max(0.0).sqrt();
+                    if not_positive(dist) {
+                        return None;
+                    }
+                    let pdf = psel / (2.0 * PI * one_minus_cos_max);
+                    return Some(LightSample { wi, dist, li: *radiance, pdf, delta: false });
+                }
+                let (q, ng) = geom.sample_point(u);
+                let pdf_area = 1.0 / geom.area();
+                let d = q - p;
+                let dist2 = d.length_squared();
+                if not_positive(dist2) {
+                    return None;
+                }
+                let dist = dist2.sqrt();
+                let wi = d / dist;
+                let cos_l = -ng.dot(wi);
+                if not_positive(cos_l) {
+                    return None;
+                }
+                let pdf = psel * pdf_area * dist2 / cos_l;
+                if !pdf.is_finite() {
+                    return None;
+                }
+                Some(LightSample { wi, dist, li: *radiance, pdf, delta: false })
+            }
+            Light::Point { position, intensity } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                if not_positive(dist2) {
+                    return None;
+                }
+                let dist = dist2.sqrt();
+                Some(LightSample { wi: d / dist, dist, li: *intensity / dist2, pdf: psel, delta: true })
+            }
+            Light::Spot { position, frame, intensity, cos_cutoff, cos_falloff_start } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                if not_positive(dist2) {
+                    return None;
+                }
+                let dist = dist2.sqrt();
+                let wi = d / dist;
+                let fall = spot_falloff(frame.n.dot(-wi), *cos_cutoff, *cos_falloff_start);
+                if fall <= 0.0 {
+                    return None;
+                }
+                Some(LightSample { wi, dist, li: *intensity * (fall / dist2), pdf: psel, delta: true })
+            }
+            Light::Directional { direction, irradiance } => {
+                Some(LightSample { wi: -*direction, dist: f32::INFINITY, li: *irradiance, pdf: psel, delta: true })
+            }
+            // All environment lights act as one emitter (module docs): the sampled direction
+            // carries the radiance of all of them and their mixture density.
+            Light::Constant { .. } => {
+                let wi = square_to_uniform_sphere(u);
+                Some(LightSample { wi, dist: f32::INFINITY, li: self.env_le(wi), pdf: self.pdf_li_env(wi), delta: false })
+            }
+            Light::Envmap { .. } | Light::Sunsky(_) => {
+                let (_, env) = self.env_maps.get(*self.env_map_of.get(l)? as usize)?;
+                let (wi, _, _) = env.sample(u)?;
+                let pdf = self.pdf_li_env(wi);
+                (pdf > 0.0).then(|| LightSample { wi, dist: f32::INFINITY, li: self.env_le(wi), pdf, delta: false })
+            }
+        }
+    }
+
+    /// Radiance emitted by area light `light` at a point with geometric normal `ng` towards
+    /// direction `w_out` (unit, pointing away from the light).
+    #[inline]
+    pub fn area_le(&self, light: u32, ng: Vec3, w_out: Vec3) -> Color {
+        match self.lights.get(light as usize) {
+            Some(Light::Area { radiance, .. }) if ng.dot(w_out) > 0.0 => *radiance,
+            _ => Color::ZERO,
+        }
+    }
+
+    /// Solid-angle pdf (with selection) that `sample_li` from `p` picks point `p_light` with
+    /// normal `ng` on area light `light`.
+    pub fn pdf_li_area(&self, light: u32, p: Vec3, p_light: Vec3, ng: Vec3) -> f32 {
+        let l = light as usize;
+        let Some(Some(geom)) = self.area.get(l) else { return 0.0 };
+        let psel = self.select_pmf(light);
+        if psel == 0.0 {
+            return 0.0;
+        }
+        let d = p_light - p;
+        let dist2 = d.length_squared();
+        if not_positive(dist2) {
+            return 0.0;
+        }
+        let cos_l = -ng.dot(d) / dist2.sqrt();
+        if not_positive(cos_l) {
+            return 0.0;
+        }
+        if let Some(one_minus_cos_max) = geom.visible_cone(p) {
+            return psel / (2.0 * PI * one_minus_cos_max);
+        }
+        let pdf_area = 1.0 / geom.area();
+        psel * pdf_area * dist2 / cos_l
+    }
+
+    /// Radiance of environment lights along direction `dir` (a ray that escaped the scene).
+    #[inline]
+    pub fn env_le(&self, dir: Vec3) -> Color {
+        let mut le = self.env_radiance;
+        for (_, env) in &self.env_maps {
+            le += env.eval(dir);
+        }
+        le
+    }
+
+    /// Solid-angle pdf (with selection) that `sample_li` picks direction `dir` on environment lights.
+    #[inline]
+    pub fn pdf_li_env(&self, dir: Vec3) -> f32 {
+        let mut pdf = self.env_lights.iter().map(|&l| self.select_pmf(l)).sum::<f32>() * UNIFORM_SPHERE_PDF;
+        for (l, env) in &self.env_maps {
+            pdf += self.select_pmf(*l) * env.pdf(dir);
+        }
+        pdf
+    }
+
+    /// Emit a photon: light chosen by power, then position and direction.
+    pub fn sample_emission(&self, u_select: f32, u_pos: Vec2, u_dir: Vec2) -> Option<Emission> {
+        let (l, psel) = self.pick(u_select)?;
+        let light = l as u32;
+        let (center, radius) = self.scene_sphere;
+        match &self.lights[l] {
+            Light::Area { radiance, .. } => {
+                let geom = self.area[l].as_ref()?;
+                let (p, n) = geom.sample_point(u_pos);
+                let area = geom.area();
+                let dir = Frame::from_normal(n).to_world(square_to_cosine_hemisphere(u_dir));
+                Some(Emission { p, dir, power: *radiance * (PI * area / psel), n, light })
+            }
+            Light::Point { position, intensity } => {
+                let dir = square_to_uniform_sphere(u_dir);
+                Some(Emission { p: *position, dir, power: *intensity * (4.0 * PI / psel), n: Vec3::ZERO, light })
+            }
+            Light::Spot { position, frame, intensity, cos_cutoff, cos_falloff_start } => {
+                let local = square_to_uniform_cone(u_dir, *cos_cutoff);
+                let fall = spot_falloff(local.z, *cos_cutoff, *cos_falloff_start);
+                let dir = frame.to_world(local);
+                let power = *intensity * (fall / (uniform_cone_pdf(*cos_cutoff) * psel));
+                Some(Emission { p: *position, dir, power, n: Vec3::ZERO, light })
+            }
+            Light::Directional { direction, irradiance } => {
+                let p = disk_origin(center, radius, *direction, u_pos);
+                Some(Emission { p, dir: *direction, power: *irradiance * (PI * radius * radius / psel), n: Vec3::ZERO, light })
+            }
+            Light::Constant { radiance } => {
+                let dir = square_to_uniform_sphere(u_dir);
+                let p = disk_origin(center, radius, dir, u_pos);
+                let power = *radiance * (PI * radius * radius / (UNIFORM_SPHERE_PDF * psel));
+                Some(Emission { p, dir, power, n: Vec3::ZERO, light })
+            }
+            Light::Envmap { .. } | Light::Sunsky(_) => {
+                let (_, env) = self.env_maps.get(*self.env_map_of.get(l)? as usize)?;
+                // `wi` points towards the emitter; the photon travels the other way.
+                let (wi, radiance, pdf) = env.sample(u_dir)?;
+                let dir = -wi;
+                let p = disk_origin(center, radius, dir, u_pos);
+                let power = radiance * (PI * radius * radius / (pdf * psel));
+                power.is_finite().then_some(Emission { p, dir, power, n: Vec3::ZERO, light })
+            }
+        }
+    }
+
+    /// Total emitted power of all lights (W).
+    pub fn total_power(&self) -> Color {
+        self.power.iter().copied().sum()
+    }
+
+    /// Emitted power of one light (W).
+    pub fn light_power(&self, light: u32) -> Color {
+        self.power.get(light as usize).copied().unwrap_or(Color::ZERO)
+    }
+
+    /// Scene bounding sphere (centre, radius) used by distant and environment lights.
+    pub fn scene_sphere(&self) -> (Vec3, f32) {
+        self.scene_sphere
+    }
+}
+
+/// A point on the disk of radius `radius` perpendicular to `dir` through `center`, moved back
+/// by `radius` along `-dir` so that rays starting there traverse the whole bounding sphere.
+#[inline]
+fn disk_origin(center: Vec3, radius: f32, dir: Vec3, u: Vec2) -> Vec3 {
+    let f = Frame::from_normal(dir);
+    let d = square_to_uniform_disk_concentric(u) * radius;
+    center + f.s * d.x + f.t * d.y - dir * radius
+}
+
+/// Mitsuba's spot falloff: 1 inside the beam, linear in angle down to 0 at the cutoff.
+#[inline]
+fn spot_falloff(cos_theta: f32, cos_cutoff: f32, cos_falloff_start: f32) -> f32 {
+    if cos_theta <= cos_cutoff {
+        0.0
+    } else if cos_theta >= cos_falloff_start {
+        1.0
+    } else {
+        let c = cos_cutoff.clamp(-1.0, 1.0).acos();
+        let b = cos_falloff_start.clamp(-1.0, 1.0).acos();
+        if c > b {
+            ((c - cos_theta.clamp(-1.0, 1.0).acos()) / (c - b)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+}
+
+/// Emitted power of a light (see the module documentation); `scene_radius` is the radius of
+/// the scene bounding sphere.
+fn light_power(l: &Light, geom: Option<&AreaGeometry>, env: Option<&Environment>, scene_radius: f32) -> Color {
+    match l {
+        Light::Area { radiance, .. } => *radiance * (PI * geom.map_or(0.0, AreaGeometry::area)),
+        Light::Point { intensity, .. } => *intensity * (4.0 * PI),
+        Light::Spot { intensity, cos_cutoff, cos_falloff_start, .. } => {
+            let c = (cos_cutoff.clamp(-1.0, 1.0) as f64).acos();
+            let b = (cos_falloff_start.clamp(-1.0, 1.0) as f64).acos().min(c);
+            let f = if c - b > 1e-6 { 1.0 - (c.sin() - b.sin()) / (c - b) } else { 1.0 - c.cos() };
+            *intensity * (2.0 * std::f64::consts::PI * f) as f32
+        }
+        Light::Directional { irradiance, .. } => *irradiance * (PI * scene_radius * scene_radius),
+        Light::Constant { radiance } => *radiance * (4.0 * PI * PI * scene_radius * scene_radius),
+        Light::Envmap { .. } | Light::Sunsky(_) => env.map_or(Color::ZERO, |e| e.integral() * (PI * scene_radius * scene_radius)),
+    }
+}
+
+impl AreaGeometry {
+    /// Prepare a shape for sampling by area; `None` when it has no area.
+    pub fn new(shape: &ShapeDesc) -> Option<AreaGeometry> {
+        match &shape.geometry {
+            Geometry::Sphere { center, radius } => {
+                if radius.is_finite() && *radius > 0.0 && center.is_finite() {
+                    Some(AreaGeometry::Sphere { center: *center, radius: *radius, flip: shape.flip_normals })
+                } else {
+                    None
+                }
+            }
+            Geometry::Mesh(m) => {
+                let mut tris = Vec::with_capacity(m.indices.len());
+                let mut normals = Vec::with_capacity(m.indices.len());
+                let mut areas = Vec::with_capacity(m.indices.len());
+                for t in &m.indices {
+                    let (Some(&a), Some(&b), Some(&c)) =
+                        (m.positions.get(t[0] as usize), m.positions.get(t[1] as usize), m.positions.get(t[2] as usize))
+                    else {
+                        continue;
+                    };
+                    let cr = (b - a).cross(c - a);
+                    let len = cr.length();
+                    if not_positive(len) || !len.is_finite() {
+                        continue;
+                    }
+                    let n = cr / len;
+                    tris.push([a, b, c]);
+                    normals.push(if shape.flip_normals { -n } else { n });
+                    areas.push(0.5 * len);
+                }
+                let cdf = Distribution1D::new(&areas)?;
+                let area = cdf.total() as f32;
+                Some(AreaGeometry::Triangles { tris, normals, cdf, area })
+            }
+        }
+    }
+
+    /// Total area (m², in scene units squared).
+    #[inline]
+    pub fn area(&self) -> f32 {
+        match self {
+            AreaGeometry::Triangles { area, .. } => *area,
+            AreaGeometry::Sphere { radius, .. } => 4.0 * PI * radius * radius,
+        }
+    }
+
+    /// A point uniformly distributed by area (density `1 / area()`) and the emitting side's
+    /// normal there (negated for `flip_normals`). The one place area-light points are drawn,
+    /// for next-event estimation and for photon emission alike.
+    #[inline]
+    pub fn sample_point(&self, u: Vec2) -> (Vec3, Vec3) {
+        match self {
+            AreaGeometry::Triangles { tris, normals, cdf, .. } => {
+                let (ti, ux) = if tris.len() == 1 {
+                    (0, u.x)
+                } else {
+                    let (ti, _, ux) = cdf.sample(u.x);
+                    (ti, ux)
+                };
+                let b = square_to_uniform_triangle(Vec2::new(ux, u.y));
+                let [a, b1, c] = tris[ti];
+                (a * (1.0 - b.x - b.y) + b1 * b.x + c * b.y, normals[ti])
+            }
+            AreaGeometry::Sphere { center, radius, flip } => {
+                let n = square_to_uniform_sphere(u);
+                (*center + n * *radius, if *flip { -n } else { n })
+            }
+        }
+    }
+
+    /// For a sphere that emits outwards seen from the outside point `p`: `1 - cos θ_max` of
+    /// the cone it subtends (next-event estimation samples that cone uniformly). `None` for
+    /// triangles, flipped spheres and points inside (sampled by area).
+    #[inline]
+    fn visible_cone(&self, p: Vec3) -> Option<f32> {
+        let AreaGeometry::Sphere { center, radius, flip: false } = self else { return None };
+        let d2 = (*center - p).length_squared();
+        let r2 = radius * radius;
+        if d2 <= r2 {
+            return None;
+        }
+        let sin2_max = r2 / d2;
+        let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
+        Some(sin2_max / (1.0 + cos_max))
+    }
+}
+
+/// False for NaN, zero and negative values.
+#[inline]
+fn not_positive(x: f32) -> bool {
+    x.is_nan() || x <= 0.0
+}
+
+#[cfg(test)]
+mod tests;
