@@ -5,12 +5,12 @@
 
 pub mod accel;
 pub mod caches;
+pub mod film;
 pub mod image;
 pub mod integrators;
 pub mod math;
 pub mod metrics;
 pub mod photon;
-pub mod photon_pass;
 pub mod render;
 pub mod sampling;
 pub mod scene;
@@ -40,3 +40,4 @@ pub mod camera {
 pub mod prepared {
     pub use crate::scene::{intersect_sphere, Scene, SphereShape, SurfaceHit}; // TEMP-ALIAS
 }
+pub use photon::trace as photon_pass; // TEMP-ALIAS: moved to photon::trace
