@@ -23,7 +23,7 @@ use crate::IoError;
 use glam::{Mat4, Vec2, Vec3};
 use octolux::camera::FovAxis;
 use octolux::light::Light;
-use octolux::material::{Material, Texture};
+use octolux::material::{Material, Microfacet, Texture};
 use octolux::math::Color;
 use octolux::scene::{Geometry, PixelFilter, SceneDesc, TriMesh};
 use std::fmt::Write as _;
@@ -156,6 +156,17 @@ impl Writer<'_> {
         }
     }
 
+    /// A microfacet distribution's `distribution` and `alpha` (or `alpha_u`, `alpha_v`).
+    fn distribution(&mut self, indent: usize, d: &Microfacet) {
+        self.line(indent, &format!("<string name=\"distribution\" value=\"{}\"/>", d.kind.name()));
+        if d.is_isotropic() {
+            self.line(indent, &format!("<float name=\"alpha\" value=\"{}\"/>", d.alpha_u));
+        } else {
+            self.line(indent, &format!("<float name=\"alpha_u\" value=\"{}\"/>", d.alpha_u));
+            self.line(indent, &format!("<float name=\"alpha_v\" value=\"{}\"/>", d.alpha_v));
+        }
+    }
+
     fn bsdf(&mut self, indent: usize, m: &Material, id: Option<&str>, written: &mut [bool]) -> Result<(), IoError> {
         let id_attr = id.map(|i| format!(" id=\"{}\"", esc(i))).unwrap_or_default();
         let open = |ty: &str| format!("<bsdf type=\"{ty}\"{id_attr}>");
@@ -169,12 +180,34 @@ impl Writer<'_> {
                 self.conductor_ior(indent + 1, *eta, *k);
                 self.line(indent + 1, &format!("<rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(*specular_reflectance)));
             }
-            Material::RoughConductor { alpha, eta, k, specular_reflectance } => {
+            Material::RoughConductor { distribution, eta, k, specular_reflectance } => {
                 self.line(indent, &open("roughconductor"));
-                self.line(indent + 1, "<string name=\"distribution\" value=\"ggx\"/>");
-                self.line(indent + 1, &format!("<float name=\"alpha\" value=\"{alpha}\"/>"));
+                self.distribution(indent + 1, distribution);
                 self.conductor_ior(indent + 1, *eta, *k);
                 self.line(indent + 1, &format!("<rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(*specular_reflectance)));
+            }
+            Material::RoughDielectric { distribution, eta, specular_reflectance, specular_transmittance } => {
+                self.line(indent, &open("roughdielectric"));
+                self.distribution(indent + 1, distribution);
+                self.line(indent + 1, &format!("<float name=\"int_ior\" value=\"{eta}\"/>"));
+                self.line(indent + 1, "<float name=\"ext_ior\" value=\"1\"/>");
+                self.line(indent + 1, &format!("<rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(*specular_reflectance)));
+                self.line(indent + 1, &format!("<rgb name=\"specular_transmittance\" value=\"{}\"/>", rgb(*specular_transmittance)));
+            }
+            Material::Plastic { diffuse_reflectance, specular_reflectance, eta, nonlinear } => {
+                self.line(indent, &open("plastic"));
+                self.line(indent + 1, &format!("<float name=\"int_ior\" value=\"{eta}\"/>"));
+                self.line(indent + 1, "<float name=\"ext_ior\" value=\"1\"/>");
+                self.line(indent + 1, &format!("<boolean name=\"nonlinear\" value=\"{nonlinear}\"/>"));
+                self.texture(indent + 1, "diffuse_reflectance", diffuse_reflectance, written)?;
+                self.line(indent + 1, &format!("<rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(*specular_reflectance)));
+            }
+            Material::Ward { .. } | Material::Phong { .. } => {
+                let name = if matches!(m, Material::Ward { .. }) { "ward" } else { "phong" };
+                return Err(IoError::invalid(
+                    self.mesh_dir,
+                    format!("Mitsuba 3 has no \"{name}\" bsdf (a Mitsuba 0.6 plugin); the scene cannot be exported as it is"),
+                ));
             }
             Material::Dielectric { eta, specular_reflectance, specular_transmittance }
             | Material::ThinDielectric { eta, specular_reflectance, specular_transmittance } => {
@@ -185,13 +218,12 @@ impl Writer<'_> {
                 self.line(indent + 1, &format!("<rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(*specular_reflectance)));
                 self.line(indent + 1, &format!("<rgb name=\"specular_transmittance\" value=\"{}\"/>", rgb(*specular_transmittance)));
             }
-            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, alpha, eta } => {
+            Material::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, eta, nonlinear } => {
                 self.line(indent, &open("roughplastic"));
-                self.line(indent + 1, "<string name=\"distribution\" value=\"ggx\"/>");
-                self.line(indent + 1, &format!("<float name=\"alpha\" value=\"{alpha}\"/>"));
+                self.distribution(indent + 1, distribution);
                 self.line(indent + 1, &format!("<float name=\"int_ior\" value=\"{eta}\"/>"));
                 self.line(indent + 1, "<float name=\"ext_ior\" value=\"1\"/>");
-                self.line(indent + 1, "<boolean name=\"nonlinear\" value=\"false\"/>");
+                self.line(indent + 1, &format!("<boolean name=\"nonlinear\" value=\"{nonlinear}\"/>"));
                 self.texture(indent + 1, "diffuse_reflectance", diffuse_reflectance, written)?;
                 self.line(indent + 1, &format!("<rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(*specular_reflectance)));
             }

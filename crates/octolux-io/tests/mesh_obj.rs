@@ -185,10 +185,11 @@ fn obj_scene_maps_mtl_materials_and_emission() {
         Material::Dielectric { eta: 1.33, specular_reflectance: Color::ONE, specular_transmittance: Color::ONE }
     );
     match mat("materials:plastic") {
-        Material::RoughPlastic { diffuse_reflectance, specular_reflectance, alpha, eta } => {
+        Material::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, eta, nonlinear } => {
             assert_eq!(diffuse_reflectance, Texture::Const(Color::new(0.2, 0.3, 0.4)));
             assert_eq!(specular_reflectance, Color::splat(0.5));
-            assert!((alpha - (2.0f32 / 100.0).sqrt()).abs() < 1e-6);
+            assert!(!nonlinear && distribution.is_isotropic());
+            assert!((distribution.alpha_u - (2.0f32 / 100.0).sqrt()).abs() < 1e-6);
             assert_eq!(eta, 1.5);
         }
         other => panic!("expected rough plastic, got {other:?}"),

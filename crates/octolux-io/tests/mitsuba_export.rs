@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec2, Vec3};
 use octolux::camera::{look_at, CameraDesc, FovAxis};
 use octolux::light::Light;
-use octolux::material::{Image, Material, Texture};
+use octolux::material::{Image, Material, Microfacet, MicrofacetKind, Texture};
 use octolux::math::{Color, Frame};
 use octolux::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
 use octolux_io::export::{to_mitsuba_xml, write_mitsuba_scene};
@@ -36,7 +36,7 @@ fn scene() -> SceneDesc {
         },
         Material::Conductor { eta: Color::ZERO, k: Color::ZERO, specular_reflectance: Color::splat(0.8) },
         Material::RoughConductor {
-            alpha: 0.2,
+            distribution: Microfacet { kind: MicrofacetKind::Beckmann, alpha_u: 0.2, alpha_v: 0.35 },
             eta: Color::new(0.2, 0.9, 1.1),
             k: Color::new(3.9, 2.4, 2.1),
             specular_reflectance: Color::new(1.0, 0.9, 0.8),
@@ -46,8 +46,21 @@ fn scene() -> SceneDesc {
         Material::RoughPlastic {
             diffuse_reflectance: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE },
             specular_reflectance: Color::ONE,
-            alpha: 0.15,
+            distribution: Microfacet::isotropic(MicrofacetKind::Ggx, 0.15),
             eta: 1.49,
+            nonlinear: true,
+        },
+        Material::RoughDielectric {
+            distribution: Microfacet::isotropic(MicrofacetKind::Beckmann, 0.3),
+            eta: 1.33,
+            specular_reflectance: Color::ONE,
+            specular_transmittance: Color::splat(0.9),
+        },
+        Material::Plastic {
+            diffuse_reflectance: Texture::Const(Color::new(0.5, 0.4, 0.3)),
+            specular_reflectance: Color::splat(0.8),
+            eta: 1.6,
+            nonlinear: false,
         },
         Material::TwoSided {
             front: Box::new(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.3)) }),
@@ -132,8 +145,8 @@ fn mat_eq(a: &Material, ai: &[Image], b: &Material, bi: &[Image]) -> bool {
             c(e1, e2) && c(k1, k2) && c(s1, s2)
         }
         (
-            RoughConductor { alpha: a1, eta: e1, k: k1, specular_reflectance: s1 },
-            RoughConductor { alpha: a2, eta: e2, k: k2, specular_reflectance: s2 },
+            RoughConductor { distribution: a1, eta: e1, k: k1, specular_reflectance: s1 },
+            RoughConductor { distribution: a2, eta: e2, k: k2, specular_reflectance: s2 },
         ) => a1 == a2 && c(e1, e2) && c(k1, k2) && c(s1, s2),
         (
             Dielectric { eta: e1, specular_reflectance: r1, specular_transmittance: t1 },
@@ -144,9 +157,17 @@ fn mat_eq(a: &Material, ai: &[Image], b: &Material, bi: &[Image]) -> bool {
             ThinDielectric { eta: e2, specular_reflectance: r2, specular_transmittance: t2 },
         ) => e1 == e2 && c(r1, r2) && c(t1, t2),
         (
-            RoughPlastic { diffuse_reflectance: d1, specular_reflectance: s1, alpha: a1, eta: e1 },
-            RoughPlastic { diffuse_reflectance: d2, specular_reflectance: s2, alpha: a2, eta: e2 },
-        ) => tex_eq(d1, ai, d2, bi) && c(s1, s2) && a1 == a2 && e1 == e2,
+            RoughPlastic { diffuse_reflectance: d1, specular_reflectance: s1, distribution: a1, eta: e1, nonlinear: n1 },
+            RoughPlastic { diffuse_reflectance: d2, specular_reflectance: s2, distribution: a2, eta: e2, nonlinear: n2 },
+        ) => tex_eq(d1, ai, d2, bi) && c(s1, s2) && a1 == a2 && e1 == e2 && n1 == n2,
+        (
+            RoughDielectric { distribution: a1, eta: e1, specular_reflectance: r1, specular_transmittance: t1 },
+            RoughDielectric { distribution: a2, eta: e2, specular_reflectance: r2, specular_transmittance: t2 },
+        ) => a1 == a2 && e1 == e2 && c(r1, r2) && c(t1, t2),
+        (
+            Plastic { diffuse_reflectance: d1, specular_reflectance: s1, eta: e1, nonlinear: n1 },
+            Plastic { diffuse_reflectance: d2, specular_reflectance: s2, eta: e2, nonlinear: n2 },
+        ) => tex_eq(d1, ai, d2, bi) && c(s1, s2) && e1 == e2 && n1 == n2,
         (TwoSided { front: f1, back: b1 }, TwoSided { front: f2, back: b2 }) => mat_eq(f1, ai, f2, bi) && mat_eq(b1, ai, b2, bi),
         _ => false,
     }

@@ -86,8 +86,8 @@ fn include_references_and_dialect() {
     // Both references resolve to the one included material (instantiated once).
     assert_eq!(floor.material, bx.material);
     match &s.desc.materials[floor.material as usize] {
-        Material::RoughConductor { alpha, eta, specular_reflectance, .. } => {
-            assert_eq!(*alpha, 0.25, "$roughness from the including file");
+        Material::RoughConductor { distribution, eta, specular_reflectance, .. } => {
+            assert_eq!((distribution.alpha_u, distribution.alpha_v), (0.25, 0.25), "$roughness from the including file");
             assert!((eta.x - 0.143036).abs() < 1e-5, "Au preset: {eta}");
             assert_eq!(*specular_reflectance, Color::splat(0.9), "camelCase name of the 0.5 dialect");
         }
@@ -256,9 +256,9 @@ fn materials_and_colours() {
         Material::Conductor { eta: Color::new(0.2, 0.9, 1.1), k: Color::new(3.9, 2.4, 2.1), specular_reflectance: Color::ONE }
     );
     match &m[4] {
-        Material::RoughPlastic { diffuse_reflectance: Texture::Const(c), alpha, eta, .. } => {
+        Material::RoughPlastic { diffuse_reflectance: Texture::Const(c), distribution, eta, .. } => {
             assert!((c.x - 0.215861).abs() < 1e-5, "sRGB 128 decoded to linear: {c}");
-            assert_eq!(*alpha, 0.3);
+            assert_eq!(distribution.alpha_u, 0.3);
             assert!((eta - 1.49 / 1.000277).abs() < 1e-6, "polypropylene / air");
         }
         other => panic!("{other:?}"),
@@ -319,8 +319,8 @@ fn mitsuba_05_names_are_upgraded() {
     let s = load_str(xml, Path::new("/virtual/v05.xml"), &[]).unwrap();
     assert_eq!(s.desc.materials[0], Material::Diffuse { reflectance: Texture::Const(Color::splat(0.3)) });
     match s.desc.materials[1] {
-        Material::RoughPlastic { alpha, eta, .. } => {
-            assert_eq!(alpha, octolux_io::mitsuba::SMOOTH_PLASTIC_ALPHA);
+        Material::Plastic { eta, nonlinear, .. } => {
+            assert!(!nonlinear, "Mitsuba's default");
             assert!((eta - 1.6 / 1.1).abs() < 1e-6);
         }
         ref m => panic!("{m:?}"),

@@ -5,7 +5,7 @@ use super::{compute_vertex_normals, merge_normals, push_fan, read_file, remove_d
 use crate::image_io::read_image;
 use crate::IoError;
 use glam::{Vec2, Vec3};
-use octolux::material::{Image, Material, Texture};
+use octolux::material::{Image, Material, Microfacet, MicrofacetKind, Texture};
 use octolux::math::Color;
 use octolux::scene::{Geometry, SceneDesc, ShapeDesc, TriMesh};
 use std::collections::HashMap;
@@ -220,6 +220,11 @@ fn clamp_unit(c: Color, what: &str, mtl: &str, warnings: &mut Vec<String>) -> Co
     }
 }
 
+/// The isotropic GGX distribution of roughness `alpha`.
+fn ggx(alpha: f32) -> Microfacet {
+    Microfacet::isotropic(MicrofacetKind::Ggx, alpha)
+}
+
 /// GGX roughness from a Phong exponent: `alpha = sqrt(2 / (Ns + 2))` (Walter et al. 2007's
 /// Beckmann–Phong correspondence), clamped to [0.001, 1]; a missing `Ns` counts as 0.
 pub fn phong_exponent_to_alpha(ns: f32) -> f32 {
@@ -302,10 +307,16 @@ fn convert_mtl(m: &tobj::Material, mtl_dir: &Path, images: &mut Vec<Image>, warn
             let alpha = phong_exponent_to_alpha(m.shininess.unwrap_or(0.0));
             let black_base = matches!(diffuse, Texture::Const(c) if c.max_element() <= 1e-4);
             if black_base {
-                two_sided(Material::RoughConductor { alpha, eta: Color::ZERO, k: Color::ZERO, specular_reflectance: ks })
+                two_sided(Material::RoughConductor { distribution: ggx(alpha), eta: Color::ZERO, k: Color::ZERO, specular_reflectance: ks })
             } else {
                 let eta = ni.filter(|n| *n > 1.0).unwrap_or(1.5);
-                two_sided(Material::RoughPlastic { diffuse_reflectance: diffuse, specular_reflectance: ks, alpha, eta })
+                two_sided(Material::RoughPlastic {
+                    diffuse_reflectance: diffuse,
+                    specular_reflectance: ks,
+                    distribution: ggx(alpha),
+                    eta,
+                    nonlinear: false,
+                })
             }
         }
         _ => two_sided(Material::Diffuse { reflectance: diffuse }),

@@ -3,9 +3,9 @@
 
 use super::props::{self, ColorKind, Props};
 use super::tree::Elem;
-use super::{spectra, Builder, SMOOTH_PLASTIC_ALPHA};
+use super::{spectra, Builder};
 use crate::IoError;
-use octolux::material::{Material, Texture};
+use octolux::material::{Material, Microfacet, MicrofacetKind, Texture, WardVariant};
 use octolux::math::Color;
 
 impl<'t> Builder<'t> {
@@ -76,33 +76,54 @@ impl<'t> Builder<'t> {
         Ok(int / ext)
     }
 
-    /// GGX alpha of a microfacet bsdf (warns about Beckmann and anisotropy).
-    pub(super) fn alpha(&mut self, p: &Props<'t>) -> Result<f32, IoError> {
+    /// The microfacet distribution of a rough bsdf, as Mitsuba 3 reads it: `distribution`
+    /// (`beckmann`, the default, or `ggx`), `alpha` or both `alpha_u` and `alpha_v` (default
+    /// 0.1). `isotropic_only`: anisotropy is an error (Mitsuba's `roughplastic` throws too).
+    pub(super) fn microfacet(&mut self, p: &Props<'t>, isotropic_only: bool) -> Result<Microfacet, IoError> {
         let e = p.owner;
         let dist = p.string("distribution")?.unwrap_or("beckmann").to_ascii_lowercase();
-        if dist != "ggx" {
-            self.warn(
-                e,
-                format!("microfacet distribution \"{dist}\" (Mitsuba's default is beckmann) is replaced by GGX with the same alpha"),
-            );
-        }
-        p.accept(&["sample_visible"]);
-        let (au, av) = (p.float("alpha_u")?, p.float("alpha_v")?);
-        let alpha = match (p.float("alpha")?, au, av) {
-            (Some(a), None, None) => a,
-            (None, Some(u), Some(v)) => {
-                if u != v {
-                    self.warn(e, format!("anisotropic roughness is not supported; using alpha = sqrt({u} * {v})"));
-                }
-                (u * v).sqrt()
+        let kind = match dist.as_str() {
+            "beckmann" => MicrofacetKind::Beckmann,
+            "ggx" => MicrofacetKind::Ggx,
+            "phong" | "as" => {
+                self.warn(e, format!("microfacet distribution \"{dist}\" (Mitsuba 0.6 only) is replaced by beckmann with the same alpha"));
+                MicrofacetKind::Beckmann
             }
-            (None, None, None) => 0.1,
+            other => {
+                return Err(e.loc.error(format!("{}: invalid distribution \"{other}\", must be \"beckmann\" or \"ggx\"", e.describe())))
+            }
+        };
+        if !p.bool_or("sample_visible", true)? {
+            self.warn(e, "sample_visible = false: octolux always samples visible normals (the same image in expectation, less noise)");
+        }
+        let (alpha_u, alpha_v) = match (p.float("alpha")?, p.float("alpha_u")?, p.float("alpha_v")?) {
+            (Some(a), None, None) => (a, a),
+            (None, Some(u), Some(v)) => (u, v),
+            (None, None, None) => (0.1, 0.1),
             _ => return Err(e.loc.error(format!("{}: give either alpha or both alpha_u and alpha_v", e.describe()))),
         };
-        if alpha.is_nan() || alpha <= 0.0 {
-            return Err(e.loc.error(format!("{}: alpha {alpha} must be positive", e.describe())));
+        for a in [alpha_u, alpha_v] {
+            if !(a >= 0.0 && a.is_finite()) {
+                return Err(e.loc.error(format!("{}: roughness {a} must be finite and non-negative", e.describe())));
+            }
+            if a == 0.0 {
+                self.warn(e, "a roughness of 0 is clamped to 1e-4 (as Mitsuba does); use the smooth model for a smooth surface");
+            }
         }
-        Ok(alpha)
+        if isotropic_only && alpha_u != alpha_v {
+            return Err(e.loc.error(format!("{}: anisotropic roughness is not supported by this bsdf (nor by Mitsuba)", e.describe())));
+        }
+        Ok(Microfacet { kind, alpha_u, alpha_v })
+    }
+
+    /// Mitsuba 0.6's `ensureEnergyConservation` (default on) for `ward` and `phong`.
+    fn energy_conservation(&mut self, p: &Props<'t>, mut m: Material) -> Result<Material, IoError> {
+        if p.bool_or("ensure_energy_conservation", true)? {
+            for msg in m.ensure_energy_conservation(&mut self.desc.images) {
+                self.warn(p.owner, msg);
+            }
+        }
+        Ok(m)
     }
 
     /// The nested bsdfs of a wrapper (nested elements or refs), in order.
@@ -122,11 +143,7 @@ impl<'t> Builder<'t> {
         let p = self.props(e)?;
         let m = match ty {
             "diffuse" => Material::Diffuse { reflectance: self.texture_param(&p, "reflectance", ColorKind::Bounded, 0.5)? },
-            "dielectric" | "roughdielectric" | "thindielectric" => {
-                if ty == "roughdielectric" {
-                    self.warn(e, "rough dielectrics are not supported; using a smooth dielectric with the same IORs");
-                    p.accept(&["alpha", "alpha_u", "alpha_v", "distribution", "sample_visible"]);
-                }
+            "dielectric" | "thindielectric" => {
                 let eta = self.eta(&p, "bk7")?;
                 let specular_reflectance = self.color_param(&p, "specular_reflectance", ColorKind::Bounded, 1.0)?;
                 let specular_transmittance = self.color_param(&p, "specular_transmittance", ColorKind::Bounded, 1.0)?;
@@ -135,6 +152,13 @@ impl<'t> Builder<'t> {
                 } else {
                     Material::Dielectric { eta, specular_reflectance, specular_transmittance }
                 }
+            }
+            "roughdielectric" => {
+                let distribution = self.microfacet(&p, false)?;
+                let eta = self.eta(&p, "bk7")?;
+                let specular_reflectance = self.color_param(&p, "specular_reflectance", ColorKind::Bounded, 1.0)?;
+                let specular_transmittance = self.color_param(&p, "specular_transmittance", ColorKind::Bounded, 1.0)?;
+                Material::RoughDielectric { distribution, eta, specular_reflectance, specular_transmittance }
             }
             "conductor" | "roughconductor" => {
                 let preset = p.string("material")?;
@@ -162,28 +186,58 @@ impl<'t> Builder<'t> {
                         }
                     }
                 };
+                // Mitsuba 0.6's `extEta`: the complex IOR is relative to the exterior medium.
+                let (eta, k) = if p.has("ext_eta") {
+                    let ext = self.ior(&p, "ext_eta", "air")?;
+                    (eta / ext, k / ext)
+                } else {
+                    (eta, k)
+                };
                 let specular_reflectance = self.color_param(&p, "specular_reflectance", ColorKind::Bounded, 1.0)?;
                 if ty == "roughconductor" {
-                    let alpha = self.alpha(&p)?;
-                    Material::RoughConductor { alpha, eta, k, specular_reflectance }
+                    let distribution = self.microfacet(&p, false)?;
+                    Material::RoughConductor { distribution, eta, k, specular_reflectance }
                 } else {
                     Material::Conductor { eta, k, specular_reflectance }
                 }
             }
             "plastic" | "roughplastic" => {
-                let alpha = if ty == "plastic" {
-                    self.warn(e, format!("smooth plastic is approximated by a GGX roughplastic with alpha = {SMOOTH_PLASTIC_ALPHA}"));
-                    SMOOTH_PLASTIC_ALPHA
-                } else {
-                    self.alpha(&p)?
-                };
+                let distribution = if ty == "roughplastic" { Some(self.microfacet(&p, true)?) } else { None };
                 let eta = self.eta(&p, "polypropylene")?;
                 let diffuse_reflectance = self.texture_param(&p, "diffuse_reflectance", ColorKind::Bounded, 0.5)?;
                 let specular_reflectance = self.color_param(&p, "specular_reflectance", ColorKind::Bounded, 1.0)?;
-                if p.bool_or("nonlinear", false)? {
-                    self.warn(e, "nonlinear = true is not supported; using the linear (default) model");
+                let nonlinear = p.bool_or("nonlinear", false)?;
+                match distribution {
+                    Some(distribution) => {
+                        Material::RoughPlastic { diffuse_reflectance, specular_reflectance, distribution, eta, nonlinear }
+                    }
+                    None => Material::Plastic { diffuse_reflectance, specular_reflectance, eta, nonlinear },
                 }
-                Material::RoughPlastic { diffuse_reflectance, specular_reflectance, alpha, eta }
+            }
+            "ward" => {
+                let variant = match p.string("variant")?.unwrap_or("balanced").to_ascii_lowercase().as_str() {
+                    "ward" => WardVariant::Ward,
+                    "ward-duer" => WardVariant::WardDuer,
+                    "balanced" => WardVariant::Balanced,
+                    other => {
+                        return Err(e.loc.error(format!(
+                            "{}: invalid variant \"{other}\", must be \"ward\", \"ward-duer\" or \"balanced\"",
+                            e.describe()
+                        )))
+                    }
+                };
+                let alpha = p.float_or("alpha", 0.1)?;
+                let (alpha_u, alpha_v) = (p.float_or("alpha_u", alpha)?, p.float_or("alpha_v", alpha)?);
+                let diffuse_reflectance = self.texture_param(&p, "diffuse_reflectance", ColorKind::Bounded, 0.5)?;
+                let specular_reflectance = self.texture_param(&p, "specular_reflectance", ColorKind::Bounded, 0.2)?;
+                let m = Material::Ward { variant, alpha_u, alpha_v, diffuse_reflectance, specular_reflectance };
+                self.energy_conservation(&p, m)?
+            }
+            "phong" => {
+                let exponent = p.float_or("exponent", 30.0)?;
+                let diffuse_reflectance = self.texture_param(&p, "diffuse_reflectance", ColorKind::Bounded, 0.5)?;
+                let specular_reflectance = self.texture_param(&p, "specular_reflectance", ColorKind::Bounded, 0.2)?;
+                self.energy_conservation(&p, Material::Phong { exponent, diffuse_reflectance, specular_reflectance })?
             }
             "twosided" => {
                 let nested = self.nested_bsdfs(&p);

@@ -17,12 +17,12 @@
 //!   instantiated in document order, so material indices follow the file.
 //! - `conductor` presets use Mitsuba 3's RGB eta/k values (module `spectra`); `"none"` (and the
 //!   default) is a perfect mirror, stored as `eta = k = 0` (octolux's convention).
-//! - Only the GGX microfacet distribution exists: `beckmann` (Mitsuba's default for
-//!   `roughconductor` and `roughplastic`) is replaced by GGX with the same alpha, with a warning.
-//!   Anisotropic roughness uses `sqrt(alpha_u alpha_v)`.
-//! - `roughdielectric` falls back to the smooth `dielectric`; smooth `plastic` becomes
-//!   `roughplastic` with GGX alpha 0.01 (octolux has no smooth-plastic model); `mask`,
-//!   `bumpmap` and `normalmap` use their nested bsdf; `thinlens` is a pinhole camera.
+//! - Microfacet bsdfs (`roughconductor`, `roughdielectric`, `roughplastic`) use the file's
+//!   `distribution` (Beckmann by default, or GGX) and anisotropic `alpha_u`/`alpha_v`
+//!   (`roughplastic`: isotropic only, as in Mitsuba); `sample_visible = false` is read as
+//!   true with a warning (a sampling choice: the same image in expectation). Mitsuba 0.6's
+//!   `ward` and `phong` follow 0.6's definitions, including `ensureEnergyConservation`.
+//! - `mask`, `bumpmap` and `normalmap` use their nested bsdf; `thinlens` is a pinhole camera.
 //! - The sampler type is irrelevant (only `sample_count` is read); `ldrfilm` is read as
 //!   `hdrfilm`; tone-mapping and output parameters are ignored with a warning.
 //! - Geometry is transformed to world space here; spheres keep an analytic form when their
@@ -48,9 +48,6 @@ use props::Props;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use tree::Elem;
-
-/// GGX roughness used for Mitsuba's smooth `plastic`.
-pub const SMOOTH_PLASTIC_ALPHA: f32 = 0.01;
 
 /// Load a Mitsuba XML scene. `defines` override `<default>` parameters (like `mitsuba -D`).
 pub fn load(path: &Path, defines: &[(String, String)]) -> Result<LoadedScene, IoError> {

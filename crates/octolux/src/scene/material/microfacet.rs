@@ -260,9 +260,8 @@ pub fn erfinv(y: f64) -> f64 {
         p
     };
     let mut x = p * y;
-    const TWO_OVER_SQRT_PI: f64 = 1.128_379_167_095_512_6;
     for _ in 0..2 {
-        let d = TWO_OVER_SQRT_PI * (-x * x).exp();
+        let d = std::f64::consts::FRAC_2_SQRT_PI * (-x * x).exp();
         if d > 1e-300 {
             x -= (erf(x) - y) / d;
         }

@@ -247,7 +247,7 @@ fn white_furnace_of_the_new_models() {
         let m = rough_dielectric(md(kind, alpha, alpha), 1.5);
         let e = energy(&m, wo, n);
         let q = sphere_energy(&m, wo, 1.5);
-        assert!(e <= 1.0 + 5e-3 && e > 0.8, "{kind:?} {alpha}: energy {e}");
+        assert!(e <= 1.0 + 5e-3 && e > 0.6, "{kind:?} {alpha}: energy {e}");
         assert!((e - q).abs() < 1e-2, "{kind:?} {alpha}: MC {e} vs quadrature {q}");
     }
     // smooth plastic, white base: 1 up to Mitsuba's diffuse-Fresnel fits (exact for the exact
