@@ -131,10 +131,8 @@ fn mitsuba06_sunsky_is_y_up_with_its_parameter_names() {
     assert_eq!((d.sun_scale, d.sky_scale), (3.0, 3.0), "scale is the default of both");
 
     // parameters without an equivalent: one warning each, saying what was done
-    let xml = scene(
-        "0.6.0",
-        r#"<emitter type="sunsky"><float name="stretch" value="1.5"/><integer name="resolution" value="1024"/></emitter>"#,
-    );
+    let xml =
+        scene("0.6.0", r#"<emitter type="sunsky"><float name="stretch" value="1.5"/><integer name="resolution" value="1024"/></emitter>"#);
     let s = load_str(&xml, &PathBuf::from("a.xml"), &[]).unwrap();
     assert_eq!(s.warnings.len(), 2, "{:?}", s.warnings);
     assert!(s.warnings[0].contains("stretch") && s.warnings[0].contains("ignored"), "{}", s.warnings[0]);
@@ -147,7 +145,13 @@ fn mitsuba06_sunsky_is_y_up_with_its_parameter_names() {
     );
     let s = load_str(&xml, &PathBuf::from("a.xml"), &[]).unwrap();
     assert_eq!(sunsky_of(&s.desc.lights).sun_scale, 0.0);
-    let dir = s.desc.lights.iter().find_map(|l| if let Light::Directional { direction, irradiance } = l { Some((*direction, *irradiance)) } else { None });
+    let dir = s.desc.lights.iter().find_map(|l| {
+        if let Light::Directional { direction, irradiance } = l {
+            Some((*direction, *irradiance))
+        } else {
+            None
+        }
+    });
     let (direction, irradiance) = dir.expect("a directional sun");
     assert!((direction + Vec3::Y).length() < 1e-6 && irradiance.min_element() > 0.0);
 

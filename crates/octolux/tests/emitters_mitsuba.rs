@@ -10,9 +10,9 @@
 //! envmap.
 
 use glam::{Mat3, Mat4, Vec3};
-use octolux::scene::envmap::EnvMap;
 use octolux::material::Image;
 use octolux::math::Color;
+use octolux::scene::envmap::EnvMap;
 use octolux::scene::sunsky::{SolarTime, SunSky, SunSkyDesc};
 use serde_json::Value;
 

@@ -12,7 +12,6 @@
 
 use octolux::accel::BackendKind;
 use octolux::camera::{look_at, CameraDesc, FovAxis};
-use octolux::scene::envmap::EnvMap;
 use octolux::glam::{DVec3, Mat3, Mat4, Vec3};
 use octolux::integrators::{path::PathSettings, Integrator};
 use octolux::light::Light;
@@ -20,8 +19,9 @@ use octolux::material::{Image, Material, Texture};
 use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
 use octolux::sampling::Sampler;
-use octolux::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
+use octolux::scene::envmap::EnvMap;
 use octolux::scene::sunsky::{SunSky, SunSkyDesc};
+use octolux::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
 use octolux::Color;
 use std::f64::consts::PI;
 

@@ -133,7 +133,10 @@ impl<'t> Builder<'t> {
         }
         if let Some(s) = p.float("stretch")? {
             if s != 1.0 {
-                self.warn(e, format!("stretch = {s} has no equivalent in Mitsuba 3's sunsky; ignored (nothing is emitted below the horizon)"));
+                self.warn(
+                    e,
+                    format!("stretch = {s} has no equivalent in Mitsuba 3's sunsky; ignored (nothing is emitted below the horizon)"),
+                );
             }
         }
         if let Some(r) = p.int("resolution")? {
@@ -198,8 +201,7 @@ impl<'t> Builder<'t> {
         let mut lights = vec![Light::Sunsky(desc.clone())];
         if directional_sun && sun_scale > 0.0 {
             // 0.6: a sun of radius 0 is a directional light of the sun's irradiance.
-            let full = SunSky::new(&SunSkyDesc { sun_scale, sky_scale: 0.0, sun_aperture_deg: SUN_APERTURE_DEG, ..desc })
-                .map_err(err)?;
+            let full = SunSky::new(&SunSkyDesc { sun_scale, sky_scale: 0.0, sun_aperture_deg: SUN_APERTURE_DEG, ..desc }).map_err(err)?;
             let half = 0.5 * SUN_APERTURE_DEG.to_radians();
             let omega = 2.0 * std::f32::consts::PI * (1.0 - half.cos());
             lights.push(Light::Directional { direction: -sun_direction, irradiance: full.sun_radiance() * omega });

@@ -10,7 +10,7 @@ use glam::{Vec2, Vec3};
 /// A prepared environment emitter (radiance at infinity as a function of direction).
 #[derive(Clone, Debug)]
 pub enum Environment {
-    Map(EnvMap),
+    Map(Box<EnvMap>),
     SunSky(Box<SunSky>),
 }
 

@@ -40,8 +40,8 @@
 //! importance-sampled from the emitter).
 
 use super::desc::{Geometry, Light, ShapeDesc};
-use super::envmap::EnvMap;
 use super::environment::Environment;
+use super::envmap::EnvMap;
 use super::sunsky::SunSky;
 use crate::image::Image;
 use crate::math::{Bounds3, Color, Frame};
@@ -150,7 +150,7 @@ impl LightSet {
         for (li, l) in all.iter().enumerate() {
             let env = match l {
                 Light::Envmap { image, scale, to_world } => {
-                    images.get(*image as usize).and_then(|img| EnvMap::new(img, *scale, *to_world).ok()).map(Environment::Map)
+                    images.get(*image as usize).and_then(|img| EnvMap::new(img, *scale, *to_world).ok()).map(|m| Environment::Map(Box::new(m)))
                 }
                 Light::Sunsky(desc) => SunSky::new(desc).ok().map(|s| Environment::SunSky(Box::new(s))),
                 _ => None,

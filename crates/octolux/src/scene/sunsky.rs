@@ -147,11 +147,12 @@ impl SolarTime {
     /// Direction of the sun in the emitter's local frame (`+z` zenith), by Blanco-Muriel et
     /// al., "Computing the Solar Vector" (Solar Energy 2001), in single precision as Mitsuba 3
     /// computes it (so the Julian date is rounded to a quarter day, as there).
+    // The published constants, rounded to f32 as Mitsuba 3 rounds them.
+    #[allow(clippy::excessive_precision)]
     pub fn sun_direction(&self) -> Vec3 {
         let dec_hours = self.hour - self.timezone + (self.minute + self.second / 60.0) / 60.0;
         let a1 = (self.month - 14) / 12;
-        let a2 = (1461 * (self.year + 4800 + a1)) / 4 + (367 * (self.month - 2 - 12 * a1)) / 12
-            - (3 * ((self.year + 4900 + a1) / 100)) / 4
+        let a2 = (1461 * (self.year + 4800 + a1)) / 4 + (367 * (self.month - 2 - 12 * a1)) / 12 - (3 * ((self.year + 4900 + a1) / 100)) / 4
             + self.day
             - 32075;
         let julian = a2 as f32 - 0.5 + dec_hours / 24.0;
@@ -159,9 +160,8 @@ impl SolarTime {
         let omega = 2.1429f32 - 0.0010394594 * n;
         let mean_longitude = 4.8950630f32 + 0.017202791698 * n;
         let anomaly = 6.2400600f32 + 0.0172019699 * n;
-        let ecl_longitude = mean_longitude + 0.03341607 * anomaly.sin() + 0.00034894 * (2.0 * anomaly).sin()
-            - 0.0001134
-            - 0.0000203 * omega.sin();
+        let ecl_longitude =
+            mean_longitude + 0.03341607 * anomaly.sin() + 0.00034894 * (2.0 * anomaly).sin() - 0.0001134 - 0.0000203 * omega.sin();
         let ecl_obliquity = 0.4090928f32 - 6.2140e-9 * n + 0.0000396 * omega.cos();
         let sin_l = ecl_longitude.sin();
         let mut ra = (ecl_obliquity.cos() * sin_l).atan2(ecl_longitude.cos());
@@ -486,8 +486,12 @@ mod tests {
 
     #[test]
     fn estimator_of_the_integral_is_unbiased() {
-        let desc =
-            SunSkyDesc { sun_direction: Vec3::new(-0.2, 0.1, 0.6).normalize(), turbidity: 6.0, sun_aperture_deg: 3.0, ..Default::default() };
+        let desc = SunSkyDesc {
+            sun_direction: Vec3::new(-0.2, 0.1, 0.6).normalize(),
+            turbidity: 6.0,
+            sun_aperture_deg: 3.0,
+            ..Default::default()
+        };
         let s = SunSky::new(&desc).unwrap();
         // reference: ∫ over the upper hemisphere by the midpoint rule, plus the sun disk
         let (n_phi, n_theta) = (720, 360);
