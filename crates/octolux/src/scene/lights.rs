@@ -149,9 +149,10 @@ impl LightSet {
         let mut env_map_of = vec![u32::MAX; all.len()];
         for (li, l) in all.iter().enumerate() {
             let env = match l {
-                Light::Envmap { image, scale, to_world } => {
-                    images.get(*image as usize).and_then(|img| EnvMap::new(img, *scale, *to_world).ok()).map(|m| Environment::Map(Box::new(m)))
-                }
+                Light::Envmap { image, scale, to_world } => images
+                    .get(*image as usize)
+                    .and_then(|img| EnvMap::new(img, *scale, *to_world).ok())
+                    .map(|m| Environment::Map(Box::new(m))),
                 Light::Sunsky(desc) => SunSky::new(desc).ok().map(|s| Environment::SunSky(Box::new(s))),
                 _ => None,
             };
