@@ -34,6 +34,7 @@
 
 mod bsdf;
 mod emitter;
+mod environment;
 mod props;
 mod sensor;
 mod shape;

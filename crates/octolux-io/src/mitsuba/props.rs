@@ -459,6 +459,7 @@ mod tests {
             attrs: attrs.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
             children: Vec::new(),
             loc: Loc { file: Rc::new(PathBuf::from("t.xml")), line: 7 },
+            legacy: false,
         }
     }
 

@@ -55,6 +55,9 @@ pub(crate) struct Elem {
     pub attrs: Vec<(String, String)>,
     pub children: Vec<Elem>,
     pub loc: Loc,
+    /// Written in the 0.5/0.6 dialect (names already converted to snake_case): for plugins whose
+    /// conventions differ between the versions (the `sunsky` frame).
+    pub legacy: bool,
 }
 
 impl Elem {
@@ -276,7 +279,7 @@ impl Builder<'_> {
         if legacy && tag == "lookAt" {
             tag = "lookat".into();
         }
-        let elem = Elem { tag, attrs, children: Vec::new(), loc };
+        let elem = Elem { tag, attrs, children: Vec::new(), loc, legacy };
         match elem.tag.as_str() {
             "default" => {
                 let name = elem.req_attr("name")?.to_string();
