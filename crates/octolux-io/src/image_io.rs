@@ -125,7 +125,11 @@ pub fn decode_exr(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
         .no_deep_data()
         .largest_resolution_level()
         .rgba_channels(
-            |res: exr::math::Vec2<usize>, _: &exr::prelude::RgbaChannels| Image { width: res.width() as u32, height: res.height() as u32, data: vec![Color::ZERO; res.width() * res.height()] },
+            |res: exr::math::Vec2<usize>, _: &exr::prelude::RgbaChannels| Image {
+                width: res.width() as u32,
+                height: res.height() as u32,
+                data: vec![Color::ZERO; res.width() * res.height()],
+            },
             |img: &mut Image, pos: exr::math::Vec2<usize>, (r, g, b, _a): (f32, f32, f32, f32)| {
                 let i = pos.y() * img.width as usize + pos.x();
                 if let Some(p) = img.data.get_mut(i) {
@@ -184,7 +188,10 @@ pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
     };
     let decode_err = |e: image::ImageError| match e {
         image::ImageError::IoError(e) => IoError::os(path, e),
-        image::ImageError::Limits(e) => IoError::invalid(path, format!("could not decode image: {e} (memory limit {})", octolux::budget::format_bytes(octolux::budget::memory_limit()))),
+        image::ImageError::Limits(e) => IoError::invalid(
+            path,
+            format!("could not decode image: {e} (memory limit {})", octolux::budget::format_bytes(octolux::budget::memory_limit())),
+        ),
         e => IoError::invalid(path, format!("could not decode image: {e}")),
     };
     let open = || image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| IoError::os(path, e));

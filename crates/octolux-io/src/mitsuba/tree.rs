@@ -281,9 +281,8 @@ impl Builder<'_> {
             None => Ok(None),
             Some(v) => {
                 let v = self.substitute(v, doc, node, file)?;
-                let (major, _, _) = parse_version(&v).ok_or_else(|| {
-                    IoError::parse(file, doc.row(node.range().start), format!("could not parse version number \"{v}\""))
-                })?;
+                let (major, _, _) = parse_version(&v)
+                    .ok_or_else(|| IoError::parse(file, doc.row(node.range().start), format!("could not parse version number \"{v}\"")))?;
                 Ok(Some(major < 2))
             }
         }
@@ -395,7 +394,9 @@ impl Builder<'_> {
             _ => {
                 let mut elem = elem;
                 if self.nesting >= MAX_XML_DEPTH {
-                    return Err(elem.loc.error(format!("elements are nested more than {MAX_XML_DEPTH} levels deep (included files count)")));
+                    return Err(elem
+                        .loc
+                        .error(format!("elements are nested more than {MAX_XML_DEPTH} levels deep (included files count)")));
                 }
                 self.nesting += 1;
                 let mut children = Vec::new();
