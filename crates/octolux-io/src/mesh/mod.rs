@@ -30,8 +30,8 @@ mod ply;
 mod serialized;
 
 pub use normals::{compute_vertex_normals, mirrors, orient_to_given_normals, place_mesh, rebuild_topology, NormalSource};
-pub use obj::{load_obj_mesh, phong_exponent_to_alpha};
-pub use ply::load_ply_mesh;
+pub use obj::{load_obj_mesh, parse_obj_mesh, phong_exponent_to_alpha};
+pub use ply::{load_ply_mesh, parse_ply};
 pub use serialized::{load_serialized, parse_serialized, serialized_shape_count, SerializedMesh, SERIALIZED_MAGIC};
 
 use normals::merge_normals;

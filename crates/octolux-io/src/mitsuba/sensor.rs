@@ -113,6 +113,7 @@ impl<'t> Builder<'t> {
                 size[k] = v as u32;
             }
         }
+        octolux::budget::check_film(size[0] as u64, size[1] as u64).map_err(|b| e.loc.error(format!("{}: {b}", e.describe())))?;
         let mut filter = DEFAULT_FILM.filter;
         let mut seen = false;
         for (i, o) in p.objects() {
