@@ -127,8 +127,8 @@ impl<'t> Builder<'t> {
             seen = true;
             filter = self.rfilter(o.target)?;
         }
-        // Output format only.
-        p.accept(&["pixel_format", "component_format"]);
+        // Output format only (Mitsuba 0.6's `banner` and `attach_log` change the file's metadata).
+        p.accept(&["pixel_format", "component_format", "file_format", "banner", "attach_log"]);
         p.finish(&mut self.warnings);
         Ok(FilmDesc { width: size[0], height: size[1], filter })
     }
