@@ -205,12 +205,12 @@ fn errors_name_the_file_and_the_problem() {
     m.positions[3][1] = f64::NAN;
     assert!(msg(&file(&[m], 4), 0).contains("vertex 3: position"));
 
-    // A corrupt vertex count (2^31 vertices, then the data of 4) fails on the data, not by
-    // allocating it.
+    // A corrupt vertex count (2^20 vertices, then the data of 4: within the memory budget)
+    // fails on the data, not by allocating it.
     let mut raw = Vec::new();
     raw.extend(0x1000u32.to_le_bytes());
     raw.push(0);
-    raw.extend((1u64 << 31).to_le_bytes());
+    raw.extend((1u64 << 20).to_le_bytes());
     raw.extend(0u64.to_le_bytes());
     raw.extend([0u8; 48]);
     let mut bytes = vec![0x1C, 0x04, 4, 0];
