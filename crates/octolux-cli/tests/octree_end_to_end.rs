@@ -15,8 +15,8 @@ use octolux::caches::{Estimator, Split};
 use octolux::integrators::octree::{OctreeIntegrator, OctreeIntegratorSettings};
 use octolux::integrators::Integrator;
 use octolux::metrics::compare;
-use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
+use octolux::scene::Scene;
 use std::path::Path;
 
 fn octree_render(estimator: Option<Estimator>) -> octolux::metrics::ImageErrors {

@@ -136,13 +136,13 @@ fn unsupported_content_warns_with_file_and_line() {
     let path = data("unsupported.xml");
     let s = load(&path, &[]).unwrap();
     let file = path.display().to_string();
-    let expect = [(3, "cylinder"), (4, "projector"), (8, "phong"), (10, "teapot")];
+    let expect = [(3, "cylinder"), (4, "projector"), (8, "hair"), (10, "teapot")];
     for (line, word) in expect {
         let prefix = format!("{file}:{line}:");
         assert!(s.warnings.iter().any(|w| w.starts_with(&prefix) && w.contains(word)), "no warning {prefix} {word} in {:#?}", s.warnings);
     }
     assert_eq!(s.warnings.len(), expect.len() + 1, "one warning each, plus the missing sensor: {:#?}", s.warnings);
-    // Loading went on: the sphere is there, with the default material for the phong bsdf.
+    // Loading went on: the sphere is there, with the default material for the hair bsdf.
     assert_eq!(s.desc.shapes.len(), 1);
     assert!(s.desc.lights.is_empty());
 }
@@ -330,7 +330,30 @@ fn mitsuba_05_names_are_upgraded() {
     assert_eq!(cam.fov_axis, octolux::camera::FovAxis::Diagonal);
     assert!((cam.fov_deg - 63.4399).abs() < 1e-3, "{}", cam.fov_deg);
     assert_eq!(cam.near_clip, 0.5);
-    // Only the smooth-plastic approximation is reported.
+    // Smooth plastic is exact now: nothing to report.
+    assert!(s.warnings.is_empty(), "{:#?}", s.warnings);
+}
+
+#[test]
+fn another_methods_integrator_parameters_warn_in_one_line() {
+    let xml = r#"<scene version="0.6.0">
+    <integrator type="sppm">
+        <integer name="maxDepth" value="7"/>
+        <integer name="photonCount" value="1000"/>
+        <boolean name="dualBuffer" value="true"/>
+    </integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <film type="hdrfilm">
+            <boolean name="banner" value="false"/>
+            <boolean name="attachLog" value="false"/>
+            <string name="fileFormat" value="openexr"/>
+        </film>
+    </sensor>
+</scene>"#;
+    let s = load_str(xml, Path::new("/virtual/sppm.xml"), &[]).unwrap();
+    assert_eq!(s.desc.hints.max_depth, Some(7));
     assert_eq!(s.warnings.len(), 1, "{:#?}", s.warnings);
-    assert!(s.warnings[0].starts_with("/virtual/v05.xml:3:") && s.warnings[0].contains("plastic"), "{:#?}", s.warnings);
+    let w = &s.warnings[0];
+    assert!(w.starts_with("/virtual/sppm.xml:2:") && w.ends_with("photon_count, dual_buffer"), "{w}");
 }

@@ -4,6 +4,7 @@
 //! This crate holds no CLI, no Python and no file formats (see `octolux-io`).
 
 pub mod accel;
+pub mod budget;
 pub mod caches;
 pub mod film;
 pub mod image;

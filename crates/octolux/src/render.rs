@@ -22,12 +22,12 @@
 //! result then depends on the machine's speed).
 
 use crate::film::{camera_sample, Pixel};
+use crate::image::Image;
 use crate::integrators::{Integrator, RayCounters};
-use crate::material::Image;
 use crate::math::{Color, Ray};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
 use crate::scene::PixelFilter;
+use crate::scene::Scene;
 use glam::Vec2;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

@@ -8,10 +8,10 @@
 
 pub use crate::math::facing;
 
-use crate::material::{Lobe, Material};
 use crate::math::{Color, Ray};
-use crate::prepared::{Scene, SurfaceHit};
 use crate::sampling::Sampler;
+use crate::scene::material::{Lobe, Material};
+use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;

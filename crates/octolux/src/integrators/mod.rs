@@ -23,8 +23,8 @@ pub use common::{direct_light, mis_power}; // TEMP-ALIAS: moved to integrators::
 pub use photon::{christensen, photonmap, ward}; // TEMP-ALIAS: moved to integrators::photon
 
 use crate::math::{Color, Ray};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
+use crate::scene::Scene;
 use octree::{OctreeIntegrator, OctreeIntegratorSettings};
 use path::PathSettings;
 use photon::christensen::{ChristensenIntegrator, ChristensenSettings};

@@ -20,11 +20,11 @@
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
-use crate::material::Material;
 use crate::math::{Color, Frame, Ray};
 use crate::photon::trace::{trace_photons, PhotonError, PhotonSettings};
-use crate::prepared::{Scene, SurfaceHit};
 use crate::sampling::Sampler;
+use crate::scene::material::Material;
+use crate::scene::{Scene, SurfaceHit};
 use glam::{Mat3, Vec3};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -60,7 +60,7 @@ pub struct OctreeIntegratorSettings {
     pub max_depth: i32,
     pub view: OctreeView,
     /// Gather the global octree one bounce away instead of reading it where the camera path
-    /// lands (see [`OctreeIntegrator::gathered_global`]): one BSDF-sampled ray per sample, and
+    /// lands (see `OctreeIntegrator::gathered_global`): one BSDF-sampled ray per sample, and
     /// the cache's bias is averaged over the hemisphere instead of showing directly.
     pub gather: bool,
 }

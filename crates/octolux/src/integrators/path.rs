@@ -7,10 +7,10 @@
 //! (Mitsuba: 5) with continuation probability `min(max(throughput) · η², 0.95)`.
 
 use super::common::{mis_power, RayCounters};
-use crate::material::Lobe;
 use crate::math::{max_component, Color, Ray};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
+use crate::scene::material::Lobe;
+use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 
 /// Settings of the `path` integrator.

@@ -1,10 +1,10 @@
 //! Small analytic scenes shared by the integrators' tests (compiled for tests only).
 
 use crate::accel::BackendKind;
-use crate::camera::{look_at, CameraDesc, FovAxis};
-use crate::material::{Material, Texture};
 use crate::math::Color;
-use crate::prepared::Scene;
+use crate::scene::camera::{look_at, CameraDesc, FovAxis};
+use crate::scene::material::{Material, Texture};
+use crate::scene::Scene;
 use crate::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
 use glam::{Mat4, Vec3};
 
@@ -120,7 +120,7 @@ pub(crate) fn sky_plane_scene(rho: f32, sky: f32) -> Scene {
     let desc = SceneDesc {
         shapes: vec![quad("ground", to_world, 0, None)],
         materials: vec![Material::Diffuse { reflectance: Texture::Const(Color::splat(rho)) }],
-        lights: vec![crate::light::Light::Constant { radiance: Color::splat(sky) }],
+        lights: vec![crate::scene::Light::Constant { radiance: Color::splat(sky) }],
         camera: CameraDesc {
             to_world: look_at(Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO, Vec3::Z),
             fov_deg: 60.0,

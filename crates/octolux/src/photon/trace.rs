@@ -21,10 +21,10 @@
 //! BSDF carries the `1/η²` radiance scaling, which flux must not have, so it is undone here.
 
 use super::Photon;
-use crate::material::Lobe;
 use crate::math::{facing, max_component, Ray};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
+use crate::scene::material::Lobe;
+use crate::scene::Scene;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 

@@ -34,8 +34,8 @@ use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache, WardCacheStat
 use crate::integrators::common::RayCounters;
 use crate::math::{Color, Ray};
 use crate::photon::trace::{trace_photons, PhotonSettings};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
+use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;

@@ -9,10 +9,10 @@
 //! borrowed by another:
 //! - [`Shading`]: the global and caustic photon maps as kd-trees, the density and radiance
 //!   estimates, final gathering;
-//! - [`render_vertex`]: the camera path of the two irradiance caches;
+//! - `render_vertex`: the camera path of the two irradiance caches;
 //! - [`priming`]: the deterministic priming pass and the Ward-cache settings that `ward` and
 //!   `christensen`'s configuration C share;
-//! - [`CacheView`], [`BaselineError`], [`validate_common`], [`PhotonMapStats`].
+//! - [`CacheView`], [`BaselineError`], `validate_common`, [`PhotonMapStats`].
 //!
 //! Photon maps come from the photon pass ([`crate::photon::trace`]): the global map holds
 //! indirect photons only, the caustic map `L S+ x` photons; direct light is never in a map.
@@ -28,11 +28,11 @@ use super::common::{direct_light, walk_specular, RayCounters};
 use crate::caches::kdtree::{
     gather_photons, photon_irradiance, scene_size, Density, DensityEstimate, DensitySettings, Neighbor, PhotonTree, SettingsError,
 };
-use crate::material::Material;
 use crate::math::{Color, Frame, Ray};
 use crate::photon::trace::{PhotonError, PhotonMaps, PhotonSettings};
-use crate::prepared::{Scene, SurfaceHit};
 use crate::sampling::{square_to_cosine_hemisphere, Sampler};
+use crate::scene::material::Material;
+use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;

@@ -32,11 +32,11 @@ pub use super::CacheView; // TEMP-ALIAS: moved to integrators::photon
 pub use super::{shade_irradiance, Vertex}; // TEMP-ALIAS: moved to integrators::photon
 use crate::caches::kdtree::{DensitySettings, SettingsError};
 use crate::integrators::common::{direct_light, walk_specular, RayCounters};
-use crate::material::Lobe;
 use crate::math::{Color, Ray};
 use crate::photon::trace::{trace_photons, PhotonSettings};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
+use crate::scene::material::Lobe;
+use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 
 /// Settings of the `photonmap` integrator.

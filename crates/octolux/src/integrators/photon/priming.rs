@@ -2,7 +2,7 @@
 //! Christensen's configuration C), and the Ward-cache settings they share.
 //!
 //! Ward fills his cache lazily while rendering, which makes the result depend on the order of
-//! the lookups. Here the cache is filled before rendering ([`Primer`]): camera paths traced like
+//! the lookups. Here the cache is filled before rendering (`Primer`): camera paths traced like
 //! the render's (specular chains followed with a per-path sampler), their first non-delta hits
 //! taken as points — either one ray through the centre of each cell of a grid (default: one
 //! per pixel), or the render's own first-pass samples ([`PrimePoints::RenderSamples`]: same seed,
@@ -11,7 +11,7 @@
 //! Pixels are ordered coarse to fine (stride 2^k, 2^(k-1), …, 1) and samples sample-major, so
 //! each batch is spread over the image, and [`WardCache::prime_batch`] inserts samples batch by
 //! batch (parallel computation, in-order insertion): the cache is identical for any thread
-//! count. [`SampleRecipe`] says how a sample is computed, for priming and for the render's
+//! count. `SampleRecipe` says how a sample is computed, for priming and for the render's
 //! temporary samples alike.
 
 use super::{Shading, Vertex};
@@ -20,8 +20,8 @@ use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache};
 use crate::film::{camera_sample, Pixel, Reconstruction};
 use crate::integrators::common::{walk_specular, RayCounters};
 use crate::math::{Color, Ray};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
+use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

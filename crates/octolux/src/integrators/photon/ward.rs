@@ -43,8 +43,8 @@ use crate::caches::ward::{PrimeStats, WardCache, WardCacheStats};
 use crate::integrators::common::RayCounters;
 use crate::math::{Color, Ray};
 use crate::photon::trace::{trace_photons, PhotonSettings};
-use crate::prepared::Scene;
 use crate::sampling::Sampler;
+use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
@@ -355,6 +355,7 @@ mod tests {
             assert_eq!(w.temporary_samples(), 0, "{filter:?}, {reconstruction:?}");
             render(&scene, &integ, &RenderSettings { spp: 2, seed: 8, reconstruction, ..Default::default() }, &|_, _| {});
             assert!(w.temporary_samples() > 0, "{filter:?}, {reconstruction:?}");
+            assert_eq!(integ.render_report()["temporaries"], w.temporary_samples());
         }
     }
 
