@@ -118,7 +118,7 @@ fn mitsuba06_sunsky_is_y_up_with_its_parameter_names() {
     assert!((d.sun_direction - Vec3::new(0.3, 0.9, 0.1).normalize()).length() < 1e-6);
     assert_eq!((d.sky_scale, d.sun_scale), (6.0, 10.0));
     assert!((d.sun_aperture_deg - 4.0 * SUN_APERTURE_DEG).abs() < 1e-5);
-    assert!((d.albedo - Color::splat(0.15)).abs().max_element() < 1e-6, "0.6's default albedo");
+    assert!((d.albedo - Color::splat(0.2)).abs().max_element() < 1e-6, "0.6's default albedo (its code's)");
 
     // a 0.6 sun placed by time: Mitsuba 0.6's toSphere(θ, φ) = (sin φ sin θ, cos θ, -cos φ sin θ)
     let xml = scene("0.6.0", r#"<emitter type="sunsky"><float name="hour" value="9"/><float name="scale" value="3"/></emitter>"#);

@@ -136,7 +136,7 @@ fn unsupported_content_warns_with_file_and_line() {
     let path = data("unsupported.xml");
     let s = load(&path, &[]).unwrap();
     let file = path.display().to_string();
-    let expect = [(3, "cylinder"), (4, "envmap"), (8, "hair"), (10, "teapot")];
+    let expect = [(3, "cylinder"), (4, "projector"), (8, "hair"), (10, "teapot")];
     for (line, word) in expect {
         let prefix = format!("{file}:{line}:");
         assert!(s.warnings.iter().any(|w| w.starts_with(&prefix) && w.contains(word)), "no warning {prefix} {word} in {:#?}", s.warnings);

@@ -11,12 +11,12 @@
 //! `latitude/longitude/timezone/year/month/day/hour/minute/second`, `sun_scale`, `sky_scale`,
 //! `sun_aperture`, `to_world` (local `+z` is the zenith). Mitsuba 0.6 names (camelCase in the
 //! file): `sunDirection`, `sunScale`, `skyScale` (both default to `scale`), `albedo` (default
-//! 0.15 there), `sunRadiusScale` (the sun's radius factor with its power kept: Mitsuba 3's
+//! 0.2 in 0.6's code, whose documentation says 0.15), `sunRadiusScale` (the sun's radius factor with its power kept: Mitsuba 3's
 //! `sun_aperture = 0.5358° × sunRadiusScale`; 0 makes the sun a directional light, as in 0.6).
 //! A 0.6 sky has `+y` as its zenith and measures azimuth from `-z` towards `+x`: its `toWorld` is
 //! composed with the fixed map `(x, y, z) -> (-y, z, x)` from Mitsuba 3's local frame, which
 //! puts both the zenith and a sun placed by date and place where 0.6 puts them. `stretch`
-//! (≠ 1) and `resolution` have no equivalent (the sky is evaluated, not rasterised; nothing
+//! (≠ 1), `extend` (true) and `resolution` have no equivalent (the sky is evaluated, not rasterised; nothing
 //! is emitted below the horizon): each gets a warning saying so.
 
 use super::props::{ColorKind, Props};
@@ -105,7 +105,7 @@ impl<'t> Builder<'t> {
             to_world *= legacy_sky_frame();
         }
         let turbidity = p.float_or("turbidity", 3.0)?;
-        let albedo = self.color_param(p, "albedo", ColorKind::Bounded, if legacy { 0.15 } else { 0.3 })?;
+        let albedo = self.color_param(p, "albedo", ColorKind::Bounded, if legacy { 0.2 } else { 0.3 })?;
         let scale = p.float_or("scale", 1.0)?;
         let mut sun_scale = p.float_or("sun_scale", scale)?;
         let mut sky_scale = p.float_or("sky_scale", scale)?;
@@ -138,6 +138,9 @@ impl<'t> Builder<'t> {
                     format!("stretch = {s} has no equivalent in Mitsuba 3's sunsky; ignored (nothing is emitted below the horizon)"),
                 );
             }
+        }
+        if p.bool_or("extend", false)? {
+            self.warn(e, "extend = true has no equivalent in Mitsuba 3's sunsky; ignored (nothing is emitted below the horizon)");
         }
         if let Some(r) = p.int("resolution")? {
             self.warn(

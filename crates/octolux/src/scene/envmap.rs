@@ -1,6 +1,6 @@
 //! Environment map emitter (Mitsuba's `envmap`): a latitude-longitude radiance image at
 //! infinity, evaluated for escaped rays and importance-sampled for next-event estimation and
-//! photon emission (the photon pass of the paper's §3 emits from every light, this one
+//! photon emission (the photon pass of Pacanowski et al. §2 emits from every light, this one
 //! included, through the disk of the scene's bounding sphere).
 //!
 //! Convention (Mitsuba 3's, checked against Mitsuba 3.9.1 in the tests): in the map's local

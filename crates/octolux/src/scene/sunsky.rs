@@ -2,7 +2,7 @@
 //! Hosek–Wilkie sky model (Hosek & Wilkie, "An analytic model for full spectral sky-dome
 //! radiance", SIGGRAPH 2012) plus a sun disk of uniform radiance, both exactly as Mitsuba 3.9
 //! evaluates them, at infinity like an environment map. Like every light, it feeds the photon
-//! pass of the paper's §3 (photons from the disk of the scene's bounding sphere).
+//! pass of Pacanowski et al. §2 (photons from the disk of the scene's bounding sphere).
 //!
 //! Local frame: `+z` is the zenith (Mitsuba 3's convention); `to_world` (orthogonal, possibly
 //! mirrored) maps it to world space. Radiance for a local direction `d` with `d.z >= 0` (zero
