@@ -8,7 +8,7 @@
 Cases are SCENE:MAX_DEPTH with SCENE one of
   cornell-box  octolux's built-in scene (octolux renders it by name; Mitsuba renders the XML that
                `octolux export cornell-box` writes),
-  bitterli     /work/shared/scenes/bitterli-cornell-box/scene_mitsuba.xml (both read the same file;
+  bitterli     ../shared/scenes/bitterli-cornell-box/scene_mitsuba.xml (both read the same file;
                tools/mitsuba/render.py patches the Mitsuba 0.5 dialect for Mitsuba 3).
 Defaults: cornell-box:-1, bitterli:-1, bitterli:65.
 
@@ -32,9 +32,12 @@ import sys
 import tempfile
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-SHARED = os.environ.get("OCTOLUX_SHARED_SCENES", "/work/shared/scenes")
+sys.path.insert(0, os.path.join(REPO, "tools", "mitsuba"))
+import locations  # noqa: E402  (tools/mitsuba/locations.py: $OCTOLUX_SHARED or <repo>/../shared)
+
+SHARED = locations.scenes_dir()
 BITTERLI = os.path.join(SHARED, "bitterli-cornell-box", "scene_mitsuba.xml")
-MI_PY = os.path.join(REPO, ".venv-mitsuba", "bin", "python")
+MI_PY = locations.mitsuba_python()
 MI_RENDER = os.path.join(REPO, "tools", "mitsuba", "render.py")
 DEFAULT_CASES = ["cornell-box:-1", "bitterli:-1", "bitterli:65"]
 VARIANTS = ["llvm_ad_rgb", "scalar_rgb"]

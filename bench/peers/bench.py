@@ -56,10 +56,12 @@ BIN = ROOT / "target" / "release" / "octolux"
 VPY = Path(os.environ.get("PEERS_PYTHON", ROOT / ".venv-peers" / "bin" / "python"))
 RENDER_PY = ROOT / "tools" / "mitsuba" / "render.py"
 CACHE = ROOT / "target" / "peers-cache"
-SHARED = Path(os.environ.get("OCTOLUX_SHARED_SCENES", "/work/shared/scenes"))
 DOCS = ROOT / "docs" / "benchmarks.md"
 
 sys.path.insert(0, str(ROOT / "tools" / "mitsuba"))
+import locations  # noqa: E402  (tools/mitsuba/locations.py: $OCTOLUX_SHARED or <repo>/../shared)
+
+SHARED = Path(locations.scenes_dir())
 
 # name -> where the scene comes from and the max_depth every renderer uses (Mitsuba's meaning),
 # the same choices as tests/refs/manifest.json.

@@ -39,22 +39,12 @@ import tempfile
 import time
 import xml.etree.ElementTree as ET
 
-PROPERTY_TAGS = {
-    "integer", "float", "boolean", "string", "rgb", "spectrum", "vector", "point",
-    "transform", "ref", "color", "srgb", "blackbody", "tensor",
-}
-OBJECT_TAGS = {
-    "scene", "integrator", "sensor", "sampler", "film", "rfilter", "bsdf", "emitter", "shape",
-    "texture", "medium", "phase", "volume", "spectrum_plugin",
-}
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from translate import (PROPERTY_TAGS, absolute_filenames, camel_to_snake, find_prop,  # noqa: E402,F401
+                       translate_tree)
+
 # Mitsuba 0.x samplers that Mitsuba 3 does not have (or whose semantics differ).
 OLD_SAMPLERS = {"sobol", "halton", "hammersley", "ldsampler"}
-# Properties that only existed in Mitsuba 0.x (after snake_case renaming), dropped per object tag.
-OLD_ONLY_PROPS = {
-    "integrator": {"strict_normals"},
-    "emitter": {"sampling_weight"},
-    "sampler": {"scramble", "dimension"},
-}
 FILM_KEEP = {
     "width", "height", "crop_offset_x", "crop_offset_y", "crop_width", "crop_height",
     "sample_border",
@@ -66,11 +56,6 @@ def log(msg: str) -> None:
     print(f"[render.py] {msg}", file=sys.stderr, flush=True)
 
 
-def camel_to_snake(name: str) -> str:
-    # toWorld -> to_world, intIOR -> int_ior, maxDepth -> max_depth
-    return re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", name).lower()
-
-
 def parse_version(v: str | None) -> tuple[int, ...]:
     if not v:
         return (3, 0, 0)
@@ -78,13 +63,6 @@ def parse_version(v: str | None) -> tuple[int, ...]:
         return tuple(int(x) for x in v.split("."))
     except ValueError:
         return (3, 0, 0)
-
-
-def find_prop(elem: ET.Element, name: str) -> ET.Element | None:
-    for c in elem:
-        if c.tag in PROPERTY_TAGS and c.get("name") == name:
-            return c
-    return None
 
 
 def set_prop(elem: ET.Element, tag: str, name: str, value) -> None:
@@ -121,28 +99,6 @@ def resolve_params(root: ET.Element, overrides: dict[str, str]) -> dict[str, str
     return params
 
 
-def upgrade_0x(root: ET.Element) -> list[str]:
-    """Mitsuba 0.5/0.6 -> Mitsuba 3 syntax (names only; plugin swaps happen later)."""
-    notes = []
-    renamed = set()
-    for e in root.iter():
-        if e.tag in PROPERTY_TAGS or e.tag in OBJECT_TAGS:
-            n = e.get("name")
-            if n and n != camel_to_snake(n):
-                renamed.add(f"{n}->{camel_to_snake(n)}")
-                e.set("name", camel_to_snake(n))
-    if renamed:
-        notes.append("renamed " + ", ".join(sorted(renamed)))
-    for e in root.iter():
-        drop = OLD_ONLY_PROPS.get(e.tag, set())
-        for c in list(e):
-            if c.tag in PROPERTY_TAGS and c.get("name") in drop:
-                notes.append(f"dropped {e.tag}.{c.get('name')}")
-                e.remove(c)
-    root.set("version", "3.0.0")
-    return notes
-
-
 def get_num(elem: ET.Element | None, name: str, default):
     if elem is None:
         return default
@@ -177,7 +133,7 @@ def fix_framing(sensor: ET.Element, w0: int, h0: int, w: int, h: int, notes: lis
 
 
 def patch_scene(path: str, *, resolution=None, max_depth=None, spp=None, sampler_mode="keep",
-                overrides=None, rfilter=None) -> tuple[str, dict]:
+                overrides=None, rfilter=None, mesh_dir=None) -> tuple[str, dict]:
     """Return (patched xml text, info dict)."""
     tree = ET.parse(path)
     root = tree.getroot()
@@ -187,16 +143,12 @@ def patch_scene(path: str, *, resolution=None, max_depth=None, spp=None, sampler
     notes: list[str] = []
     version = root.get("version")
     params = resolve_params(root, overrides or {})
+    approximations: list[str] = []
     if parse_version(version)[0] < 2:
-        notes.append(f"scene version {version}: upgrading Mitsuba 0.x dialect")
-        notes += upgrade_0x(root)
+        notes.append(f"scene version {version}: translating the Mitsuba 0.x dialect (translate.py)")
+        approximations = translate_tree(root, notes, scene_dir, mesh_dir)
 
-    # Absolute file names.
-    for e in root.iter("string"):
-        if e.get("name") == "filename":
-            v = e.get("value")
-            if v and not os.path.isabs(v):
-                e.set("value", os.path.normpath(os.path.join(scene_dir, v)))
+    absolute_filenames(root, scene_dir)
 
     sensors = [e for e in root if e.tag == "sensor"]
     if not sensors:
@@ -282,6 +234,7 @@ def patch_scene(path: str, *, resolution=None, max_depth=None, spp=None, sampler
         "sampler": sampler.get("type"),
         "params": params,
         "notes": notes,
+        "approximations": approximations,
     }
     ET.indent(tree)
     return ET.tostring(root, encoding="unicode"), info
@@ -338,15 +291,6 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     overrides = dict(d.split("=", 1) for d in args.defines)
-    xml, info = patch_scene(args.scene, resolution=args.resolution, max_depth=args.max_depth,
-                            spp=args.spp, sampler_mode=args.sampler, overrides=overrides,
-                            rfilter=args.rfilter)
-    for n in info["notes"]:
-        log(n)
-    if args.write_patched:
-        with open(args.write_patched, "w") as f:
-            f.write(xml)
-
     load_env_file()
     import drjit as dr
     import mitsuba as mi
@@ -361,6 +305,16 @@ def main(argv=None) -> int:
     fr.prepend(os.path.dirname(os.path.abspath(args.scene)))
 
     with tempfile.TemporaryDirectory(prefix="octolux-mi-") as td:
+        xml, info = patch_scene(args.scene, resolution=args.resolution, max_depth=args.max_depth,
+                                spp=args.spp, sampler_mode=args.sampler, overrides=overrides,
+                                rfilter=args.rfilter, mesh_dir=os.path.join(td, "meshes"))
+        for n in info["notes"]:
+            log(n)
+        for a in info["approximations"]:
+            log("APPROXIMATION " + a)
+        if args.write_patched:
+            with open(args.write_patched, "w") as f:
+                f.write(xml)
         tmp = os.path.join(td, "scene.xml")
         with open(tmp, "w") as f:
             f.write(xml)
@@ -435,6 +389,7 @@ def main(argv=None) -> int:
         "mean_rgb": [float(x) for x in img.reshape(-1, 3).astype(np.float64).mean(axis=0)],
         "finite": bool(np.isfinite(img).all()),
         "patch_notes": info["notes"],
+        "approximations": info["approximations"],
     }
     print(json.dumps(out))
     return 0

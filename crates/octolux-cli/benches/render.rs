@@ -6,8 +6,8 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use octolux::accel::BackendKind;
 use octolux::integrators::octree::{OctreeIntegrator, OctreeIntegratorSettings};
 use octolux::integrators::{path::PathSettings, Integrator};
-use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
+use octolux::scene::Scene;
 
 fn scene(name: &str, backend: BackendKind, res: u32) -> Option<Scene> {
     let mut desc = octolux_io::builtin::scene(name)?;

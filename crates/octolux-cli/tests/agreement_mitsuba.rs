@@ -22,8 +22,8 @@
 use octolux::accel::BackendKind;
 use octolux::integrators::{path::PathSettings, Integrator};
 use octolux::metrics::{channel_means, rel_mse_with};
-use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
+use octolux::scene::Scene;
 use std::path::{Path, PathBuf};
 
 fn repo_root() -> PathBuf {

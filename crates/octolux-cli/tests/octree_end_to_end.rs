@@ -15,8 +15,8 @@ use octolux::caches::{Estimator, Split};
 use octolux::integrators::octree::{OctreeIntegrator, OctreeIntegratorSettings};
 use octolux::integrators::Integrator;
 use octolux::metrics::compare;
-use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
+use octolux::scene::Scene;
 use std::path::Path;
 
 fn octree_render(estimator: Option<Estimator>) -> octolux::metrics::ImageErrors {
@@ -100,7 +100,7 @@ const BOUND_GATHER: f64 = 2.2e-3;
 /// asked (`store_on_specular`, the paper's "every hit").
 #[test]
 fn photons_are_not_stored_on_purely_specular_surfaces_by_default() {
-    use octolux::photon_pass::{trace_photons, PhotonSettings};
+    use octolux::photon::trace::{trace_photons, PhotonSettings};
     use octolux::scene::Geometry;
     let desc = octolux_io::builtin::scene("cornell-spheres").expect("built-in scene");
     let spheres: Vec<(glam::Vec3, f32)> = desc

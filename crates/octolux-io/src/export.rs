@@ -13,7 +13,7 @@
 //!   binary little-endian PLY files with normals and uvs when present, referenced as
 //!   `mesh_prefix + file name`; a mesh without normals gets `face_normals = true` (Mitsuba
 //!   would otherwise smooth it); emission as a nested `area` emitter;
-//! - every light (`point`, `spot`, `directional`, `constant`); an [`Light::Area`] entry becomes
+//! - every light (`point`, `spot`, `directional`, `constant`, `envmap` with its image as EXR, `sunsky`); an [`Light::Area`] entry becomes
 //!   the emission of its shape.
 //!
 //! Numbers are written with Rust's shortest round-trip formatting, so reading the file back
@@ -383,6 +383,33 @@ pub fn to_mitsuba_xml(desc: &SceneDesc, spp: u32, max_depth: i32, mesh_dir: &Pat
             Light::Constant { radiance } => {
                 w.line(1, "<emitter type=\"constant\">");
                 w.line(2, &format!("<rgb name=\"radiance\" value=\"{}\"/>", rgb(*radiance)));
+                w.line(1, "</emitter>");
+            }
+            Light::Envmap { image, scale, to_world } => {
+                let img = desc.images.get(*image as usize).ok_or_else(|| {
+                    IoError::invalid(mesh_dir, format!("an envmap uses image {image} but the scene has {} images", desc.images.len()))
+                })?;
+                let file = format!("envmap_{image:03}.exr");
+                crate::image_io::write_exr(&mesh_dir.join(&file), img)?;
+                w.line(1, "<emitter type=\"envmap\">");
+                w.line(2, &format!("<string name=\"filename\" value=\"{}\"/>", esc(&format!("{mesh_prefix}{file}"))));
+                w.line(2, &format!("<float name=\"scale\" value=\"{scale}\"/>"));
+                w.line(2, "<transform name=\"to_world\">");
+                w.line(3, &format!("<matrix value=\"{}\"/>", matrix(&Mat4::from_mat3(*to_world))));
+                w.line(2, "</transform>");
+                w.line(1, "</emitter>");
+            }
+            Light::Sunsky(d) => {
+                w.line(1, "<emitter type=\"sunsky\">");
+                w.line(2, &format!("<vector name=\"sun_direction\" value=\"{}\"/>", v3(d.sun_direction)));
+                w.line(2, &format!("<float name=\"turbidity\" value=\"{}\"/>", d.turbidity));
+                w.line(2, &format!("<rgb name=\"albedo\" value=\"{}\"/>", rgb(d.albedo)));
+                w.line(2, &format!("<float name=\"sun_scale\" value=\"{}\"/>", d.sun_scale));
+                w.line(2, &format!("<float name=\"sky_scale\" value=\"{}\"/>", d.sky_scale));
+                w.line(2, &format!("<float name=\"sun_aperture\" value=\"{}\"/>", d.sun_aperture_deg));
+                w.line(2, "<transform name=\"to_world\">");
+                w.line(3, &format!("<matrix value=\"{}\"/>", matrix(&Mat4::from_mat3(d.to_world))));
+                w.line(2, "</transform>");
                 w.line(1, "</emitter>");
             }
         }

@@ -86,32 +86,60 @@ fn check_image(path: &Path, img: &Image) -> Result<(), IoError> {
     Ok(())
 }
 
-/// Write a 32-bit float RGB OpenEXR file (atomically).
+/// Write a 32-bit float RGB OpenEXR file (atomically). Blocks are stored in increasing line
+/// order (RLE-compressed 64x64 tiles), so equal images give byte-identical files whatever the
+/// order in which the encoder's threads finish.
 pub fn write_exr(path: &Path, img: &Image) -> Result<(), IoError> {
+    use exr::prelude::{Encoding, Layer, LayerAttributes, LineOrder, SpecificChannels, Vec2, WritableImage};
     check_image(path, img)?;
     let w = img.width as usize;
-    write_atomically(path, |tmp| {
-        exr::prelude::write_rgb_file(tmp, w, img.height as usize, |x, y| {
-            let c = img.data[y * w + x];
-            (c.x, c.y, c.z)
-        })
-        .map_err(|e| e.to_string())
-    })
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let c = img.data[y * w + x];
+        (c.x, c.y, c.z)
+    });
+    let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
+    let layer = Layer::new((w, img.height as usize), LayerAttributes::default(), encoding, channels);
+    let image = exr::prelude::Image::from_layer(layer);
+    write_atomically(path, |tmp| image.write().to_file(tmp).map_err(|e| e.to_string()))
 }
 
 /// Read the first RGB(A) layer of an OpenEXR file as linear RGB (alpha is ignored).
 pub fn read_exr(path: &Path) -> Result<Image, IoError> {
-    if !path.is_file() {
-        return Err(IoError::os(path, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")));
+    let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
+    decode_exr(path, &bytes)
+}
+
+/// Decode OpenEXR bytes (see [`read_exr`]); `path` names the data in messages. The header's
+/// size is checked against the file size and the memory budget ([`octolux::budget`]) before
+/// any pixel is allocated.
+pub fn decode_exr(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
+    let invalid = |e: exr::error::Error| IoError::invalid(path, format!("not a readable RGB OpenEXR file: {e}"));
+    // Headers only (no pixel data): sizes are validated before decoding.
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false).map_err(invalid)?;
+    for h in &meta.headers {
+        let (w, hh) = (h.layer_size.width() as u64, h.layer_size.height() as u64);
+        octolux::budget::check_image(w, hh).map_err(|e| IoError::invalid(path, e.to_string()))?;
     }
-    let result = exr::prelude::read_first_rgba_layer_from_file(
-        path,
-        |res, _| Image { width: res.width() as u32, height: res.height() as u32, data: vec![Color::ZERO; res.width() * res.height()] },
-        |img: &mut Image, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            let i = pos.y() * img.width as usize + pos.x();
-            img.data[i] = Color::new(r, g, b);
-        },
-    );
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let result = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |res: exr::math::Vec2<usize>, _: &exr::prelude::RgbaChannels| Image {
+                width: res.width() as u32,
+                height: res.height() as u32,
+                data: vec![Color::ZERO; res.width() * res.height()],
+            },
+            |img: &mut Image, pos: exr::math::Vec2<usize>, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let i = pos.y() * img.width as usize + pos.x();
+                if let Some(p) = img.data.get_mut(i) {
+                    *p = Color::new(r, g, b);
+                }
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes));
     match result {
         Ok(image) => {
             let img = image.layer_data.channel_data.pixels;
@@ -120,8 +148,7 @@ pub fn read_exr(path: &Path) -> Result<Image, IoError> {
             }
             Ok(img)
         }
-        Err(exr::error::Error::Io(e)) => Err(IoError::os(path, e)),
-        Err(e) => Err(IoError::invalid(path, format!("not a readable RGB OpenEXR file: {e}"))),
+        Err(e) => Err(invalid(e)),
     }
 }
 
@@ -141,18 +168,40 @@ pub fn write_png(path: &Path, img: &Image) -> Result<(), IoError> {
 /// sRGB-decoded. Alpha is dropped; grey images are replicated to RGB.
 pub fn read_image(path: &Path) -> Result<Image, IoError> {
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
+    if !matches!(ext.as_str(), "exr" | "hdr" | "rgbe" | "pic" | "png" | "jpg" | "jpeg") {
+        return Err(IoError::invalid(path, format!("unsupported image format '.{ext}' (expected png, jpg, exr or hdr)")));
+    }
+    let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
+    decode_image(path, &bytes)
+}
+
+/// Decode image bytes as [`read_image`] does, the format chosen by `path`'s extension (which
+/// also names the data in messages). The header's size is checked against the memory budget
+/// ([`octolux::budget`]) before decoding, and the decoder's own allocations are capped by it.
+pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
     let srgb = match ext.as_str() {
-        "exr" => return read_exr(path),
+        "exr" => return decode_exr(path, bytes),
         "hdr" | "rgbe" | "pic" => false,
         "png" | "jpg" | "jpeg" => true,
         _ => return Err(IoError::invalid(path, format!("unsupported image format '.{ext}' (expected png, jpg, exr or hdr)"))),
     };
-    let reader = image::ImageReader::open(path).map_err(|e| IoError::os(path, e))?;
-    let reader = reader.with_guessed_format().map_err(|e| IoError::os(path, e))?;
-    let decoded = reader.decode().map_err(|e| match e {
+    let decode_err = |e: image::ImageError| match e {
         image::ImageError::IoError(e) => IoError::os(path, e),
+        image::ImageError::Limits(e) => IoError::invalid(
+            path,
+            format!("could not decode image: {e} (memory limit {})", octolux::budget::format_bytes(octolux::budget::memory_limit())),
+        ),
         e => IoError::invalid(path, format!("could not decode image: {e}")),
-    })?;
+    };
+    let open = || image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| IoError::os(path, e));
+    let (w, h) = open()?.into_dimensions().map_err(decode_err)?;
+    octolux::budget::check_image(w as u64, h as u64).map_err(|e| IoError::invalid(path, e.to_string()))?;
+    let mut reader = open()?;
+    let mut limits = image::Limits::no_limits();
+    limits.max_alloc = Some(octolux::budget::memory_limit());
+    reader.limits(limits);
+    let decoded = reader.decode().map_err(decode_err)?;
     let rgb = decoded.to_rgb32f();
     let (width, height) = rgb.dimensions();
     if width == 0 || height == 0 {

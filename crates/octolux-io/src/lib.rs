@@ -7,6 +7,7 @@
 
 pub mod builtin;
 pub mod export;
+pub mod fuzzing;
 pub mod image_io;
 pub mod mesh;
 pub mod mitsuba;

@@ -333,3 +333,27 @@ fn mitsuba_05_names_are_upgraded() {
     // Smooth plastic is exact now: nothing to report.
     assert!(s.warnings.is_empty(), "{:#?}", s.warnings);
 }
+
+#[test]
+fn another_methods_integrator_parameters_warn_in_one_line() {
+    let xml = r#"<scene version="0.6.0">
+    <integrator type="sppm">
+        <integer name="maxDepth" value="7"/>
+        <integer name="photonCount" value="1000"/>
+        <boolean name="dualBuffer" value="true"/>
+    </integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <film type="hdrfilm">
+            <boolean name="banner" value="false"/>
+            <boolean name="attachLog" value="false"/>
+            <string name="fileFormat" value="openexr"/>
+        </film>
+    </sensor>
+</scene>"#;
+    let s = load_str(xml, Path::new("/virtual/sppm.xml"), &[]).unwrap();
+    assert_eq!(s.desc.hints.max_depth, Some(7));
+    assert_eq!(s.warnings.len(), 1, "{:#?}", s.warnings);
+    let w = &s.warnings[0];
+    assert!(w.starts_with("/virtual/sppm.xml:2:") && w.ends_with("photon_count, dual_buffer"), "{w}");
+}

@@ -4,13 +4,14 @@
 //! This crate holds no CLI, no Python and no file formats (see `octolux-io`).
 
 pub mod accel;
+pub mod budget;
 pub mod caches;
+pub mod film;
 pub mod image;
 pub mod integrators;
 pub mod math;
 pub mod metrics;
 pub mod photon;
-pub mod photon_pass;
 pub mod render;
 pub mod sampling;
 pub mod scene;
@@ -40,3 +41,4 @@ pub mod camera {
 pub mod prepared {
     pub use crate::scene::{intersect_sphere, Scene, SphereShape, SurfaceHit}; // TEMP-ALIAS
 }
+pub use photon::trace as photon_pass; // TEMP-ALIAS: moved to photon::trace

@@ -60,6 +60,17 @@ pub fn offset_origin(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
     }
 }
 
+/// `n` turned to the side of `w` (`w` pointing away from the surface): `n` when `n·w ≥ 0`,
+/// `-n` otherwise. The one spelling of "the normal on the viewer's (or the light's) side".
+#[inline]
+pub fn facing(n: Vec3, w: Vec3) -> Vec3 {
+    if n.dot(w) >= 0.0 {
+        n
+    } else {
+        -n
+    }
+}
+
 /// Orthonormal basis; `n` is the local +z axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {

@@ -12,12 +12,16 @@
 //!
 //! Both converge to the same image ∫w(x−p)L(x)dx / ∫w.
 //!
+//! Positions and samplers come from [`crate::film::camera_sample`], the rule the priming
+//! passes of the irradiance-cache baselines replay.
+//!
 //! Determinism: pixel `(x, y)` sample `s` uses `Sampler::new(seed, y·width + x, s)`; each tile
 //! splats into its own buffer (the tile plus a margin of the filter's radius) and the buffers
 //! are added to the image in tile order, so the image is bit-identical for any thread count.
 //! With a time budget, whole passes of `spp` samples are added until the budget is spent (the
 //! result then depends on the machine's speed).
 
+use crate::film::{camera_sample, Pixel};
 use crate::image::Image;
 use crate::integrators::{Integrator, RayCounters};
 use crate::math::{Color, Ray};
@@ -29,20 +33,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
-/// How the reconstruction filter is applied (see the module documentation).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Reconstruction {
-    /// Uniform positions in the pixel, splatted with the filter's weights (Mitsuba 3's way).
-    #[default]
-    Splat,
-    /// Positions drawn from the filter, each sample in its own pixel.
-    ImportanceSampled,
-}
+pub use crate::film::{filter_radius, filter_weight, sample_filter, Reconstruction}; // TEMP-ALIAS: moved to crate::film
 
 /// Settings of the render loop.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct RenderSettings {
     /// Samples per pixel (per pass when `time_budget_s` is set).
     pub spp: u32,
@@ -74,70 +69,6 @@ pub struct RenderStats {
     pub samples_per_second: f64,
     pub counters: RayCounters,
     pub rays_per_second: f64,
-}
-
-/// Offset from the pixel centre, in pixels, distributed as the reconstruction filter.
-#[inline]
-pub fn sample_filter(filter: PixelFilter, sampler: &mut Sampler) -> Vec2 {
-    match filter {
-        PixelFilter::Box => sampler.next_2d() - Vec2::splat(0.5),
-        PixelFilter::Tent => {
-            let u = sampler.next_2d();
-            Vec2::new(sample_tent(u.x), sample_tent(u.y))
-        }
-        PixelFilter::Gaussian { stddev } => {
-            let radius = 4.0 * stddev;
-            loop {
-                let u = sampler.next_2d();
-                let r = stddev * (-2.0 * (1.0 - u.x).ln()).sqrt();
-                let (s, c) = (std::f32::consts::TAU * u.y).sin_cos();
-                let v = Vec2::new(r * c, r * s);
-                if v.x.abs() <= radius && v.y.abs() <= radius {
-                    break v;
-                }
-            }
-        }
-    }
-}
-
-/// Tent of radius 1 on [-1, 1] by inversion.
-#[inline]
-fn sample_tent(u: f32) -> f32 {
-    if u < 0.5 {
-        (2.0 * u).sqrt() - 1.0
-    } else {
-        1.0 - (2.0 - 2.0 * u).sqrt()
-    }
-}
-
-/// Radius of the filter's support in pixels.
-pub fn filter_radius(filter: PixelFilter) -> f32 {
-    match filter {
-        PixelFilter::Box => 0.5,
-        PixelFilter::Tent => 1.0,
-        PixelFilter::Gaussian { stddev } => 4.0 * stddev,
-    }
-}
-
-/// The filter's 1D weight at offset `x` pixels (the filters are separable). The Gaussian is
-/// shifted down to reach 0 at its radius, as Mitsuba 3's `gaussian` rfilter is.
-#[inline]
-pub fn filter_weight(filter: PixelFilter, x: f32) -> f32 {
-    match filter {
-        PixelFilter::Box => {
-            if x.abs() <= 0.5 {
-                1.0
-            } else {
-                0.0
-            }
-        }
-        PixelFilter::Tent => (1.0 - x.abs()).max(0.0),
-        PixelFilter::Gaussian { stddev } => {
-            let alpha = -1.0 / (2.0 * stddev * stddev);
-            let r = 4.0 * stddev;
-            ((alpha * x * x).exp() - (alpha * r * r).exp()).max(0.0)
-        }
-    }
 }
 
 /// The widest splat margin in pixels (a Gaussian of stddev up to 2 px); a wider filter is cut
@@ -176,7 +107,10 @@ where
     let tiles_y = h.div_ceil(tile);
     let n_tiles = (tiles_x * tiles_y) as usize;
     let spp = settings.spp.max(1);
+    // A box filter splats each sample into its own pixel with weight 1: the importance-sampled
+    // path does that without the margin (its positions are the same, see `camera_sample`).
     let splat = settings.reconstruction == Reconstruction::Splat && filter != PixelFilter::Box;
+    let reconstruction = settings.reconstruction;
     let radius = filter_radius(filter);
     let margin = if splat { ((radius + 0.5).ceil() as i32 - 1).clamp(0, MAX_MARGIN) } else { 0 };
     let mut accum = vec![[0.0f64; 4]; (w * h) as usize];
@@ -206,16 +140,10 @@ where
                 let (mut wx, mut wy) = (vec![0.0f32; taps], vec![0.0f32; taps]);
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        let pixel = (y * w + x) as u64;
+                        let pixel = Pixel { x, y, width: w };
                         for s in 0..spp {
                             let sample_index = pass as u64 * spp as u64 + s as u64;
-                            let mut sampler = Sampler::new(settings.seed, pixel, sample_index);
-                            let centre = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-                            let pos = if splat {
-                                centre + sampler.next_2d() - Vec2::splat(0.5)
-                            } else {
-                                centre + sample_filter(filter, &mut sampler)
-                            };
+                            let (mut sampler, pos) = camera_sample(settings.seed, pixel, sample_index, filter, reconstruction);
                             let l = li(pos, &mut sampler, &mut buf.counters);
                             // A non-finite sample is a bug; drop it rather than poison pixels.
                             if !l.is_finite() {
@@ -339,25 +267,6 @@ pub fn render(
 mod tests {
     use super::*;
 
-    #[test]
-    fn tent_sampling_matches_the_tent_density() {
-        // Histogram of tent samples vs the density 1 - |x| on [-1, 1].
-        let n = 200_000;
-        let bins = 20;
-        let mut h = vec![0usize; bins];
-        for i in 0..n {
-            let x = sample_tent((i as f32 + 0.5) / n as f32);
-            assert!((-1.0..=1.0).contains(&x));
-            h[(((x + 1.0) / 2.0 * bins as f32) as usize).min(bins - 1)] += 1;
-        }
-        for (b, &c) in h.iter().enumerate() {
-            let (a, z) = (-1.0 + 2.0 * b as f64 / bins as f64, -1.0 + 2.0 * (b + 1) as f64 / bins as f64);
-            let cdf = |x: f64| if x < 0.0 { 0.5 * (1.0 + x).powi(2) } else { 1.0 - 0.5 * (1.0 - x).powi(2) };
-            let expect = (cdf(z) - cdf(a)) * n as f64;
-            assert!((c as f64 - expect).abs() < 0.01 * n as f64 / bins as f64 + 2.0, "bin {b}: {c} vs {expect}");
-        }
-    }
-
     fn film(filter: PixelFilter, rec: Reconstruction, n: u32, spp: u32, f: impl Fn(Vec2, &mut Sampler) -> Color + Sync) -> Image {
         let settings = RenderSettings { spp, seed: 3, reconstruction: rec, tile: 5, ..Default::default() };
         render_film(n, n, filter, &settings, &|_, _| {}, |p, s, _| f(p, s)).0
@@ -408,14 +317,5 @@ mod tests {
         assert!((fis * 48.0 - 1.0).abs() < 0.1, "importance sampled: variance {fis} vs 1/48");
         let ratio = fis / splat;
         assert!((1.9..2.6).contains(&ratio), "variance ratio {ratio}, expected about 2.25");
-    }
-
-    #[test]
-    fn filter_weights_vanish_at_the_radius() {
-        for filter in [PixelFilter::Tent, PixelFilter::Gaussian { stddev: 0.5 }, PixelFilter::Gaussian { stddev: 1.3 }] {
-            let r = filter_radius(filter);
-            assert!(filter_weight(filter, r) == 0.0 && filter_weight(filter, -r - 0.1) == 0.0);
-            assert!(filter_weight(filter, 0.0) > filter_weight(filter, 0.3 * r));
-        }
     }
 }

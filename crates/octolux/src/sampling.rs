@@ -210,6 +210,85 @@ impl Distribution1D {
     }
 }
 
+/// A piecewise-constant distribution over an `nx × ny` grid of cells covering the unit square
+/// (row-major weights, `weights[iy * nx + ix]`), sampled by a marginal distribution over rows
+/// and one conditional distribution per row (Pharr, Jakob & Humphreys, PBRT 3rd ed. §13.6.7).
+#[derive(Clone, Debug)]
+pub struct Distribution2D {
+    nx: usize,
+    ny: usize,
+    /// Per row: distribution over its cells (`None` for a row of zero weight).
+    rows: Vec<Option<Distribution1D>>,
+    /// Distribution over rows (by row total).
+    marginal: Distribution1D,
+}
+
+impl Distribution2D {
+    /// Build from non-negative weights; `None` when the grid is empty, the length is not
+    /// `nx * ny` or the total weight is not positive.
+    pub fn new(weights: &[f32], nx: usize, ny: usize) -> Option<Self> {
+        if nx == 0 || ny == 0 || weights.len() != nx * ny {
+            return None;
+        }
+        let rows: Vec<Option<Distribution1D>> = weights.chunks(nx).map(Distribution1D::new).collect();
+        let totals: Vec<f32> = rows.iter().map(|r| r.as_ref().map_or(0.0, |d| d.total() as f32)).collect();
+        let marginal = Distribution1D::new(&totals)?;
+        Some(Distribution2D { nx, ny, rows, marginal })
+    }
+
+    /// Grid size `(nx, ny)`.
+    pub fn size(&self) -> (usize, usize) {
+        (self.nx, self.ny)
+    }
+
+    /// Sum of the weights (accumulated in f64).
+    pub fn total(&self) -> f64 {
+        self.marginal.total()
+    }
+
+    /// Probability of cell `(ix, iy)` (zero outside the grid).
+    #[inline]
+    pub fn pmf(&self, ix: usize, iy: usize) -> f32 {
+        if ix >= self.nx || iy >= self.ny {
+            return 0.0;
+        }
+        match &self.rows[iy] {
+            Some(r) => self.marginal.pmf(iy) * r.pmf(ix),
+            None => 0.0,
+        }
+    }
+
+    /// Sample a cell with `u` in [0,1)²: returns `(ix, iy)`, its probability and `u`
+    /// rescaled to [0,1)² within the cell.
+    #[inline]
+    pub fn sample_cell(&self, u: Vec2) -> Option<(usize, usize, f32, Vec2)> {
+        let (iy, py, uy) = self.marginal.sample(u.y);
+        let row = self.rows[iy].as_ref()?;
+        let (ix, px, ux) = row.sample(u.x);
+        let p = px * py;
+        (p > 0.0).then_some((ix, iy, p, Vec2::new(ux, uy)))
+    }
+
+    /// Sample a point of the unit square; returns it and its density w.r.t. area.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> Option<(Vec2, f32)> {
+        let (ix, iy, p, r) = self.sample_cell(u)?;
+        let pt = Vec2::new((ix as f32 + r.x) / self.nx as f32, (iy as f32 + r.y) / self.ny as f32);
+        Some((pt.min(Vec2::splat(1.0 - f32::EPSILON)), p * (self.nx * self.ny) as f32))
+    }
+
+    /// Density w.r.t. area at a point of the unit square (the density [`Self::sample`] uses).
+    #[inline]
+    pub fn pdf(&self, p: Vec2) -> f32 {
+        if !(p.x >= 0.0 && p.x <= 1.0 && p.y >= 0.0 && p.y <= 1.0) {
+            return 0.0;
+        }
+        let ix = ((p.x * self.nx as f32) as usize).min(self.nx - 1);
+        let iy = ((p.y * self.ny as f32) as usize).min(self.ny - 1);
+        self.pmf(ix, iy) * (self.nx * self.ny) as f32
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -277,5 +356,29 @@ mod tests {
             let b = square_to_uniform_triangle(u);
             assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
         }
+    }
+
+    #[test]
+    fn distribution_2d_sampling_matches_its_pdf() {
+        use crate::testing::{chi2_2d_piecewise as chi2_2d, Chi2Config};
+        // 4 x 3 grid with an empty row and an empty cell
+        let w = [1.0, 2.0, 0.0, 4.0, 0.0, 0.0, 0.0, 0.0, 3.0, 1.0, 1.0, 8.0];
+        let d = Distribution2D::new(&w, 4, 3).unwrap();
+        assert_eq!(d.size(), (4, 3));
+        assert!((d.total() - 20.0).abs() < 1e-9);
+        assert!((d.pmf(3, 0) - 0.2).abs() < 1e-6 && d.pmf(2, 0) == 0.0 && d.pmf(1, 1) == 0.0);
+        let sum: f32 = (0..3).flat_map(|y| (0..4).map(move |x| (x, y))).map(|(x, y)| d.pmf(x, y)).sum();
+        assert!((sum - 1.0).abs() < 1e-6);
+        let cfg = Chi2Config { bins_x: 8, bins_y: 6, ..Default::default() };
+        let out = chi2_2d(&cfg, Vec2::ZERO, Vec2::ONE, |s| d.sample(s.next_2d()).map(|(p, _)| p), |p| d.pdf(p) as f64);
+        assert!(out.passed, "{out:?}");
+        assert!((out.pdf_integral - 1.0).abs() < 1e-4);
+        let mut s = Sampler::new(3, 0, 0);
+        for _ in 0..1000 {
+            let (p, pdf) = d.sample(s.next_2d()).unwrap();
+            assert_eq!(pdf, d.pdf(p));
+        }
+        assert!(Distribution2D::new(&[0.0; 4], 2, 2).is_none());
+        assert!(Distribution2D::new(&[1.0; 3], 2, 2).is_none());
     }
 }

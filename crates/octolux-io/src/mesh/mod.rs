@@ -1,5 +1,7 @@
-//! OBJ and PLY triangle meshes, read the way Mitsuba 3's `obj` and `ply` shapes read them, and
-//! mesh files rendered directly as scenes.
+//! Triangle meshes: OBJ (`obj`, with MTL), PLY (`ply`) and Mitsuba's compressed `serialized`
+//! format (`serialized`), read the way Mitsuba 3's shapes read them; their normals and their
+//! placement in a scene with Mitsuba 3's orientation (`normals`); mesh files rendered directly
+//! as scenes (here).
 //!
 //! Conventions (checked against Mitsuba 3's `src/shapes/obj.cpp`, `ply.cpp` and
 //! `Mesh::recompute_vertex_normals`):
@@ -17,6 +19,8 @@
 //! - When a file has no vertex normals, smooth ones are computed with Mitsuba's angle-weighted
 //!   scheme (Thürmer & Wüthrich 1998), since Mitsuba's default (`face_normals = false`) does
 //!   the same. A caller honouring `face_normals = true` just sets `TriMesh::normals = None`.
+//!   The Mitsuba loader places meshes with [`place_mesh`], which recomputes such normals after
+//!   the transform (Mitsuba 3's order) and orients mirrored meshes as Mitsuba 3 does.
 //! - Non-finite positions and out-of-range indices are errors naming the file, with the line
 //!   for OBJ and ascii PLY (the element number for binary PLY). [`load_mesh_checked`] also
 //!   removes degenerate triangles and reports them as warnings.
@@ -30,8 +34,8 @@ mod ply;
 mod serialized;
 
 pub use normals::{compute_vertex_normals, mirrors, orient_to_given_normals, place_mesh, rebuild_topology, NormalSource};
-pub use obj::{load_obj_mesh, phong_exponent_to_alpha};
-pub use ply::load_ply_mesh;
+pub use obj::{load_obj_mesh, parse_obj_mesh, phong_exponent_to_alpha};
+pub use ply::{load_ply_mesh, parse_ply};
 pub use serialized::{load_serialized, parse_serialized, serialized_shape_count, SerializedMesh, SERIALIZED_MAGIC};
 
 use normals::merge_normals;

@@ -64,8 +64,15 @@ fn parse_floats<'a>(
 }
 
 fn parse_obj(path: &Path) -> Result<ObjData, IoError> {
-    let bytes = read_file(path)?;
-    let text = String::from_utf8_lossy(&bytes);
+    parse_obj_bytes(path, &read_file(path)?)
+}
+
+/// Triangles between two memory-budget checks while reading an OBJ file (its sizes are not
+/// declared up front; they grow with the file).
+const BUDGET_STEP: usize = 1 << 20;
+
+fn parse_obj_bytes(path: &Path, bytes: &[u8]) -> Result<ObjData, IoError> {
+    let text = String::from_utf8_lossy(bytes);
 
     let mut v: Vec<Vec3> = Vec::new();
     let mut vt: Vec<Vec2> = Vec::new();
@@ -143,6 +150,10 @@ fn parse_obj(path: &Path) -> Result<ObjData, IoError> {
                     return Err(IoError::parse(path, line, format!("a face needs at least 3 vertices, found {}", poly.len())));
                 }
                 let before = indices.len();
+                if before / BUDGET_STEP != (before + poly.len()) / BUDGET_STEP {
+                    octolux::budget::check_mesh(out_pos.len() as u64, (before + poly.len()) as u64)
+                        .map_err(|e| IoError::parse(path, line, e.to_string()))?;
+                }
                 push_fan(&poly, &mut indices);
                 tri_material.resize(tri_material.len() + indices.len() - before, current_material);
             }
@@ -195,6 +206,13 @@ fn parse_obj(path: &Path) -> Result<ObjData, IoError> {
 /// (see the documentation of [`super`]). Degenerate triangles are kept; see [`super::load_mesh_checked`].
 pub fn load_obj_mesh(path: &Path) -> Result<TriMesh, IoError> {
     Ok(parse_obj(path)?.mesh)
+}
+
+/// Read an OBJ mesh from its bytes (all groups merged, materials ignored); `path` names it in
+/// messages. This is also the entry point of the `obj` fuzz target.
+pub fn parse_obj_mesh(path: &Path, bytes: &[u8]) -> Result<RawMesh, IoError> {
+    let d = parse_obj_bytes(path, bytes)?;
+    Ok(RawMesh { mesh: d.mesh, normals_from_file: d.normals_from_file, warnings: d.warnings })
 }
 
 /// The merged mesh of an OBJ file and the warnings of reading it.

@@ -219,9 +219,54 @@ pub fn load_ply_mesh(path: &Path) -> Result<TriMesh, IoError> {
 }
 
 pub(super) fn load_ply_with_warnings(path: &Path) -> Result<RawMesh, IoError> {
-    let bytes = read_file(path)?;
-    let header = parse_ply_header(path, &bytes)?;
+    parse_ply(path, &read_file(path)?)
+}
+
+/// Refuse element counts the file cannot hold or the memory budget cannot afford, before
+/// anything is allocated from them: each entry of an element needs at least one byte per
+/// property (ascii) or the size of its scalars and list counts (binary).
+fn check_counts(path: &Path, header: &PlyHeader, body_len: usize) -> Result<(), IoError> {
+    let mut needed = 0u64;
+    for el in &header.elements {
+        let per_entry: u64 = match header.format {
+            PlyFormat::Ascii => el.props.len() as u64,
+            _ => el
+                .props
+                .iter()
+                .map(|p| match p.kind {
+                    PlyKind::Scalar(t) => t.size() as u64,
+                    PlyKind::List { count, .. } => count.size() as u64,
+                })
+                .sum(),
+        };
+        let bytes = (el.count as u64).checked_mul(per_entry);
+        needed = match bytes.and_then(|b| b.checked_add(needed)) {
+            Some(n) if n <= body_len as u64 => n,
+            _ => {
+                return Err(IoError::invalid(
+                    path,
+                    format!(
+                        "element '{}' claims {} entries, but the file has only {body_len} bytes after its header (each entry needs at least {per_entry})",
+                        el.name, el.count
+                    ),
+                ))
+            }
+        };
+    }
+    let count = |name: &str| header.elements.iter().filter(|e| e.name == name).map(|e| e.count as u64).fold(0u64, u64::saturating_add);
+    let (nv, nf) = (count("vertex"), count("face"));
+    if nv > u32::MAX as u64 {
+        return Err(IoError::invalid(path, format!("{nv} vertices are more than octolux supports (2^32 - 1)")));
+    }
+    octolux::budget::check_mesh(nv, nf).map_err(|e| IoError::invalid(path, e.to_string()))
+}
+
+/// Read a PLY mesh from its bytes (see [`load_ply_mesh`]); `path` names it in messages. This is
+/// also the entry point of the `ply` fuzz target.
+pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<RawMesh, IoError> {
+    let header = parse_ply_header(path, bytes)?;
     let body = &bytes[header.body..];
+    check_counts(path, &header, body.len())?;
     let mut reader = match header.format {
         PlyFormat::Ascii => {
             let text = std::str::from_utf8(body).map_err(|_| IoError::parse(path, header.lines + 1, "ascii PLY body is not text"))?;
@@ -292,6 +337,9 @@ pub(super) fn load_ply_with_warnings(path: &Path) -> Result<RawMesh, IoError> {
         }
         if is_face {
             have_faces = true;
+        }
+        if el.props.is_empty() {
+            continue; // nothing to read, whatever the count
         }
         for i in 0..el.count {
             scalars.clear();

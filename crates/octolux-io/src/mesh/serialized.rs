@@ -100,6 +100,7 @@ pub fn parse_serialized(path: &Path, bytes: &[u8], shape_index: u32) -> Result<S
     if nf > u32::MAX as u64 {
         return Err(err(format!("{nf} triangles are more than octolux supports (2^32 - 1)")));
     }
+    octolux::budget::check_mesh(nv, nf).map_err(|e| err(e.to_string()))?;
     let (nv, nf) = (nv as usize, nf as usize);
     let double = flags & DOUBLE_PRECISION != 0;
     let positions: Vec<Vec3> = r.floats(nv * 3, double, "vertex positions").map_err(&err)?.chunks_exact(3).map(Vec3::from_slice).collect();

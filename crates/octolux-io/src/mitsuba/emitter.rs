@@ -1,5 +1,6 @@
 //! Mitsuba `emitter` plugins that stand on their own (`point`, `spot`, `directional`,
-//! `constant`); `area` emitters are read with their shape.
+//! `constant`; `envmap` and `sunsky` in [`super::environment`]); `area` emitters are read with
+//! their shape.
 
 use super::props::{ColorKind, Props};
 use super::tree::Elem;
@@ -74,6 +75,16 @@ impl<'t> Builder<'t> {
                 Light::Directional { direction: d.normalize(), irradiance }
             }
             "constant" => Light::Constant { radiance: self.color_param(&p, "radiance", ColorKind::Unbounded, 1.0)? },
+            "envmap" => self.envmap(e, &p)?,
+            "sunsky" | "sun" | "sky" if ty == "sunsky" || e.legacy => {
+                let lights = self.sunsky(e, &p, e.legacy, ty)?;
+                for light in &lights {
+                    light.validate().map_err(|msg| e.loc.error(format!("{}: {msg}", e.describe())))?;
+                }
+                p.finish(&mut self.warnings);
+                self.desc.lights.extend(lights);
+                return Ok(());
+            }
             "area" => {
                 self.warn(e, "an area emitter must be nested in a shape; ignored");
                 return Ok(());

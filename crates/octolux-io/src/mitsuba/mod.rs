@@ -34,6 +34,7 @@
 
 mod bsdf;
 mod emitter;
+mod environment;
 mod props;
 mod sensor;
 mod shape;
@@ -179,6 +180,23 @@ impl<'t> Builder<'t> {
         self.desc.hints.integrator = Some(ty.to_string());
         // Russian roulette only changes the variance.
         p.accept(&["rr_depth"]);
+        // The parameters of another method's integrator (sppm's photon counts, ...) say nothing
+        // about the image octolux renders: one line names them all. A path tracer's are
+        // reported one by one, since some (`hide_emitters`, `strict_normals`) change its image.
+        const PATH_TRACERS: &[&str] = &["path", "volpath", "volpathmis", "prb", "prb_basic", "prbvolpath"];
+        if !PATH_TRACERS.contains(&ty) {
+            let names = p.take_unused_values();
+            if !names.is_empty() {
+                self.warn(
+                    e,
+                    format!(
+                        "parameters of the \"{ty}\" integrator are ignored (octolux's integrator and its settings are chosen \
+                         on its command line; only max_depth is read as a default): {}",
+                        names.join(", ")
+                    ),
+                );
+            }
+        }
         p.finish(&mut self.warnings);
         Ok(())
     }

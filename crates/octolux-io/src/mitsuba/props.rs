@@ -430,6 +430,19 @@ impl<'t> Props<'t> {
         self.used[i].set(true);
     }
 
+    /// Names of the parameters (values, not nested objects) nobody used, in document order;
+    /// they are marked as used, so that [`Props::finish`] does not report them again.
+    pub fn take_unused_values(&self) -> Vec<&'t str> {
+        let mut names = Vec::new();
+        for (p, used) in self.entries.iter().zip(&self.used) {
+            if !used.get() && is_value(p.target) {
+                names.push(p.name.unwrap_or("?"));
+                used.set(true);
+            }
+        }
+        names
+    }
+
     /// One warning for every property or nested object nobody used.
     pub fn finish(&self, warnings: &mut Vec<String>) {
         for (p, used) in self.entries.iter().zip(&self.used) {
@@ -459,6 +472,7 @@ mod tests {
             attrs: attrs.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect(),
             children: Vec::new(),
             loc: Loc { file: Rc::new(PathBuf::from("t.xml")), line: 7 },
+            legacy: false,
         }
     }
 

@@ -113,6 +113,7 @@ impl<'t> Builder<'t> {
                 size[k] = v as u32;
             }
         }
+        octolux::budget::check_film(size[0] as u64, size[1] as u64).map_err(|b| e.loc.error(format!("{}: {b}", e.describe())))?;
         let mut filter = DEFAULT_FILM.filter;
         let mut seen = false;
         for (i, o) in p.objects() {
@@ -126,8 +127,8 @@ impl<'t> Builder<'t> {
             seen = true;
             filter = self.rfilter(o.target)?;
         }
-        // Output format only.
-        p.accept(&["pixel_format", "component_format"]);
+        // Output format only (Mitsuba 0.6's `banner` and `attach_log` change the file's metadata).
+        p.accept(&["pixel_format", "component_format", "file_format", "banner", "attach_log"]);
         p.finish(&mut self.warnings);
         Ok(FilmDesc { width: size[0], height: size[1], filter })
     }

@@ -23,6 +23,82 @@ use std::rc::Rc;
 
 /// Maximal nesting of `<include>` (Mitsuba uses the same kind of limit against cycles).
 const MAX_INCLUDE_DEPTH: usize = 15;
+/// Maximal nesting of XML elements in one file. Real scenes nest a dozen levels at most; the
+/// bound keeps the recursive stages of the loader far from the end of the stack.
+pub(crate) const MAX_XML_DEPTH: usize = 256;
+
+/// A parsed document with a table of line starts: the line of a byte offset is a binary search
+/// (roxmltree's `text_pos_at` scans the text from its start, quadratic over a whole file).
+struct Doc<'a, 'i> {
+    doc: &'a roxmltree::Document<'i>,
+    /// Byte offsets of the `\n` characters of the text.
+    newlines: Vec<usize>,
+}
+
+impl<'a, 'i> Doc<'a, 'i> {
+    fn new(doc: &'a roxmltree::Document<'i>) -> Self {
+        let newlines = doc.input_text().bytes().enumerate().filter(|&(_, b)| b == b'\n').map(|(i, _)| i).collect();
+        Doc { doc, newlines }
+    }
+    /// 1-based line of byte offset `pos`.
+    fn row(&self, pos: usize) -> u32 {
+        (self.newlines.partition_point(|&n| n < pos) + 1).min(u32::MAX as usize) as u32
+    }
+}
+
+/// Refuse elements nested deeper than [`MAX_XML_DEPTH`] before parsing, with the line of the
+/// first element too deep. A lexical scan: start tags (`<name`) deepen, end tags (`</`) and
+/// empty-element ends (`/>`) come back up; comments, CDATA, processing instructions and the
+/// DOCTYPE are skipped. Malformed text is left for the XML parser to report.
+fn check_nesting(text: &str, file: &Path) -> Result<(), IoError> {
+    let b = text.as_bytes();
+    let mut depth = 0usize;
+    let mut i = 0;
+    let skip_to = |from: usize, end: &str| text[from..].find(end).map(|p| from + p + end.len()).unwrap_or(b.len());
+    while let Some(p) = text[i..].find('<') {
+        i += p;
+        let rest = &text[i..];
+        if rest.starts_with("<!--") {
+            i = skip_to(i, "-->");
+        } else if rest.starts_with("<![CDATA[") {
+            i = skip_to(i, "]]>");
+        } else if rest.starts_with("<?") {
+            i = skip_to(i, "?>");
+        } else if rest.starts_with("<!") {
+            i = skip_to(i, ">");
+        } else if rest.starts_with("</") {
+            depth = depth.saturating_sub(1);
+            i = skip_to(i, ">");
+        } else {
+            // A start tag: find its end, outside quoted attribute values.
+            let mut j = i + 1;
+            let mut quote = None;
+            while j < b.len() {
+                match (quote, b[j]) {
+                    (None, b'"' | b'\'') => quote = Some(b[j]),
+                    (Some(q), c) if c == q => quote = None,
+                    (None, b'>') => break,
+                    _ => {}
+                }
+                j += 1;
+            }
+            let empty = j > i + 1 && b.get(j - 1) == Some(&b'/');
+            if !empty {
+                depth += 1;
+                if depth > MAX_XML_DEPTH {
+                    let line = text[..i].bytes().filter(|&c| c == b'\n').count() + 1;
+                    return Err(IoError::parse(
+                        file,
+                        line.min(u32::MAX as usize) as u32,
+                        format!("elements are nested more than {MAX_XML_DEPTH} levels deep"),
+                    ));
+                }
+            }
+            i = (j + 1).min(b.len());
+        }
+    }
+    Ok(())
+}
 
 /// Where an element was written.
 #[derive(Clone, Debug)]
@@ -55,6 +131,9 @@ pub(crate) struct Elem {
     pub attrs: Vec<(String, String)>,
     pub children: Vec<Elem>,
     pub loc: Loc,
+    /// Written in the 0.5/0.6 dialect (names already converted to snake_case): for plugins whose
+    /// conventions differ between the versions (the `sunsky` frame).
+    pub legacy: bool,
 }
 
 impl Elem {
@@ -103,6 +182,7 @@ pub(crate) fn read_str(text: &str, path: &Path, defines: &[(String, String)], wa
         main_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         search_dirs: Vec::new(),
         warnings,
+        nesting: 0,
     };
     let file = Rc::new(path.to_path_buf());
     let mut out = Vec::new();
@@ -150,6 +230,8 @@ struct Builder<'w> {
     main_dir: PathBuf,
     search_dirs: Vec<PathBuf>,
     warnings: &'w mut Vec<String>,
+    /// Elements open around the current one, across included files.
+    nesting: usize,
 }
 
 impl Builder<'_> {
@@ -165,10 +247,12 @@ impl Builder<'_> {
         out: &mut Vec<Elem>,
     ) -> Result<(), IoError> {
         let opts = roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() };
+        check_nesting(text, file)?;
         let doc = roxmltree::Document::parse_with_options(text, opts)
             .map_err(|e| IoError::parse(file, e.pos().row, format!("malformed XML: {e}")))?;
-        let root = doc.root_element();
-        let line = doc.text_pos_at(root.range().start).row;
+        let doc = Doc::new(&doc);
+        let root = doc.doc.root_element();
+        let line = doc.row(root.range().start);
         match legacy_parent {
             None => {
                 if root.attribute("version").is_none() {
@@ -195,14 +279,13 @@ impl Builder<'_> {
     }
 
     /// `Some(is_legacy)` when the element carries a version attribute.
-    fn version_of(&self, doc: &roxmltree::Document, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<Option<bool>, IoError> {
+    fn version_of(&self, doc: &Doc, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<Option<bool>, IoError> {
         match node.attribute("version") {
             None => Ok(None),
             Some(v) => {
                 let v = self.substitute(v, doc, node, file)?;
-                let (major, _, _) = parse_version(&v).ok_or_else(|| {
-                    IoError::parse(file, doc.text_pos_at(node.range().start).row, format!("could not parse version number \"{v}\""))
-                })?;
+                let (major, _, _) = parse_version(&v)
+                    .ok_or_else(|| IoError::parse(file, doc.row(node.range().start), format!("could not parse version number \"{v}\"")))?;
                 Ok(Some(major < 2))
             }
         }
@@ -210,7 +293,7 @@ impl Builder<'_> {
 
     fn node(
         &mut self,
-        doc: &roxmltree::Document,
+        doc: &Doc,
         node: roxmltree::Node,
         file: &Rc<PathBuf>,
         legacy: bool,
@@ -221,14 +304,14 @@ impl Builder<'_> {
             return self.element(doc, node, file, legacy, depth, out);
         }
         if node.is_text() && node.text().is_some_and(|t| !t.trim().is_empty()) {
-            let line = doc.text_pos_at(node.range().start).row;
+            let line = doc.row(node.range().start);
             self.warnings.push(format!("{}:{line}: unexpected text content ignored", file.display()));
         }
         Ok(())
     }
 
     /// Replace `$name` references in an attribute value.
-    fn substitute(&self, value: &str, doc: &roxmltree::Document, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<String, IoError> {
+    fn substitute(&self, value: &str, doc: &Doc, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<String, IoError> {
         if !value.contains('$') {
             return Ok(value.to_string());
         }
@@ -240,7 +323,7 @@ impl Builder<'_> {
         }
         if let Some(pos) = v.find('$') {
             let name: String = v[pos + 1..].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
-            let line = doc.text_pos_at(node.range().start).row;
+            let line = doc.row(node.range().start);
             return Err(IoError::parse(
                 file,
                 line,
@@ -252,14 +335,14 @@ impl Builder<'_> {
 
     fn element(
         &mut self,
-        doc: &roxmltree::Document,
+        doc: &Doc,
         node: roxmltree::Node,
         file: &Rc<PathBuf>,
         legacy: bool,
         depth: usize,
         out: &mut Vec<Elem>,
     ) -> Result<(), IoError> {
-        let loc = Loc { file: file.clone(), line: doc.text_pos_at(node.range().start).row };
+        let loc = Loc { file: file.clone(), line: doc.row(node.range().start) };
         let mut tag = node.tag_name().name().to_string();
         let legacy = self.version_of(doc, node, file)?.unwrap_or(legacy);
         let mut attrs = Vec::new();
@@ -276,7 +359,7 @@ impl Builder<'_> {
         if legacy && tag == "lookAt" {
             tag = "lookat".into();
         }
-        let elem = Elem { tag, attrs, children: Vec::new(), loc };
+        let elem = Elem { tag, attrs, children: Vec::new(), loc, legacy };
         match elem.tag.as_str() {
             "default" => {
                 let name = elem.req_attr("name")?.to_string();
@@ -313,10 +396,17 @@ impl Builder<'_> {
             }
             _ => {
                 let mut elem = elem;
+                if self.nesting >= MAX_XML_DEPTH {
+                    return Err(elem
+                        .loc
+                        .error(format!("elements are nested more than {MAX_XML_DEPTH} levels deep (included files count)")));
+                }
+                self.nesting += 1;
                 let mut children = Vec::new();
                 for child in node.children() {
                     self.node(doc, child, file, legacy, depth, &mut children)?;
                 }
+                self.nesting -= 1;
                 if legacy && elem.tag == "bsdf" && elem.attr("type") == Some("diffuse") {
                     for c in &mut children {
                         for (k, v) in &mut c.attrs {

@@ -1,5 +1,5 @@
 //! Christensen's precomputed irradiance photons ("Faster photon map global illumination",
-//! JGT 4(3), 1999/2000), the paper's second baseline (METHOD.md §9, `m_e` = 378).
+//! JGT 4(3), 1999/2000), the paper's second baseline (the paper's §9, `m_e` = 378).
 //!
 //! Irradiance is estimated once at every `every`-th photon of the global map (in the photon
 //! pass's emission order, which is a random subset of the photons; Christensen used every

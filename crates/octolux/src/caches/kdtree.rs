@@ -1,5 +1,5 @@
 //! A static kd-tree for k-nearest-neighbour queries (photon maps, irradiance photons), and the
-//! photon density estimate shared by the paper's baselines (METHOD.md §9: Ward's cache with
+//! photon density estimate shared by the paper's baselines (the paper's §9: Ward's cache with
 //! photon-computed samples, Christensen's irradiance photons, Jensen's photon map).
 //!
 //! # Tree
@@ -109,7 +109,7 @@ pub fn scene_size(bounds: &Bounds3) -> f32 {
 
 /// Parameters of a photon density estimate (the paper's table 2: `n_max`, `r_max`).
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct DensitySettings {
     /// Most photons per estimate.
     pub n_max: u32,

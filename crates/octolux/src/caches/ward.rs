@@ -1,5 +1,5 @@
 //! Ward's irradiance cache (Ward, Rubinstein & Clear, SIGGRAPH 1988), the paper's first
-//! baseline (METHOD.md §9, "Ward, configuration A"): irradiance samples stored with their
+//! baseline (the paper's §9, "Ward, configuration A"): irradiance samples stored with their
 //! position, normal and validity radius, interpolated with Ward's weights.
 //!
 //! # Weights and interpolation (WRC88, eq. 2–3)

@@ -6,7 +6,7 @@
 //! 2 = direct illumination, -1 = unbounded. Russian roulette starts at depth `rr_depth`
 //! (Mitsuba: 5) with continuation probability `min(max(throughput) · η², 0.95)`.
 
-use super::{mis_power, RayCounters};
+use super::common::{mis_power, RayCounters};
 use crate::math::{max_component, Color, Ray};
 use crate::sampling::Sampler;
 use crate::scene::material::Lobe;
@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 /// Settings of the `path` integrator.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct PathSettings {
     /// Longest path in vertices (Mitsuba's meaning); -1 = unbounded.
     pub max_depth: i32,

@@ -12,9 +12,10 @@
 
 use super::camera::CameraDesc;
 use super::material::Material;
+use super::sunsky::SunSkyDesc;
 use crate::image::Image;
 use crate::math::{Bounds3, Color, Frame};
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 
 /// An indexed triangle mesh in world space.
@@ -178,6 +179,12 @@ pub enum Light {
     Directional { direction: Vec3, irradiance: Color },
     /// Constant environment of radiance `radiance` (W/(m² sr)) from every direction.
     Constant { radiance: Color },
+    /// Latitude-longitude environment map (Mitsuba `envmap`, see [`super::envmap`]): image
+    /// `image` (index into [`SceneDesc::images`], linear RGB radiance in W/(m² sr)) times
+    /// `scale`, oriented by the orthogonal `to_world` (local `+y` is up).
+    Envmap { image: u32, scale: f32, to_world: Mat3 },
+    /// Sun and sky (Mitsuba 3 `sunsky`, see [`super::sunsky`]).
+    Sunsky(SunSkyDesc),
 }
 
 impl Light {
@@ -229,6 +236,8 @@ impl Light {
                 color(*irradiance, "irradiance")
             }
             Light::Constant { radiance } => color(*radiance, "radiance"),
+            Light::Envmap { scale, to_world, .. } => super::envmap::check_frame(*scale, to_world),
+            Light::Sunsky(desc) => desc.validate(),
         }
     }
 }
@@ -382,6 +391,16 @@ impl SceneDesc {
         }
         for (index, l) in self.lights.iter().enumerate() {
             l.validate().map_err(|problem| SceneError::BadLight { index, problem })?;
+            if let Light::Envmap { image, .. } = l {
+                let Some(img) = self.images.get(*image as usize) else {
+                    return Err(SceneError::BadLight {
+                        index,
+                        problem: format!("environment map image {image} is missing (the scene has {} images)", self.images.len()),
+                    });
+                };
+                super::envmap::LatLong::new(img.width as usize, img.height as usize, &img.data)
+                    .map_err(|problem| SceneError::BadLight { index, problem })?;
+            }
         }
         Ok(())
     }

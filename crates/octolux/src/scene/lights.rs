@@ -17,7 +17,13 @@
 //! - directional: `E · π R²`, the flux through the disk of the scene bounding sphere (radius
 //!   `R`) facing the light;
 //! - constant environment: `L · 4π · π R²` (for each direction, the flux through the disk of
-//!   the bounding sphere perpendicular to it).
+//!   the bounding sphere perpendicular to it);
+//! - environment map and sun-and-sky: `π R² ∫ L dω` (the same, with the emitter's integral).
+//!
+//! Environment lights (constant, maps, sun-and-sky) act as one emitter towards next-event
+//! estimation: a direction sampled from any of them carries the radiance of all of them
+//! ([`LightSet::env_le`]) with the mixture density [`LightSet::pdf_li_env`], which is also what
+//! the path tracer's MIS uses when a ray escapes.
 //!
 //! Area lights are sampled uniformly by area (triangles through an area CDF), by one routine
 //! ([`AreaGeometry::sample_point`]) for both next-event estimation and emission. A sphere seen from
@@ -30,9 +36,14 @@
 //! Photon emission (`sample_emission`) returns `power` such that its mean over samples is the
 //! total emitted power: area lights by area then cosine-weighted direction; point uniform;
 //! spot uniform in the cutoff cone; directional and environment from a disk of the scene
-//! bounding sphere, placed outside the sphere.
+//! bounding sphere, placed outside the sphere (maps and sun-and-sky: the direction
+//! importance-sampled from the emitter).
 
 use super::desc::{Geometry, Light, ShapeDesc};
+use super::environment::Environment;
+use super::envmap::EnvMap;
+use super::sunsky::SunSky;
+use crate::image::Image;
 use crate::math::{Bounds3, Color, Frame};
 use crate::sampling::{
     square_to_cosine_hemisphere, square_to_uniform_cone, square_to_uniform_disk_concentric, square_to_uniform_sphere,
@@ -89,6 +100,10 @@ pub struct LightSet {
     env_radiance: Color,
     /// Constant environment lights (indices), for `pdf_li_env`.
     env_lights: Vec<u32>,
+    /// Prepared environment maps and skies: (light index, emitter).
+    env_maps: Vec<(u32, Environment)>,
+    /// Per light: index into `env_maps` (`u32::MAX` for other lights).
+    env_map_of: Vec<u32>,
 }
 
 /// Geometry of an area light prepared for sampling by area.
@@ -99,8 +114,17 @@ pub enum AreaGeometry {
 }
 
 impl LightSet {
-    /// Build from the non-area lights of a scene plus one area light per emitting shape.
+    /// Build from the non-area lights of a scene plus one area light per emitting shape
+    /// (scenes without environment maps; see [`LightSet::with_images`]).
     pub fn new(lights: &[Light], shapes: &[ShapeDesc], bounds: Bounds3) -> LightSet {
+        LightSet::with_images(lights, shapes, &[], bounds)
+    }
+
+    /// Build from the non-area lights of a scene plus one area light per emitting shape;
+    /// `images` are the scene's images (environment maps refer to them by index). An
+    /// environment emitter that cannot be prepared (missing image, invalid parameters) emits
+    /// nothing: `SceneDesc::validate` rejects such scenes first.
+    pub fn with_images(lights: &[Light], shapes: &[ShapeDesc], images: &[Image], bounds: Bounds3) -> LightSet {
         let mut all: Vec<Light> = lights.to_vec();
         for (i, s) in shapes.iter().enumerate() {
             if let Some(radiance) = s.emission {
@@ -121,7 +145,21 @@ impl LightSet {
         let mut power = Vec::with_capacity(all.len());
         let mut env_radiance = Color::ZERO;
         let mut env_lights = Vec::new();
+        let mut env_maps = Vec::new();
+        let mut env_map_of = vec![u32::MAX; all.len()];
         for (li, l) in all.iter().enumerate() {
+            let env = match l {
+                Light::Envmap { image, scale, to_world } => images
+                    .get(*image as usize)
+                    .and_then(|img| EnvMap::new(img, *scale, *to_world).ok())
+                    .map(|m| Environment::Map(Box::new(m))),
+                Light::Sunsky(desc) => SunSky::new(desc).ok().map(|s| Environment::SunSky(Box::new(s))),
+                _ => None,
+            };
+            if let Some(env) = env {
+                env_map_of[li] = env_maps.len() as u32;
+                env_maps.push((li as u32, env));
+            }
             let geom = match l {
                 Light::Area { shape, .. } => {
                     if let Some(slot) = shape_light.get_mut(*shape as usize) {
@@ -135,12 +173,13 @@ impl LightSet {
                 env_radiance += *radiance;
                 env_lights.push(li as u32);
             }
-            power.push(light_power(l, geom.as_ref(), scene_sphere.1));
+            let env = env_map_of.get(li).and_then(|&m| env_maps.get(m as usize)).map(|(_, e)| e);
+            power.push(light_power(l, geom.as_ref(), env, scene_sphere.1));
             area.push(geom);
         }
         let weights: Vec<f32> = power.iter().map(|p| (p.x + p.y + p.z) / 3.0).collect();
         let select = Distribution1D::new(&weights);
-        LightSet { lights: all, shape_light, select, area, scene_sphere, power, env_radiance, env_lights }
+        LightSet { lights: all, shape_light, select, area, scene_sphere, power, env_radiance, env_lights, env_maps, env_map_of }
     }
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
@@ -247,9 +286,17 @@ impl LightSet {
             Light::Directional { direction, irradiance } => {
                 Some(LightSample { wi: -*direction, dist: f32::INFINITY, li: *irradiance, pdf: psel, delta: true })
             }
-            Light::Constant { radiance } => {
+            // All environment lights act as one emitter (module docs): the sampled direction
+            // carries the radiance of all of them and their mixture density.
+            Light::Constant { .. } => {
                 let wi = square_to_uniform_sphere(u);
-                Some(LightSample { wi, dist: f32::INFINITY, li: *radiance, pdf: psel * UNIFORM_SPHERE_PDF, delta: false })
+                Some(LightSample { wi, dist: f32::INFINITY, li: self.env_le(wi), pdf: self.pdf_li_env(wi), delta: false })
+            }
+            Light::Envmap { .. } | Light::Sunsky(_) => {
+                let (_, env) = self.env_maps.get(*self.env_map_of.get(l)? as usize)?;
+                let (wi, _, _) = env.sample(u)?;
+                let pdf = self.pdf_li_env(wi);
+                (pdf > 0.0).then(|| LightSample { wi, dist: f32::INFINITY, li: self.env_le(wi), pdf, delta: false })
             }
         }
     }
@@ -291,14 +338,22 @@ impl LightSet {
 
     /// Radiance of environment lights along direction `dir` (a ray that escaped the scene).
     #[inline]
-    pub fn env_le(&self, _dir: Vec3) -> Color {
-        self.env_radiance
+    pub fn env_le(&self, dir: Vec3) -> Color {
+        let mut le = self.env_radiance;
+        for (_, env) in &self.env_maps {
+            le += env.eval(dir);
+        }
+        le
     }
 
     /// Solid-angle pdf (with selection) that `sample_li` picks direction `dir` on environment lights.
     #[inline]
-    pub fn pdf_li_env(&self, _dir: Vec3) -> f32 {
-        self.env_lights.iter().map(|&l| self.select_pmf(l)).sum::<f32>() * UNIFORM_SPHERE_PDF
+    pub fn pdf_li_env(&self, dir: Vec3) -> f32 {
+        let mut pdf = self.env_lights.iter().map(|&l| self.select_pmf(l)).sum::<f32>() * UNIFORM_SPHERE_PDF;
+        for (l, env) in &self.env_maps {
+            pdf += self.select_pmf(*l) * env.pdf(dir);
+        }
+        pdf
     }
 
     /// Emit a photon: light chosen by power, then position and direction.
@@ -334,6 +389,15 @@ impl LightSet {
                 let p = disk_origin(center, radius, dir, u_pos);
                 let power = *radiance * (PI * radius * radius / (UNIFORM_SPHERE_PDF * psel));
                 Some(Emission { p, dir, power, n: Vec3::ZERO, light })
+            }
+            Light::Envmap { .. } | Light::Sunsky(_) => {
+                let (_, env) = self.env_maps.get(*self.env_map_of.get(l)? as usize)?;
+                // `wi` points towards the emitter; the photon travels the other way.
+                let (wi, radiance, pdf) = env.sample(u_dir)?;
+                let dir = -wi;
+                let p = disk_origin(center, radius, dir, u_pos);
+                let power = radiance * (PI * radius * radius / (pdf * psel));
+                power.is_finite().then_some(Emission { p, dir, power, n: Vec3::ZERO, light })
             }
         }
     }
@@ -383,7 +447,7 @@ fn spot_falloff(cos_theta: f32, cos_cutoff: f32, cos_falloff_start: f32) -> f32 
 
 /// Emitted power of a light (see the module documentation); `scene_radius` is the radius of
 /// the scene bounding sphere.
-fn light_power(l: &Light, geom: Option<&AreaGeometry>, scene_radius: f32) -> Color {
+fn light_power(l: &Light, geom: Option<&AreaGeometry>, env: Option<&Environment>, scene_radius: f32) -> Color {
     match l {
         Light::Area { radiance, .. } => *radiance * (PI * geom.map_or(0.0, AreaGeometry::area)),
         Light::Point { intensity, .. } => *intensity * (4.0 * PI),
@@ -395,6 +459,7 @@ fn light_power(l: &Light, geom: Option<&AreaGeometry>, scene_radius: f32) -> Col
         }
         Light::Directional { irradiance, .. } => *irradiance * (PI * scene_radius * scene_radius),
         Light::Constant { radiance } => *radiance * (4.0 * PI * PI * scene_radius * scene_radius),
+        Light::Envmap { .. } | Light::Sunsky(_) => env.map_or(Color::ZERO, |e| e.integral() * (PI * scene_radius * scene_radius)),
     }
 }
 

@@ -8,15 +8,21 @@
 //! The scene's rooms, upstream to downstream (no module imports one further down):
 //! - [`camera`]: camera description and the prepared pinhole camera;
 //! - [`material`]: the BSDFs (closed enum), their Fresnel, microfacet and texture pieces;
+//! - [`envmap`], [`sunsky`]: the environment emitters' models (latitude-longitude map; Mitsuba
+//!   3's sun and sky with its tables), with their importance sampling;
 //! - [`desc`]: the plain-data description loaders produce ([`SceneDesc`], shapes, meshes,
 //!   film, the light enum [`Light`]), with its validation;
+//! - [`environment`]: the prepared environment emitters behind one enum;
 //! - [`lights`]: the prepared [`lights::LightSet`] that samples the lights;
 //! - this module: the prepared [`Scene`] and its [`SurfaceHit`].
 
 pub mod camera;
 pub mod desc;
+pub mod environment;
+pub mod envmap;
 pub mod lights;
 pub mod material;
+pub mod sunsky;
 
 pub use desc::{FilmDesc, Geometry, Light, PixelFilter, SceneDesc, SceneError, SceneHints, ShapeDesc, TriMesh};
 
@@ -138,7 +144,7 @@ impl Scene {
         }
         let bounds = desc.bounds();
         let accel = Accel::build(&positions, &triangles, backend).map_err(|e| SceneError::Accel(e.to_string()))?;
-        let lights = LightSet::new(&desc.lights, &desc.shapes, bounds);
+        let lights = LightSet::with_images(&desc.lights, &desc.shapes, &desc.images, bounds);
         let camera = Camera::new(&desc.camera, desc.film.width, desc.film.height);
         Ok(Scene {
             materials: desc.materials,

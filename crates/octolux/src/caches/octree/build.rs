@@ -1,4 +1,5 @@
-//! Octree construction (paper §3) and the per-leaf density estimates (§4, eq. 5.4).
+//! Octree construction (paper §3); the per-leaf density estimates (§4, eq. 5.4) are in
+//! `estimate.rs`, the cell addressing in `cells.rs`.
 //!
 //! Steps, each deterministic whatever the thread count:
 //! 1. Morton keys of the photon positions at depth `h_max` (21 bits per axis at most); the
@@ -13,59 +14,17 @@
 //!    they stick out, unless the whole neighbour lies inside), then sum the six matrices
 //!    sequentially (8 octant sums, f32 blocks of 64 photons flushed into f64).
 
-use super::compress::{compress_leaf, compress_leaf_for_normals, FullLeaf};
-use super::geometry::{lit_areas, projected_lit_area, OrientedArea};
-use super::query::TreeView;
-use super::settings::{Enlarge, Estimator, Split, Storage, MAX_DEPTH};
+use super::cells::{LeafBuild, TreeView};
+use super::compress::{compress_leaf, compress_leaf_for_normals};
+use super::estimate::{EstimateCtx, LeafEstimate, Scratch};
+use super::settings::{Estimator, Split, Storage, MAX_DEPTH};
 use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg, SortKey, Sorted};
 use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, ALL_FACING, LEAF_BIT, NO_VALUE};
 use crate::math::Bounds3;
 use crate::photon::Photon;
-use glam::{DVec3, Mat3, Vec3, Vec3A};
+use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
-
-/// Spread the low 21 bits of `v` to every third bit.
-#[inline]
-pub(super) const fn spread_bits(v: u32) -> u64 {
-    let mut x = (v as u64) & 0x1f_ffff;
-    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
-    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
-    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
-    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
-    x = (x | (x << 2)) & 0x1249_2492_4924_9249;
-    x
-}
-
-/// `spread_bits` of the 10-bit values.
-static SPREAD10: [u32; 1024] = {
-    let mut t = [0u32; 1024];
-    let mut i = 0;
-    while i < 1024 {
-        t[i] = spread_bits(i as u32) as u32;
-        i += 1;
-    }
-    t
-};
-
-/// Morton key of integer cell coordinates: bit 0 of each triple is x, bit 1 y, bit 2 z.
-#[inline]
-pub(super) fn morton(q: [u32; 3]) -> u64 {
-    if (q[0] | q[1] | q[2]) < 1024 {
-        (SPREAD10[q[0] as usize] | (SPREAD10[q[1] as usize] << 1) | (SPREAD10[q[2] as usize] << 2)) as u64
-    } else {
-        spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
-    }
-}
-
-/// Integer cell coordinates at depth `h` of a point inside the root cube (clamped to it).
-#[inline]
-pub(super) fn quantize(p: Vec3, origin: Vec3, inv_quant: f32, h: u32) -> [u32; 3] {
-    let max = (1u32 << h) - 1;
-    let q = (p - origin) * inv_quant;
-    // `as` saturates (negative and NaN give 0)
-    [(q.x as u32).min(max), (q.y as u32).min(max), (q.z as u32).min(max)]
-}
 
 /// The root cube of a box: same centre, edge = largest extent padded by 1e-5 (at least a
 /// small positive size for a flat or point-like box).
@@ -83,17 +42,6 @@ fn cube_of(b: &Bounds3) -> Result<(Vec3, f32), OctreeError> {
         return Err(OctreeError::InvalidBounds(format!("box too large {b:?}")));
     }
     Ok((c - Vec3::splat(0.5 * edge), edge))
-}
-
-/// A leaf during the build.
-#[derive(Clone, Copy, Debug)]
-struct LeafBuild {
-    node: u32,
-    /// Photon range `[lo, hi)` in the sorted order.
-    lo: u32,
-    hi: u32,
-    depth: u32,
-    ijk: [u32; 3],
 }
 
 struct TreeBuilder<'a, K> {
@@ -151,322 +99,6 @@ impl<K: SortKey> TreeBuilder<'_, K> {
     }
 }
 
-/// Per-leaf scratch buffers (one set per rayon job).
-#[derive(Default)]
-struct Scratch {
-    /// Gathered photon ranges `[lo, hi)` (own cell and neighbours inside the box).
-    segs: Vec<(u32, u32)>,
-    /// Gathered single photons (from neighbours cut by the box).
-    singles: Vec<u32>,
-    pos: Vec<Vec3>,
-    ng: Vec<Vec3>,
-    areas: Vec<OrientedArea>,
-}
-
-/// Result of one leaf estimate.
-struct LeafEstimate {
-    m: FullLeaf,
-    gathered: u32,
-    fallback: bool,
-    /// Bit `k` (order `+X, −X, +Y, −Y, +Z, −Z`): the cell has surfaces facing that
-    /// half-axis, so matrix `k` carries a value (see [`super::Octree::facing`]).
-    facing: u8,
-    /// Mean normal of the surfaces matrix `k` describes (weights `n_a² × area`), or the
-    /// half-axis itself when the geometry is unknown: the compression keeps the irradiance
-    /// exact for it.
-    normals: [Vec3; 6],
-}
-
-struct EstimateCtx<'a, R> {
-    view: TreeView<'a>,
-    start: &'a [u32],
-    pos: &'a [Vec3],
-    recs: &'a [R],
-    settings: &'a OctreeSettings,
-    triangles: &'a [[Vec3; 3]],
-    tri_lists: &'a [Vec<u32>],
-}
-
-/// The six 3x3 sums. Each photon adds `(w · weight) cᵀ` to one of 8 octant sums (by the
-/// signs of `w`); the axis matrices are the sums of the 4 octants on their side. A photon
-/// with a zero component belongs to no matrix of that axis: it goes to `zero` sums, one per
-/// axis matrix. f32 blocks of at most `BLOCK` photons are flushed into f64 totals, so the
-/// rounding error does not grow with the photon count of a leaf.
-struct Accumulator {
-    block: [[Vec3A; 3]; 8],
-    total: [[DVec3; 3]; 8],
-    /// Photons with a zero direction component, added directly to the axis matrices (f64).
-    zero: [[DVec3; 3]; 6],
-    count: u32,
-}
-
-impl Accumulator {
-    const BLOCK: u32 = 64;
-
-    fn new() -> Self {
-        Accumulator { block: [[Vec3A::ZERO; 3]; 8], total: [[DVec3::ZERO; 3]; 8], zero: [[DVec3::ZERO; 3]; 6], count: 0 }
-    }
-
-    fn flush(&mut self) {
-        for (t, b) in self.total.iter_mut().zip(self.block.iter_mut()) {
-            for (tc, bc) in t.iter_mut().zip(b.iter_mut()) {
-                *tc += DVec3::from(Vec3::from(*bc));
-                *bc = Vec3A::ZERO;
-            }
-        }
-        self.count = 0;
-    }
-
-    /// [`Split::Normal`]: straight into the axis matrices on the side of `ng` (f64; the
-    /// weights differ per axis, so the octant sums do not apply).
-    #[inline]
-    fn add_by_normal(&mut self, w: Vec3, c: Vec3, weight: f32, ng: Vec3) {
-        let n2 = ng * ng;
-        let norm = n2.dot(n2);
-        if !(norm > 0.0) {
-            return;
-        }
-        let wd = DVec3::from(w * weight);
-        for a in 0..3 {
-            if ng[a] != 0.0 {
-                let g = (n2[a] / norm) as f64;
-                let m = &mut self.zero[2 * a + (ng[a] < 0.0) as usize];
-                m[0] += wd * (g * c.x as f64);
-                m[1] += wd * (g * c.y as f64);
-                m[2] += wd * (g * c.z as f64);
-            }
-        }
-    }
-
-    /// [`Split::Normal`] with [`Estimator::GeometryArea`]: matrix `(a, s)` estimates the
-    /// light on the surfaces facing the half-axis `(a, s)`, weighted by `n_a²`:
-    /// `M_a^s = Σ_p ng_a² Φ_p w_p / A⊥_a^s(w_p)` with `A⊥_a^s(w) = Σ_t n_{t,a}² A_t (n_t·w)₊`
-    /// over the lit pieces whose normal has the sign `s` on axis `a`. Each photon is thus
-    /// divided by the area of the surfaces it can have landed on in that matrix, not by all
-    /// the surfaces of the cell (which would average a dim face with the bright floor
-    /// beside it). For one plane of normal `N`: `M_a^{s(N_a)} = ∫ L w dω` for every axis, so
-    /// the query's `Σ_a N_a² = 1` returns it exactly.
-    #[inline]
-    fn add_by_surface(&mut self, w: Vec3, c: Vec3, ng: Vec3, areas: &[OrientedArea], min_cos: f32) {
-        for a in 0..3 {
-            if ng[a] == 0.0 {
-                continue;
-            }
-            let neg = ng[a] < 0.0;
-            let (mut proj, mut total) = (0.0f32, 0.0f32);
-            for e in areas {
-                if e.n[a] != 0.0 && (e.n[a] < 0.0) == neg {
-                    let g = e.n[a] * e.n[a] * e.area;
-                    total += g;
-                    proj += g * e.n.dot(w).max(0.0);
-                }
-            }
-            let den = proj.max(min_cos * total);
-            if !(den > 0.0) {
-                continue;
-            }
-            let f = (ng[a] * ng[a] / den) as f64;
-            let wd = DVec3::from(w) * f;
-            let m = &mut self.zero[2 * a + neg as usize];
-            m[0] += wd * c.x as f64;
-            m[1] += wd * c.y as f64;
-            m[2] += wd * c.z as f64;
-        }
-    }
-
-    #[inline(always)]
-    fn add(&mut self, w: Vec3, c: Vec3, weight: f32) {
-        let wd = Vec3A::from(w) * weight;
-        let cols = [wd * c.x, wd * c.y, wd * c.z];
-        if w.x == 0.0 || w.y == 0.0 || w.z == 0.0 {
-            // rare: straight into the matrices of the non-zero components
-            for a in 0..3 {
-                if w[a] != 0.0 {
-                    let m = &mut self.zero[2 * a + (w[a] < 0.0) as usize];
-                    for (mc, cc) in m.iter_mut().zip(&cols) {
-                        *mc += DVec3::from(Vec3::from(*cc));
-                    }
-                }
-            }
-            return;
-        }
-        let o = (w.x < 0.0) as usize | ((w.y < 0.0) as usize) << 1 | ((w.z < 0.0) as usize) << 2;
-        let m = &mut self.block[o];
-        m[0] += cols[0];
-        m[1] += cols[1];
-        m[2] += cols[2];
-        self.count += 1;
-        if self.count == Self::BLOCK {
-            self.flush();
-        }
-    }
-
-    fn finish(mut self) -> FullLeaf {
-        self.flush();
-        let mut m = [Mat3::ZERO; 6];
-        for (k, mk) in m.iter_mut().enumerate() {
-            let (axis, neg) = (k / 2, k % 2);
-            let mut cols = self.zero[k];
-            for (o, t) in self.total.iter().enumerate() {
-                if (o >> axis) & 1 == neg {
-                    for (cc, tc) in cols.iter_mut().zip(t) {
-                        *cc += *tc;
-                    }
-                }
-            }
-            *mk = Mat3::from_cols(cols[0].as_vec3(), cols[1].as_vec3(), cols[2].as_vec3());
-        }
-        m
-    }
-}
-
-impl<R: PhotonRec> EstimateCtx<'_, R> {
-    /// Box gathered by a leaf and whether it is enlarged.
-    fn gather_box(&self, leaf: &LeafBuild) -> (Bounds3, bool) {
-        let s = self.view.cell_size[leaf.depth as usize];
-        let cmin = self.view.cell_min(leaf.depth, leaf.ijk);
-        let eps = self.settings.epsilon;
-        let enlarged = eps > 0.0
-            && match self.settings.enlarge {
-                Enlarge::All => true,
-                Enlarge::UnderNMin => leaf.hi - leaf.lo < self.settings.n_min,
-            };
-        if enlarged {
-            let c = cmin + Vec3::splat(0.5 * s);
-            let half = Vec3::splat(0.5 * s * (1.0 + eps));
-            (Bounds3 { min: c - half, max: c + half }, true)
-        } else {
-            (Bounds3 { min: cmin, max: cmin + Vec3::splat(s) }, false)
-        }
-    }
-
-    /// The photons inside the gathering box: the own range, whole ranges of neighbours
-    /// inside the box, single photons of neighbours cut by it (half-open box test).
-    fn gather(&self, leaf: &LeafBuild, ebox: &Bounds3, enlarged: bool, segs: &mut Vec<(u32, u32)>, singles: &mut Vec<u32>) {
-        segs.clear();
-        singles.clear();
-        segs.push((leaf.lo, leaf.hi));
-        if !enlarged {
-            return;
-        }
-        let (emin, emax) = (ebox.min, ebox.max);
-        self.view.visit(emin, emax, |node, depth, ijk, _| {
-            let n = self.view.nodes[node as usize];
-            if node == leaf.node || n.photons == 0 {
-                return;
-            }
-            let lo = self.start[node as usize];
-            let hi = lo + n.photons;
-            let cmin = self.view.cell_min(depth, ijk);
-            let cmax = cmin + Vec3::splat(self.view.cell_size[depth as usize]);
-            if cmin.cmpge(emin).all() && cmax.cmple(emax).all() {
-                segs.push((lo, hi));
-            } else {
-                // test only the axes along which the neighbour sticks out of the box (one for
-                // a face neighbour, the common case): a loop per axis set
-                let base = singles.len();
-                singles.resize(base + n.photons as usize, 0);
-                let pos = &self.pos[lo as usize..hi as usize];
-                let out = &mut singles[base..];
-                let cut = (cmin.cmplt(emin) | cmax.cmpgt(emax)).bitmask();
-                let (a, b) = (emin, emax);
-                let k = match cut {
-                    0b001 => compact(lo, pos, out, |p| (p.x >= a.x) & (p.x < b.x)),
-                    0b010 => compact(lo, pos, out, |p| (p.y >= a.y) & (p.y < b.y)),
-                    0b100 => compact(lo, pos, out, |p| (p.z >= a.z) & (p.z < b.z)),
-                    0b011 => compact(lo, pos, out, |p| (p.x >= a.x) & (p.x < b.x) & (p.y >= a.y) & (p.y < b.y)),
-                    0b101 => compact(lo, pos, out, |p| (p.x >= a.x) & (p.x < b.x) & (p.z >= a.z) & (p.z < b.z)),
-                    0b110 => compact(lo, pos, out, |p| (p.y >= a.y) & (p.y < b.y) & (p.z >= a.z) & (p.z < b.z)),
-                    _ => compact(lo, pos, out, |p| p.cmpge(a).all() & p.cmplt(b).all()),
-                };
-                singles.truncate(base + k);
-            }
-        });
-    }
-
-    fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch) -> LeafEstimate {
-        let (ebox, enlarged) = self.gather_box(leaf);
-        self.gather(leaf, &ebox, enlarged, &mut sc.segs, &mut sc.singles);
-        let photons = sc.segs.iter().map(|&(lo, hi)| (lo..hi).len()).sum::<usize>() + sc.singles.len();
-        let edge = ebox.extent().x;
-        let inv_da = 1.0 / (edge * edge);
-        let min_cos = self.settings.min_cos;
-        let mut estimator = self.settings.estimator;
-        let mut fallback = false;
-        let mut lit_total = 0.0f32;
-        let recs = self.recs;
-        if estimator == Estimator::GeometryArea {
-            sc.pos.clear();
-            sc.ng.clear();
-            let all = sc.segs.iter().flat_map(|&(lo, hi)| lo..hi).chain(sc.singles.iter().copied());
-            for i in all {
-                sc.pos.push(self.pos[i as usize]);
-                sc.ng.push(recs[i as usize].ng());
-            }
-            let ids = self.tri_lists.get(value).map(Vec::as_slice).unwrap_or(&[]);
-            lit_areas(self.triangles, ids, &ebox, &sc.pos, &sc.ng, &mut sc.areas);
-            lit_total = sc.areas.iter().map(|a| a.area).sum();
-            if !(lit_total > 0.0) {
-                estimator = Estimator::Cosine;
-                fallback = true;
-            }
-        }
-        let areas = &sc.areas;
-        let mut acc = Accumulator::new();
-        let by_normal = self.settings.split == Split::Normal;
-        let mut add = |i: u32| {
-            let r = &recs[i as usize];
-            let w = r.w();
-            if by_normal && estimator == Estimator::GeometryArea {
-                // per-matrix areas: no single weight
-                acc.add_by_surface(w, r.c(), r.ng(), areas, min_cos);
-                return;
-            }
-            let weight = match estimator {
-                // `w` carries the cosine weight
-                Estimator::Paper | Estimator::Cosine => inv_da,
-                Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total),
-            };
-            if by_normal {
-                acc.add_by_normal(w, r.c(), weight, r.ng());
-            } else {
-                acc.add(w, r.c(), weight);
-            }
-        };
-        for &(lo, hi) in &sc.segs {
-            (lo..hi).for_each(&mut add);
-        }
-        sc.singles.iter().for_each(|&i| add(i));
-        let mut normals: [Vec3; 6] = std::array::from_fn(|k| {
-            let mut v = Vec3::ZERO;
-            v[k / 2] = if k % 2 == 0 { 1.0 } else { -1.0 };
-            v
-        });
-        let facing = if by_normal && estimator == Estimator::GeometryArea {
-            let mut bits = 0u8;
-            let mut sums = [Vec3::ZERO; 6];
-            for e in areas.iter() {
-                for a in 0..3 {
-                    if e.n[a] != 0.0 {
-                        let k = 2 * a + (e.n[a] < 0.0) as usize;
-                        bits |= 1 << k;
-                        sums[k] += e.n * (e.n[a] * e.n[a] * e.area);
-                    }
-                }
-            }
-            for (n, s) in normals.iter_mut().zip(sums) {
-                if let Some(u) = s.try_normalize() {
-                    *n = u;
-                }
-            }
-            bits
-        } else {
-            ALL_FACING
-        };
-        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing, normals }
-    }
-}
-
 /// Triangle lists per valid leaf (by value index), filtered down the tree by bounding box
 /// against the `(1+ε)`-enlarged cells.
 fn distribute_triangles(view: &TreeView, tri_bounds: &[Bounds3], eps: f32, n_valid: usize) -> Vec<Vec<u32>> {
@@ -507,18 +139,6 @@ fn distribute_triangles(view: &TreeView, tri_bounds: &[Bounds3], eps: f32, n_val
         lists[v as usize] = l;
     }
     lists
-}
-
-/// Branchless compaction: the indices `lo + j` of the positions `pos[j]` that pass `inside`
-/// go to the front of `out` (as long as `pos`); returns their count.
-#[inline(always)]
-fn compact(lo: u32, pos: &[Vec3], out: &mut [u32], inside: impl Fn(Vec3) -> bool) -> usize {
-    let mut k = 0usize;
-    for (i, &p) in (lo..).zip(pos) {
-        out[k] = i;
-        k += inside(p) as usize;
-    }
-    k
 }
 
 /// The built node array with its leaves.
@@ -692,56 +312,6 @@ pub(super) fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn morton_matches_a_bit_loop() {
-        let naive = |q: [u32; 3]| {
-            let mut k = 0u64;
-            for b in 0..21 {
-                for (a, qa) in q.iter().enumerate() {
-                    k |= (((qa >> b) & 1) as u64) << (3 * b + a);
-                }
-            }
-            k
-        };
-        let mut s = crate::sampling::Sampler::new(1, 2, 3);
-        for _ in 0..10_000 {
-            let q = [s.next_u32() & 0x1f_ffff, s.next_u32() & 0x1f_ffff, s.next_u32() & 0x1f_ffff];
-            assert_eq!(morton(q), naive(q));
-        }
-        assert_eq!(morton([0x1f_ffff; 3]), (1u64 << 63) - 1);
-    }
-
-    #[test]
-    fn accumulator_matches_the_direct_sums() {
-        let mut s = crate::sampling::Sampler::new(2, 2, 2);
-        let mut acc = Accumulator::new();
-        let mut direct = [[DVec3::ZERO; 3]; 6];
-        for i in 0..1000 {
-            let mut w = crate::sampling::square_to_uniform_sphere(s.next_2d());
-            if i % 10 == 0 {
-                w[i % 3] = 0.0; // zero components: in no matrix of that axis
-            }
-            let c = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
-            let weight = 0.5 + s.next_1d();
-            acc.add(w, c, weight);
-            for a in 0..3 {
-                if w[a] != 0.0 {
-                    let k = 2 * a + (w[a] < 0.0) as usize;
-                    for j in 0..3 {
-                        direct[k][j] += (w * weight * c[j]).as_dvec3();
-                    }
-                }
-            }
-        }
-        let m = acc.finish();
-        for k in 0..6 {
-            let expect = Mat3::from_cols(direct[k][0].as_vec3(), direct[k][1].as_vec3(), direct[k][2].as_vec3());
-            let d = m[k] - expect;
-            let err = d.x_axis.abs().max(d.y_axis.abs()).max(d.z_axis.abs()).max_element();
-            assert!(err < 1e-3, "{k}: {err}");
-        }
-    }
 
     #[test]
     fn cube_is_centred_and_covers_the_box() {

@@ -1,5 +1,5 @@
 //! The photon-built octree of incident radiance (Pacanowski, Granier & Schlick, AFIG 2005,
-//! §3–§7 of the paper; `docs/octree.md`).
+//! §3–§7 of the paper).
 //!
 //! # Structure (§3)
 //! A cubic octree over the photon hit positions. A cell with more than `n_max` photons is
@@ -10,7 +10,7 @@
 //! `[min, max)` through the Morton quantisation); a leaf holds more than `n_max` photons only
 //! at depth `h_max` (or when `split_respects_n_min` refused the split).
 //!
-//! Build (`build.rs`, `sort.rs`): Morton keys at depth `h_max`, a stable parallel sort of
+//! Build (`build.rs`, `cells.rs`, `sort.rs`, `estimate.rs`): Morton keys at depth `h_max`, a stable parallel sort of
 //! the photon records by key, a top-down split over the sorted ranges, then the per-leaf
 //! estimates in parallel (each leaf sums its photons sequentially in a fixed order, f32
 //! blocks flushed into f64): the result is bit-identical for any thread count.
@@ -54,7 +54,9 @@
 //! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices.
 
 mod build;
+mod cells;
 pub mod compress;
+mod estimate;
 mod geometry;
 mod query;
 mod settings;

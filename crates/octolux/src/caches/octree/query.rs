@@ -10,93 +10,11 @@
 //! is done per axis, so that a leaf whose matrix `(a, s)` describes no surface (a floor-only
 //! cell queried for a wall's normal) is left out of that axis instead of pulling it to 0.
 
+use super::cells::{quantize, TreeView};
 use super::compress::{decompress_matrix, tables, MATRIX_BYTES};
-use super::{LeafInfo, LeafValues, Node, Octree, ALL_FACING, NO_VALUE};
+use super::{LeafInfo, LeafValues, Octree, ALL_FACING, NO_VALUE};
 use crate::math::{Bounds3, Color};
 use glam::{Mat3, Vec3};
-
-/// Read-only view of the node array with the cell geometry (shared by build and query).
-#[derive(Clone, Copy)]
-pub(super) struct TreeView<'a> {
-    pub nodes: &'a [Node],
-    pub origin: Vec3,
-    pub cell_size: &'a [f32; super::MAX_DEPTH as usize + 1],
-}
-
-impl TreeView<'_> {
-    #[inline]
-    pub fn cell_min(&self, depth: u32, ijk: [u32; 3]) -> Vec3 {
-        self.origin + Vec3::new(ijk[0] as f32, ijk[1] as f32, ijk[2] as f32) * self.cell_size[depth as usize]
-    }
-
-    /// Call `f(node, depth, ijk, overlap_volume)` for every leaf whose cell overlaps the box
-    /// `[qmin, qmax]` with positive volume, in depth-first child order. Only children that
-    /// overlap the box are entered (one comparison per axis against the node's centre).
-    #[inline]
-    pub fn visit<F: FnMut(u32, u32, [u32; 3], f32)>(&self, qmin: Vec3, qmax: Vec3, mut f: F) {
-        let mut cmin = self.origin;
-        let cmax = cmin + Vec3::splat(self.cell_size[0]);
-        if !(qmin.cmplt(cmax).all() && qmax.cmpgt(cmin).all()) {
-            return;
-        }
-        // descend without recursion while the box meets a single child (the common case for
-        // a box much smaller than the root), then visit from there
-        let (mut node, mut depth, mut ijk) = (0u32, 0u32, [0u32; 3]);
-        loop {
-            let n = self.nodes[node as usize];
-            if n.is_leaf() {
-                break;
-            }
-            let mid = self.cell_min(depth + 1, [2 * ijk[0] + 1, 2 * ijk[1] + 1, 2 * ijk[2] + 1]);
-            let lo = qmin.cmplt(mid);
-            let hi = qmax.cmpgt(mid);
-            if (lo & hi).any() {
-                break;
-            }
-            let b = [hi.x as u32, hi.y as u32, hi.z as u32];
-            ijk = [2 * ijk[0] + b[0], 2 * ijk[1] + b[1], 2 * ijk[2] + b[2]];
-            node = n.link + (b[0] | (b[1] << 1) | (b[2] << 2));
-            depth += 1;
-            cmin = self.cell_min(depth, ijk);
-        }
-        self.visit_rec(node, depth, ijk, cmin, qmin, qmax, &mut f);
-    }
-
-    /// `cmin` = `cell_min(depth, ijk)`; the caller checked the positive overlap.
-    #[allow(clippy::too_many_arguments)]
-    fn visit_rec<F: FnMut(u32, u32, [u32; 3], f32)>(
-        &self,
-        node: u32,
-        depth: u32,
-        ijk: [u32; 3],
-        cmin: Vec3,
-        qmin: Vec3,
-        qmax: Vec3,
-        f: &mut F,
-    ) {
-        let n = self.nodes[node as usize];
-        if n.is_leaf() {
-            let cmax = cmin + Vec3::splat(self.cell_size[depth as usize]);
-            let o = cmax.min(qmax) - cmin.max(qmin);
-            f(node, depth, ijk, o.x * o.y * o.z);
-            return;
-        }
-        // the centre, computed as the upper children's minimum corner
-        let mid = self.cell_min(depth + 1, [2 * ijk[0] + 1, 2 * ijk[1] + 1, 2 * ijk[2] + 1]);
-        let lo = qmin.cmplt(mid);
-        let hi = qmax.cmpgt(mid);
-        let (lo, hi) = ([lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z]);
-        for c in 0..8u32 {
-            let b = [c & 1, (c >> 1) & 1, (c >> 2) & 1];
-            if !(0..3).all(|a| if b[a] == 1 { hi[a] } else { lo[a] }) {
-                continue;
-            }
-            let cijk = [2 * ijk[0] + b[0], 2 * ijk[1] + b[1], 2 * ijk[2] + b[2]];
-            let ccmin = self.cell_min(depth + 1, cijk);
-            self.visit_rec(n.link + c, depth + 1, cijk, ccmin, qmin, qmax, f);
-        }
-    }
-}
 
 /// The three matrices (indices into the `+X, −X, +Y, −Y, +Z, −Z` order) used for normal
 /// `n`, and their weights `N_a²`.
@@ -242,7 +160,7 @@ impl Octree {
         if !p.is_finite() || !self.bounds().contains(p) {
             return None;
         }
-        let q = super::build::quantize(p, self.origin, self.inv_quant, self.h_max);
+        let q = quantize(p, self.origin, self.inv_quant, self.h_max);
         let mut node = 0u32;
         let mut depth = 0u32;
         loop {

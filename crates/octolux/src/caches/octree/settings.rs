@@ -73,7 +73,7 @@ pub enum Enlarge {
 
 /// Settings of [`super::Octree::build`] and of its queries. Serde: every field optional.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct OctreeSettings {
     /// Maximum depth (root = depth 0). Paper: 6. At most 21 (63-bit Morton keys).
     pub h_max: u32,

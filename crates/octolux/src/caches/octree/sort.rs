@@ -14,7 +14,7 @@
 //! the thread count. Dropped photons (non-finite fields, outside the cube) carry a flag bit
 //! above the key, sort last and are cut off.
 
-use super::build::{morton, quantize};
+use super::cells::{morton, quantize};
 use crate::photon::Photon;
 use glam::Vec3;
 use rayon::prelude::*;

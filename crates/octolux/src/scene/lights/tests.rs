@@ -299,7 +299,7 @@ fn spot_power_integrates_the_falloff() {
             })
             .sum::<f64>()
             * std::f64::consts::TAU;
-        let p = light_power(&l, None, 1.0).x as f64;
+        let p = light_power(&l, None, None, 1.0).x as f64;
         assert!((p - numeric).abs() < 1e-4 * numeric, "cutoff {cutoff} beam {beam}: {p} vs {numeric}");
         // for narrow transitions the approximation 2π(1 - (cos c + cos b)/2) is close
         let approx = std::f64::consts::TAU * (1.0 - (cc + cb) as f64 / 2.0);

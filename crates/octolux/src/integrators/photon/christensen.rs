@@ -1,5 +1,5 @@
 //! Christensen's precomputed irradiance photon map (JGT 1999/2000) as the paper's baseline
-//! (METHOD.md §9, table 2 column "Christensen": `m_e` irradiance photons, `m_a` samples added
+//! (the paper's §9, table 2 column "Christensen": `m_e` irradiance photons, `m_a` samples added
 //! during rendering; table 3 "Ward-Christensen (configuration C)").
 //!
 //! Same ray tracer as `octree` and `ward`: specular chains from the camera, and at the first
@@ -15,7 +15,7 @@
 //!   read-only) — its `m_a` samples take their irradiance from the nearest irradiance photon
 //!   (`precomputed`, cheap: the reading we give to table 3, where configuration C builds 3.7×
 //!   faster than configuration A) or from a full density estimate (`density`), and their
-//!   radius from [`super::ward::PhotonRadius`] (the irradiance photon's gathered disk, or `r_max`). A
+//!   radius from [`super::priming::PhotonRadius`] (the irradiance photon's gathered disk, or `r_max`). A
 //!   lookup uses Ward's interpolation where that cache is sufficient, the nearest irradiance
 //!   photon otherwise.
 //!
@@ -26,14 +26,14 @@
 //! `F_m` = irradiance photons + Ward cache (configuration C) + global map (the fallback) +
 //! caustic map.
 
-use super::photonmap::{check_max_depth, BaselineError, CacheView, PhotonMapStats, Shading, Vertex};
-use super::ward::{render_vertex, Primer, SampleRecipe, WardCacheSettings, WardSampleMode, PRIME_SAMPLE_STREAM};
-use super::RayCounters;
+use super::priming::{Primer, SampleRecipe, WardCacheSettings, WardSampleMode, PRIME_SAMPLE_STREAM};
+use super::{check_max_depth, render_vertex, validate_common, BaselineError, CacheView, PhotonMapStats, Shading, Vertex};
 use crate::caches::christensen::{ChristensenCache, ChristensenStats};
 use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SceneLength, SettingsError};
 use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache, WardCacheStats};
+use crate::integrators::common::RayCounters;
 use crate::math::{Color, Ray};
-use crate::photon_pass::{trace_photons, PhotonSettings};
+use crate::photon::trace::{trace_photons, PhotonSettings};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -55,7 +55,7 @@ pub enum AddedSamples {
 
 /// Settings of the `christensen` integrator.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct ChristensenSettings {
     pub photons: PhotonSettings,
     /// Density estimate of the irradiance photons (paper's table 2: n_max 205, r_max 31); its
@@ -98,11 +98,7 @@ impl Default for ChristensenSettings {
 
 impl ChristensenSettings {
     pub fn validate(&self) -> Result<(), SettingsError> {
-        if self.photons.photons == 0 {
-            return Err(SettingsError::new("photons.photons", "at least one photon must be emitted (got 0)"));
-        }
-        self.density.validate("density")?;
-        self.caustic.validate("caustic")?;
+        validate_common(&self.photons, &[("density", &self.density), ("caustic", &self.caustic)])?;
         if self.every == 0 {
             return Err(SettingsError::new("every", "irradiance is precomputed at every k-th photon, k ≥ 1 (got 0)"));
         }
@@ -161,10 +157,7 @@ fn christensen_irradiance(
     scratch: &mut Vec<Neighbor>,
     misses: Option<&AtomicU64>,
 ) -> (Color, f32) {
-    let t = Instant::now();
-    let found = cache.lookup(v.hit.p, v.n).map(|s| (s.e, s.r));
-    counters.cache_queries += 1;
-    counters.cache_query_ns += t.elapsed().as_nanos() as u64;
+    let found = counters.time_query(|| cache.lookup(v.hit.p, v.n).map(|s| (s.e, s.r)));
     if let Some(found) = found {
         return found;
     }
@@ -249,10 +242,7 @@ impl ChristensenIntegrator {
 
     fn irradiance(&self, v: &Vertex, counters: &mut RayCounters, scratch: &mut Vec<Neighbor>) -> Color {
         if let Some(w) = &self.ward {
-            let t = Instant::now();
-            let (ok, l) = w.query(v.hit.p, v.n);
-            counters.cache_queries += 1;
-            counters.cache_query_ns += t.elapsed().as_nanos() as u64;
+            let (ok, l) = counters.time_query(|| w.query(v.hit.p, v.n));
             if ok {
                 return l.irradiance();
             }
@@ -269,7 +259,7 @@ impl ChristensenIntegrator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrators::photonmap::tests::box_scene;
+    use crate::integrators::test_scenes::{box_scene, check_furnace, furnace_scene, image_mean};
     use crate::integrators::Integrator;
     use crate::render::{render, RenderSettings};
 
@@ -331,7 +321,6 @@ mod tests {
 
     #[test]
     fn furnace_is_analytic() {
-        use crate::integrators::photonmap::tests::{check_furnace, furnace_scene, image_mean};
         let scene = furnace_scene(0.5, 1.0);
         for added in [AddedSamples::None, AddedSamples::Precomputed] {
             let mut means = Vec::new();

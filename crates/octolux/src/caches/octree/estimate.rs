@@ -1,0 +1,382 @@
+//! Per-leaf density estimates (paper §4, eq. 5.4, and the estimators of
+//! [`super::Estimator`]): each valid leaf gathers the photons of its cell enlarged by `1+ε`
+//! (its own sorted range plus the neighbouring leaves the enlarged box meets), then sums the
+//! six axis matrices sequentially in a fixed order (8 octant sums, f32 blocks flushed into
+//! f64), so the result is bit-identical for any thread count. With
+//! `Estimator::GeometryArea` each photon is divided by the lit projected area of the leaf's
+//! triangles (`geometry.rs`).
+
+use super::cells::{LeafBuild, TreeView};
+use super::compress::FullLeaf;
+use super::geometry::{lit_areas, projected_lit_area, OrientedArea};
+use super::settings::{Enlarge, Estimator, Split};
+use super::sort::PhotonRec;
+use super::{OctreeSettings, ALL_FACING};
+use crate::math::Bounds3;
+use glam::{DVec3, Mat3, Vec3, Vec3A};
+/// Per-leaf scratch buffers (one set per rayon job).
+#[derive(Default)]
+pub(super) struct Scratch {
+    /// Gathered photon ranges `[lo, hi)` (own cell and neighbours inside the box).
+    segs: Vec<(u32, u32)>,
+    /// Gathered single photons (from neighbours cut by the box).
+    singles: Vec<u32>,
+    pos: Vec<Vec3>,
+    ng: Vec<Vec3>,
+    areas: Vec<OrientedArea>,
+}
+
+/// Result of one leaf estimate.
+pub(super) struct LeafEstimate {
+    pub m: FullLeaf,
+    pub gathered: u32,
+    pub fallback: bool,
+    /// Bit `k` (order `+X, −X, +Y, −Y, +Z, −Z`): the cell has surfaces facing that
+    /// half-axis, so matrix `k` carries a value (see [`super::Octree::facing`]).
+    pub facing: u8,
+    /// Mean normal of the surfaces matrix `k` describes (weights `n_a² × area`), or the
+    /// half-axis itself when the geometry is unknown: the compression keeps the irradiance
+    /// exact for it.
+    pub normals: [Vec3; 6],
+}
+
+/// What every leaf estimate reads (shared by the rayon jobs).
+pub(super) struct EstimateCtx<'a, R> {
+    pub view: TreeView<'a>,
+    /// Photon range start of every node, in the sorted order.
+    pub start: &'a [u32],
+    pub pos: &'a [Vec3],
+    pub recs: &'a [R],
+    pub settings: &'a OctreeSettings,
+    pub triangles: &'a [[Vec3; 3]],
+    /// Triangle indices per valid leaf (empty without geometry).
+    pub tri_lists: &'a [Vec<u32>],
+}
+
+/// The six 3x3 sums. Each photon adds `(w · weight) cᵀ` to one of 8 octant sums (by the
+/// signs of `w`); the axis matrices are the sums of the 4 octants on their side. A photon
+/// with a zero component belongs to no matrix of that axis: it goes to `zero` sums, one per
+/// axis matrix. f32 blocks of at most `BLOCK` photons are flushed into f64 totals, so the
+/// rounding error does not grow with the photon count of a leaf.
+struct Accumulator {
+    block: [[Vec3A; 3]; 8],
+    total: [[DVec3; 3]; 8],
+    /// Photons with a zero direction component, added directly to the axis matrices (f64).
+    zero: [[DVec3; 3]; 6],
+    count: u32,
+}
+
+impl Accumulator {
+    const BLOCK: u32 = 64;
+
+    fn new() -> Self {
+        Accumulator { block: [[Vec3A::ZERO; 3]; 8], total: [[DVec3::ZERO; 3]; 8], zero: [[DVec3::ZERO; 3]; 6], count: 0 }
+    }
+
+    fn flush(&mut self) {
+        for (t, b) in self.total.iter_mut().zip(self.block.iter_mut()) {
+            for (tc, bc) in t.iter_mut().zip(b.iter_mut()) {
+                *tc += DVec3::from(Vec3::from(*bc));
+                *bc = Vec3A::ZERO;
+            }
+        }
+        self.count = 0;
+    }
+
+    /// [`Split::Normal`]: straight into the axis matrices on the side of `ng` (f64; the
+    /// weights differ per axis, so the octant sums do not apply).
+    #[inline]
+    fn add_by_normal(&mut self, w: Vec3, c: Vec3, weight: f32, ng: Vec3) {
+        let n2 = ng * ng;
+        let norm = n2.dot(n2);
+        if !(norm > 0.0) {
+            return;
+        }
+        let wd = DVec3::from(w * weight);
+        for a in 0..3 {
+            if ng[a] != 0.0 {
+                let g = (n2[a] / norm) as f64;
+                let m = &mut self.zero[2 * a + (ng[a] < 0.0) as usize];
+                m[0] += wd * (g * c.x as f64);
+                m[1] += wd * (g * c.y as f64);
+                m[2] += wd * (g * c.z as f64);
+            }
+        }
+    }
+
+    /// [`Split::Normal`] with [`Estimator::GeometryArea`]: matrix `(a, s)` estimates the
+    /// light on the surfaces facing the half-axis `(a, s)`, weighted by `n_a²`:
+    /// `M_a^s = Σ_p ng_a² Φ_p w_p / A⊥_a^s(w_p)` with `A⊥_a^s(w) = Σ_t n_{t,a}² A_t (n_t·w)₊`
+    /// over the lit pieces whose normal has the sign `s` on axis `a`. Each photon is thus
+    /// divided by the area of the surfaces it can have landed on in that matrix, not by all
+    /// the surfaces of the cell (which would average a dim face with the bright floor
+    /// beside it). For one plane of normal `N`: `M_a^{s(N_a)} = ∫ L w dω` for every axis, so
+    /// the query's `Σ_a N_a² = 1` returns it exactly.
+    #[inline]
+    fn add_by_surface(&mut self, w: Vec3, c: Vec3, ng: Vec3, areas: &[OrientedArea], min_cos: f32) {
+        for a in 0..3 {
+            if ng[a] == 0.0 {
+                continue;
+            }
+            let neg = ng[a] < 0.0;
+            let (mut proj, mut total) = (0.0f32, 0.0f32);
+            for e in areas {
+                if e.n[a] != 0.0 && (e.n[a] < 0.0) == neg {
+                    let g = e.n[a] * e.n[a] * e.area;
+                    total += g;
+                    proj += g * e.n.dot(w).max(0.0);
+                }
+            }
+            let den = proj.max(min_cos * total);
+            if !(den > 0.0) {
+                continue;
+            }
+            let f = (ng[a] * ng[a] / den) as f64;
+            let wd = DVec3::from(w) * f;
+            let m = &mut self.zero[2 * a + neg as usize];
+            m[0] += wd * c.x as f64;
+            m[1] += wd * c.y as f64;
+            m[2] += wd * c.z as f64;
+        }
+    }
+
+    #[inline(always)]
+    fn add(&mut self, w: Vec3, c: Vec3, weight: f32) {
+        let wd = Vec3A::from(w) * weight;
+        let cols = [wd * c.x, wd * c.y, wd * c.z];
+        if w.x == 0.0 || w.y == 0.0 || w.z == 0.0 {
+            // rare: straight into the matrices of the non-zero components
+            for a in 0..3 {
+                if w[a] != 0.0 {
+                    let m = &mut self.zero[2 * a + (w[a] < 0.0) as usize];
+                    for (mc, cc) in m.iter_mut().zip(&cols) {
+                        *mc += DVec3::from(Vec3::from(*cc));
+                    }
+                }
+            }
+            return;
+        }
+        let o = (w.x < 0.0) as usize | ((w.y < 0.0) as usize) << 1 | ((w.z < 0.0) as usize) << 2;
+        let m = &mut self.block[o];
+        m[0] += cols[0];
+        m[1] += cols[1];
+        m[2] += cols[2];
+        self.count += 1;
+        if self.count == Self::BLOCK {
+            self.flush();
+        }
+    }
+
+    fn finish(mut self) -> FullLeaf {
+        self.flush();
+        let mut m = [Mat3::ZERO; 6];
+        for (k, mk) in m.iter_mut().enumerate() {
+            let (axis, neg) = (k / 2, k % 2);
+            let mut cols = self.zero[k];
+            for (o, t) in self.total.iter().enumerate() {
+                if (o >> axis) & 1 == neg {
+                    for (cc, tc) in cols.iter_mut().zip(t) {
+                        *cc += *tc;
+                    }
+                }
+            }
+            *mk = Mat3::from_cols(cols[0].as_vec3(), cols[1].as_vec3(), cols[2].as_vec3());
+        }
+        m
+    }
+}
+
+impl<R: PhotonRec> EstimateCtx<'_, R> {
+    /// Box gathered by a leaf and whether it is enlarged.
+    fn gather_box(&self, leaf: &LeafBuild) -> (Bounds3, bool) {
+        let s = self.view.cell_size[leaf.depth as usize];
+        let cmin = self.view.cell_min(leaf.depth, leaf.ijk);
+        let eps = self.settings.epsilon;
+        let enlarged = eps > 0.0
+            && match self.settings.enlarge {
+                Enlarge::All => true,
+                Enlarge::UnderNMin => leaf.hi - leaf.lo < self.settings.n_min,
+            };
+        if enlarged {
+            let c = cmin + Vec3::splat(0.5 * s);
+            let half = Vec3::splat(0.5 * s * (1.0 + eps));
+            (Bounds3 { min: c - half, max: c + half }, true)
+        } else {
+            (Bounds3 { min: cmin, max: cmin + Vec3::splat(s) }, false)
+        }
+    }
+
+    /// The photons inside the gathering box: the own range, whole ranges of neighbours
+    /// inside the box, single photons of neighbours cut by it (half-open box test).
+    fn gather(&self, leaf: &LeafBuild, ebox: &Bounds3, enlarged: bool, segs: &mut Vec<(u32, u32)>, singles: &mut Vec<u32>) {
+        segs.clear();
+        singles.clear();
+        segs.push((leaf.lo, leaf.hi));
+        if !enlarged {
+            return;
+        }
+        let (emin, emax) = (ebox.min, ebox.max);
+        self.view.visit(emin, emax, |node, depth, ijk, _| {
+            let n = self.view.nodes[node as usize];
+            if node == leaf.node || n.photons == 0 {
+                return;
+            }
+            let lo = self.start[node as usize];
+            let hi = lo + n.photons;
+            let cmin = self.view.cell_min(depth, ijk);
+            let cmax = cmin + Vec3::splat(self.view.cell_size[depth as usize]);
+            if cmin.cmpge(emin).all() && cmax.cmple(emax).all() {
+                segs.push((lo, hi));
+            } else {
+                // test only the axes along which the neighbour sticks out of the box (one for
+                // a face neighbour, the common case): a loop per axis set
+                let base = singles.len();
+                singles.resize(base + n.photons as usize, 0);
+                let pos = &self.pos[lo as usize..hi as usize];
+                let out = &mut singles[base..];
+                let cut = (cmin.cmplt(emin) | cmax.cmpgt(emax)).bitmask();
+                let (a, b) = (emin, emax);
+                let k = match cut {
+                    0b001 => compact(lo, pos, out, |p| (p.x >= a.x) & (p.x < b.x)),
+                    0b010 => compact(lo, pos, out, |p| (p.y >= a.y) & (p.y < b.y)),
+                    0b100 => compact(lo, pos, out, |p| (p.z >= a.z) & (p.z < b.z)),
+                    0b011 => compact(lo, pos, out, |p| (p.x >= a.x) & (p.x < b.x) & (p.y >= a.y) & (p.y < b.y)),
+                    0b101 => compact(lo, pos, out, |p| (p.x >= a.x) & (p.x < b.x) & (p.z >= a.z) & (p.z < b.z)),
+                    0b110 => compact(lo, pos, out, |p| (p.y >= a.y) & (p.y < b.y) & (p.z >= a.z) & (p.z < b.z)),
+                    _ => compact(lo, pos, out, |p| p.cmpge(a).all() & p.cmplt(b).all()),
+                };
+                singles.truncate(base + k);
+            }
+        });
+    }
+
+    pub fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch) -> LeafEstimate {
+        let (ebox, enlarged) = self.gather_box(leaf);
+        self.gather(leaf, &ebox, enlarged, &mut sc.segs, &mut sc.singles);
+        let photons = sc.segs.iter().map(|&(lo, hi)| (lo..hi).len()).sum::<usize>() + sc.singles.len();
+        let edge = ebox.extent().x;
+        let inv_da = 1.0 / (edge * edge);
+        let min_cos = self.settings.min_cos;
+        let mut estimator = self.settings.estimator;
+        let mut fallback = false;
+        let mut lit_total = 0.0f32;
+        let recs = self.recs;
+        if estimator == Estimator::GeometryArea {
+            sc.pos.clear();
+            sc.ng.clear();
+            let all = sc.segs.iter().flat_map(|&(lo, hi)| lo..hi).chain(sc.singles.iter().copied());
+            for i in all {
+                sc.pos.push(self.pos[i as usize]);
+                sc.ng.push(recs[i as usize].ng());
+            }
+            let ids = self.tri_lists.get(value).map(Vec::as_slice).unwrap_or(&[]);
+            lit_areas(self.triangles, ids, &ebox, &sc.pos, &sc.ng, &mut sc.areas);
+            lit_total = sc.areas.iter().map(|a| a.area).sum();
+            if !(lit_total > 0.0) {
+                estimator = Estimator::Cosine;
+                fallback = true;
+            }
+        }
+        let areas = &sc.areas;
+        let mut acc = Accumulator::new();
+        let by_normal = self.settings.split == Split::Normal;
+        let mut add = |i: u32| {
+            let r = &recs[i as usize];
+            let w = r.w();
+            if by_normal && estimator == Estimator::GeometryArea {
+                // per-matrix areas: no single weight
+                acc.add_by_surface(w, r.c(), r.ng(), areas, min_cos);
+                return;
+            }
+            let weight = match estimator {
+                // `w` carries the cosine weight
+                Estimator::Paper | Estimator::Cosine => inv_da,
+                Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total),
+            };
+            if by_normal {
+                acc.add_by_normal(w, r.c(), weight, r.ng());
+            } else {
+                acc.add(w, r.c(), weight);
+            }
+        };
+        for &(lo, hi) in &sc.segs {
+            (lo..hi).for_each(&mut add);
+        }
+        sc.singles.iter().for_each(|&i| add(i));
+        let mut normals: [Vec3; 6] = std::array::from_fn(|k| {
+            let mut v = Vec3::ZERO;
+            v[k / 2] = if k % 2 == 0 { 1.0 } else { -1.0 };
+            v
+        });
+        let facing = if by_normal && estimator == Estimator::GeometryArea {
+            let mut bits = 0u8;
+            let mut sums = [Vec3::ZERO; 6];
+            for e in areas.iter() {
+                for a in 0..3 {
+                    if e.n[a] != 0.0 {
+                        let k = 2 * a + (e.n[a] < 0.0) as usize;
+                        bits |= 1 << k;
+                        sums[k] += e.n * (e.n[a] * e.n[a] * e.area);
+                    }
+                }
+            }
+            for (n, s) in normals.iter_mut().zip(sums) {
+                if let Some(u) = s.try_normalize() {
+                    *n = u;
+                }
+            }
+            bits
+        } else {
+            ALL_FACING
+        };
+        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing, normals }
+    }
+}
+
+/// Branchless compaction: the indices `lo + j` of the positions `pos[j]` that pass `inside`
+/// go to the front of `out` (as long as `pos`); returns their count.
+#[inline(always)]
+fn compact(lo: u32, pos: &[Vec3], out: &mut [u32], inside: impl Fn(Vec3) -> bool) -> usize {
+    let mut k = 0usize;
+    for (i, &p) in (lo..).zip(pos) {
+        out[k] = i;
+        k += inside(p) as usize;
+    }
+    k
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn accumulator_matches_the_direct_sums() {
+        let mut s = crate::sampling::Sampler::new(2, 2, 2);
+        let mut acc = Accumulator::new();
+        let mut direct = [[DVec3::ZERO; 3]; 6];
+        for i in 0..1000 {
+            let mut w = crate::sampling::square_to_uniform_sphere(s.next_2d());
+            if i % 10 == 0 {
+                w[i % 3] = 0.0; // zero components: in no matrix of that axis
+            }
+            let c = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+            let weight = 0.5 + s.next_1d();
+            acc.add(w, c, weight);
+            for a in 0..3 {
+                if w[a] != 0.0 {
+                    let k = 2 * a + (w[a] < 0.0) as usize;
+                    for j in 0..3 {
+                        direct[k][j] += (w * weight * c[j]).as_dvec3();
+                    }
+                }
+            }
+        }
+        let m = acc.finish();
+        for k in 0..6 {
+            let expect = Mat3::from_cols(direct[k][0].as_vec3(), direct[k][1].as_vec3(), direct[k][2].as_vec3());
+            let d = m[k] - expect;
+            let err = d.x_axis.abs().max(d.y_axis.abs()).max(d.z_axis.abs()).max_element();
+            assert!(err < 1e-3, "{k}: {err}");
+        }
+    }
+}
