@@ -227,6 +227,17 @@ impl Writer<'_> {
                 self.texture(indent + 1, "diffuse_reflectance", diffuse_reflectance, written)?;
                 self.line(indent + 1, &format!("<rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(*specular_reflectance)));
             }
+            Material::Blend { weight, first, second } => {
+                self.line(indent, &open("blendbsdf"));
+                match weight {
+                    Texture::Const(c) if c.x == c.y && c.y == c.z => {
+                        self.line(indent + 1, &format!("<float name=\"weight\" value=\"{}\"/>", c.x))
+                    }
+                    _ => self.texture(indent + 1, "weight", weight, written)?,
+                }
+                self.bsdf(indent + 1, first, None, written)?;
+                self.bsdf(indent + 1, second, None, written)?;
+            }
             Material::TwoSided { front, back } => {
                 self.line(indent, &open("twosided"));
                 self.bsdf(indent + 1, front, None, written)?;

@@ -147,3 +147,25 @@ fn conductor_ext_eta_and_what_is_not_supported() {
     let err = load_str(xml, Path::new("/virtual/bad.xml"), &[]).unwrap_err().to_string();
     assert!(err.contains("cook"), "{err}");
 }
+
+#[test]
+fn blendbsdf_blends_its_two_nested_bsdfs() {
+    let s = load(
+        r#"<bsdf type="blendbsdf"><float name="weight" value="0.25"/>
+    <bsdf type="diffuse"/>
+    <bsdf type="roughconductor"><string name="distribution" value="ggx"/></bsdf>
+</bsdf>"#,
+        "3.0.0",
+    );
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    match &s.desc.materials[0] {
+        Material::Blend { weight: Texture::Const(w), first, second } => {
+            assert_eq!(*w, Color::splat(0.25));
+            assert!(matches!(**first, Material::Diffuse { .. }) && matches!(**second, Material::RoughConductor { .. }));
+        }
+        other => panic!("{other:?}"),
+    }
+    let xml = "<scene version=\"3.0.0\">\n<bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf>\n</scene>";
+    let err = load_str(xml, Path::new("/virtual/bad.xml"), &[]).unwrap_err().to_string();
+    assert!(err.starts_with("/virtual/bad.xml:2") && err.contains("weight"), "{err}");
+}

@@ -56,6 +56,11 @@ fn scene() -> SceneDesc {
             specular_reflectance: Color::ONE,
             specular_transmittance: Color::splat(0.9),
         },
+        Material::Blend {
+            weight: Texture::Const(Color::splat(0.3)),
+            first: Box::new(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.2)) }),
+            second: Box::new(Material::Conductor { eta: Color::ZERO, k: Color::ZERO, specular_reflectance: Color::ONE }),
+        },
         Material::Plastic {
             diffuse_reflectance: Texture::Const(Color::new(0.5, 0.4, 0.3)),
             specular_reflectance: Color::splat(0.8),
@@ -169,6 +174,9 @@ fn mat_eq(a: &Material, ai: &[Image], b: &Material, bi: &[Image]) -> bool {
             Plastic { diffuse_reflectance: d2, specular_reflectance: s2, eta: e2, nonlinear: n2 },
         ) => tex_eq(d1, ai, d2, bi) && c(s1, s2) && e1 == e2 && n1 == n2,
         (TwoSided { front: f1, back: b1 }, TwoSided { front: f2, back: b2 }) => mat_eq(f1, ai, f2, bi) && mat_eq(b1, ai, b2, bi),
+        (Blend { weight: w1, first: f1, second: s1 }, Blend { weight: w2, first: f2, second: s2 }) => {
+            tex_eq(w1, ai, w2, bi) && mat_eq(f1, ai, f2, bi) && mat_eq(s1, ai, s2, bi)
+        }
         _ => false,
     }
 }

@@ -250,6 +250,17 @@ impl<'t> Builder<'t> {
                     _ => return Err(e.loc.error(format!("{} needs one or two nested bsdfs, found {}", e.describe(), nested.len()))),
                 }
             }
+            "blendbsdf" => {
+                if !p.has("weight") {
+                    return Err(e.loc.error(format!("{} needs a \"weight\"", e.describe())));
+                }
+                let weight = self.texture_param(&p, "weight", ColorKind::Bounded, 0.5)?;
+                let nested = self.nested_bsdfs(&p);
+                let [first, second] = nested.as_slice() else {
+                    return Err(e.loc.error(format!("{} needs exactly two nested bsdfs, found {}", e.describe(), nested.len())));
+                };
+                Material::Blend { weight, first: Box::new(self.material(first)?), second: Box::new(self.material(second)?) }
+            }
             "mask" | "bumpmap" | "normalmap" => {
                 let nested = self.nested_bsdfs(&p);
                 let [inner] = nested.as_slice() else {

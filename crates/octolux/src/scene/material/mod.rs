@@ -20,8 +20,9 @@
 //! in its room: [`fresnel`] (dielectric, conductor, thin-sheet and diffuse Fresnel),
 //! [`microfacet`] (Beckmann and GGX, visible-normal sampling), [`conductor`], [`dielectric`]
 //! (rough dielectric), [`plastic`] (smooth and rough, linear and nonlinear), [`ward`],
-//! [`phong`], [`texture`]. Smooth conductors and dielectrics are a few lines and stay here.
+//! [`phong`], [`blend`], [`texture`]. Smooth conductors and dielectrics are a few lines and stay here.
 
+pub mod blend;
 pub mod conductor;
 pub mod dielectric;
 pub mod fresnel;
@@ -103,6 +104,8 @@ pub enum Material {
     /// Two-sided wrapper (Mitsuba `twosided`): `front` on the front side, `back` (the same
     /// material when one was given) seen from behind.
     TwoSided { front: Box<Material>, back: Box<Material> },
+    /// Linear blend (Mitsuba `blendbsdf`): `(1 - weight) first + weight second`.
+    Blend { weight: Texture, first: Box<Material>, second: Box<Material> },
 }
 
 pub(crate) fn check_color(c: Color, what: &str) -> Result<(), String> {
@@ -182,6 +185,10 @@ impl Material {
                     Some(Color::ZERO)
                 }
             }
+            Material::Blend { weight, first, second } => {
+                let w = blend::weight(weight, images, uv);
+                Some(first.lambertian_albedo(images, uv, wo)? * (1.0 - w) + second.lambertian_albedo(images, uv, wo)? * w)
+            }
             _ => None,
         }
     }
@@ -231,6 +238,7 @@ impl Material {
                     Color::ZERO
                 }
             }
+            Material::Blend { weight, first, second } => blend::eval(blend::weight(weight, images, uv), first, second, images, uv, wo, wi),
         }
     }
 
@@ -270,6 +278,7 @@ impl Material {
                     0.0
                 }
             }
+            Material::Blend { weight, first, second } => blend::pdf(blend::weight(weight, images, uv), first, second, images, uv, wo, wi),
         }
     }
 
@@ -359,6 +368,9 @@ impl Material {
                     None
                 }
             }
+            Material::Blend { weight, first, second } => {
+                blend::sample(blend::weight(weight, images, uv), first, second, images, uv, wo, u_lobe, u)
+            }
         }
     }
 
@@ -373,7 +385,9 @@ impl Material {
             | Material::Ward { .. }
             | Material::Phong { .. } => true,
             Material::Conductor { .. } | Material::Dielectric { .. } | Material::ThinDielectric { .. } => false,
-            Material::TwoSided { front, back } => front.has_smooth_lobe() || back.has_smooth_lobe(),
+            Material::TwoSided { front: a, back: b } | Material::Blend { first: a, second: b, .. } => {
+                a.has_smooth_lobe() || b.has_smooth_lobe()
+            }
         }
     }
 
@@ -444,6 +458,11 @@ impl Material {
                 front.validate(n_images)?;
                 back.validate(n_images)
             }
+            Material::Blend { weight, first, second } => {
+                weight.validate(n_images, "blend weight")?;
+                first.validate(n_images)?;
+                second.validate(n_images)
+            }
         }
     }
 
@@ -467,9 +486,9 @@ impl Material {
                 }
                 Vec::new()
             }
-            Material::TwoSided { front, back } => {
-                let mut v = front.ensure_energy_conservation(images);
-                v.extend(back.ensure_energy_conservation(images));
+            Material::TwoSided { front: a, back: b } | Material::Blend { first: a, second: b, .. } => {
+                let mut v = a.ensure_energy_conservation(images);
+                v.extend(b.ensure_energy_conservation(images));
                 v
             }
             _ => Vec::new(),

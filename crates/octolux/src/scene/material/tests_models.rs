@@ -12,7 +12,7 @@ use crate::sampling::Sampler;
 use crate::testing::{check_bsdf, chi2_sphere, Chi2Config};
 
 /// Number of chi-square tests run by `new_models_sampling_matches_pdf` (Šidák family size).
-const CHI2_TESTS: usize = 24;
+const CHI2_TESTS: usize = 26;
 
 fn md(kind: MicrofacetKind, alpha_u: f32, alpha_v: f32) -> Microfacet {
     Microfacet { kind, alpha_u, alpha_v }
@@ -52,6 +52,31 @@ fn ward(variant: WardVariant, au: f32, av: f32, kd: Color, ks: Color) -> Materia
 
 fn phong(exponent: f32, kd: Color, ks: Color) -> Material {
     Material::Phong { exponent, diffuse_reflectance: Texture::Const(kd), specular_reflectance: Texture::Const(ks) }
+}
+
+fn blend(w: f32, a: Material, b: Material) -> Material {
+    Material::Blend { weight: Texture::Const(Color::splat(w)), first: Box::new(a), second: Box::new(b) }
+}
+
+#[test]
+fn blend_is_the_weighted_sum_and_samples_both() {
+    let (a, b) = (phong(20.0, white(0.3), white(0.5)), conductor(md(Beckmann, 0.3, 0.3)));
+    let m = blend(0.35, a.clone(), b.clone());
+    let (wo, wi) = (dir(30.0, 0.0), dir(40.0, 170.0));
+    let want = a.eval(&[], Vec2::ZERO, wo, wi) * 0.65 + b.eval(&[], Vec2::ZERO, wo, wi) * 0.35;
+    assert!((m.eval(&[], Vec2::ZERO, wo, wi) - want).abs().max_element() < 1e-6);
+    let p = a.pdf(&[], Vec2::ZERO, wo, wi) * 0.65 + b.pdf(&[], Vec2::ZERO, wo, wi) * 0.35;
+    assert!((m.pdf(&[], Vec2::ZERO, wo, wi) - p).abs() < 1e-6 * p);
+    // white furnace: the albedo is the blend of the albedos
+    let n = 200_000;
+    let (aa, ab, am) = (albedo(&a, wo, n).x, albedo(&b, wo, n).x, albedo(&m, wo, n).x);
+    assert!((am - (0.65 * aa + 0.35 * ab)).abs() < 1e-2, "{am} vs {}", 0.65 * aa + 0.35 * ab);
+    // a Dirac child keeps its weight; its probability is scaled by the selection
+    let glass = Material::Dielectric { eta: 1.5, specular_reflectance: white(1.0), specular_transmittance: white(1.0) };
+    let mg = blend(0.5, glass.clone(), Material::Diffuse { reflectance: Texture::Const(white(0.5)) });
+    let s = mg.sample(&[], Vec2::ZERO, wo, 0.9, Vec2::splat(0.5)).unwrap();
+    let g = glass.sample(&[], Vec2::ZERO, wo, 0.8, Vec2::splat(0.5)).unwrap();
+    assert!(s.lobe == Lobe::Specular && s.weight == g.weight && (s.pdf - 0.5 * g.pdf).abs() < 1e-6);
 }
 
 #[test]
@@ -144,6 +169,18 @@ fn new_models_sampling_matches_pdf() {
         ("phong 1.07 @ 30 (sponza)", phong(1.07177, Color::new(0.94, 0.87, 0.74), Color::new(0.034, 0.032, 0.029)), dir(30.0, 0.0), &base),
         ("phong 30 @ 60", phong(30.0, white(0.3), white(0.6)), dir(60.0, 80.0), &fine),
         ("phong 300 @ 10", phong(300.0, white(0.1), white(0.8)), dir(10.0, 0.0), &fine),
+        (
+            "blend diffuse + roughconductor",
+            blend(0.3, Material::Diffuse { reflectance: Texture::Const(c) }, conductor(md(Ggx, 0.2, 0.2))),
+            dir(40.0, 0.0),
+            &fine,
+        ),
+        (
+            "blend plastic + ward",
+            blend(0.6, plastic(white(0.5), false), ward(WardVariant::Balanced, 0.3, 0.3, white(0.1), white(0.5))),
+            dir(20.0, 50.0),
+            &base,
+        ),
         (
             "twosided ward, back",
             Material::TwoSided {
