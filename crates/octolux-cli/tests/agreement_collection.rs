@@ -27,8 +27,8 @@
 use octolux::accel::BackendKind;
 use octolux::integrators::{path::PathSettings, Integrator};
 use octolux::metrics::{channel_means, rel_mse_with};
-use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
+use octolux::scene::Scene;
 use octolux_io::image_io::read_exr;
 use std::path::{Path, PathBuf};
 use std::time::Instant;

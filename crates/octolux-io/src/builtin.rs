@@ -24,9 +24,9 @@
 //! illumination, which is what the radiance cache is meant to reproduce.
 
 use glam::Vec3;
-use octolux::camera::{look_at, CameraDesc, FovAxis};
-use octolux::material::{Material, Texture};
 use octolux::math::Color;
+use octolux::scene::camera::{look_at, CameraDesc, FovAxis};
+use octolux::scene::material::{Material, Texture};
 use octolux::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, SceneHints, ShapeDesc, TriMesh};
 
 /// Names of the built-in scenes; the first is the default.

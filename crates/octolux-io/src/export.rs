@@ -21,10 +21,10 @@
 
 use crate::IoError;
 use glam::{Mat4, Vec2, Vec3};
-use octolux::camera::FovAxis;
-use octolux::light::Light;
-use octolux::material::{Material, Microfacet, Texture};
 use octolux::math::Color;
+use octolux::scene::camera::FovAxis;
+use octolux::scene::material::{Material, Microfacet, Texture};
+use octolux::scene::Light;
 use octolux::scene::{Geometry, PixelFilter, SceneDesc, TriMesh};
 use std::fmt::Write as _;
 use std::path::Path;

@@ -1,4 +1,4 @@
-//! Image input and output on [`octolux::material::Image`] (linear RGB, row 0 at the top).
+//! Image input and output on [`octolux::image::Image`] (linear RGB, row 0 at the top).
 //!
 //! - OpenEXR is written as 32-bit float RGB (lossless compression), so a write/read round trip
 //!   is bit-exact; reading accepts any RGB(A) EXR (half, float or uint samples; alpha ignored).
@@ -12,7 +12,7 @@
 //! write never leaves a truncated file under the final name.
 
 use crate::IoError;
-use octolux::material::Image;
+use octolux::image::Image;
 use octolux::math::Color;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};

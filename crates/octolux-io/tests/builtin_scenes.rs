@@ -2,8 +2,8 @@
 //! outwards, the light faces down with the published area and a positive emission.
 
 use glam::Vec3;
-use octolux::camera::Camera;
-use octolux::material::Material;
+use octolux::scene::camera::Camera;
+use octolux::scene::material::Material;
 use octolux::scene::{Geometry, SceneDesc, ShapeDesc, TriMesh};
 use octolux_io::builtin::{self, NAMES};
 

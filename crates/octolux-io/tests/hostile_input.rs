@@ -7,7 +7,7 @@
 
 use flate2::write::ZlibEncoder;
 use octolux::budget;
-use octolux::material::Image;
+use octolux::image::Image;
 use octolux::math::Color;
 use octolux_io::fuzzing;
 use octolux_io::image_io::{decode_image, read_exr, write_exr};

@@ -1,7 +1,7 @@
 //! Image I/O: bit-exact EXR round trip, sRGB PNG encoding of known values, texture decoding,
 //! error reporting and atomic writes.
 
-use octolux::material::Image;
+use octolux::image::Image;
 use octolux::math::Color;
 use octolux_io::image_io::{encode_srgb8, read_exr, read_image, srgb_to_linear, write_atomically, write_exr, write_png};
 use octolux_io::IoError;

@@ -2,9 +2,9 @@
 //! errors with file and line, degenerate removal, and OBJ/MTL files rendered as scenes.
 
 use glam::{Vec2, Vec3};
-use octolux::light::Light;
-use octolux::material::{Material, Texture};
 use octolux::math::Color;
+use octolux::scene::material::{Material, Texture};
+use octolux::scene::Light;
 use octolux::scene::{Geometry, TriMesh};
 use octolux_io::mesh::{load_mesh_checked, load_mesh_scene, load_obj_mesh, phong_exponent_to_alpha};
 use octolux_io::shared::shared_scene;
@@ -212,7 +212,7 @@ fn obj_scene_without_emitter_gets_an_environment_and_a_framing_camera() {
     let scene = load_mesh_scene(&data("cube_shared.obj")).unwrap();
     let desc = &scene.desc;
     desc.validate().unwrap();
-    let cam = octolux::camera::Camera::new(&desc.camera, desc.film.width, desc.film.height);
+    let cam = octolux::scene::camera::Camera::new(&desc.camera, desc.film.width, desc.film.height);
     let b = desc.bounds();
     for i in 0..8 {
         let corner = Vec3::new(

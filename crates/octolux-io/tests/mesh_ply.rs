@@ -2,8 +2,8 @@
 //! polygons, errors with file and line, and the shared Stanford bunny / Bitterli meshes.
 
 use glam::{Vec2, Vec3};
-use octolux::material::{Material, Texture};
 use octolux::math::Color;
+use octolux::scene::material::{Material, Texture};
 use octolux::scene::{Geometry, TriMesh};
 use octolux_io::mesh::{load_mesh_checked, load_mesh_scene, load_ply_mesh};
 use octolux_io::shared::shared_scene;
@@ -214,5 +214,5 @@ fn ply_scene_is_one_white_diffuse_under_a_constant_sky() {
         other => other.clone(),
     };
     assert_eq!(m, Material::Diffuse { reflectance: Texture::Const(Color::splat(octolux_io::mesh::DEFAULT_REFLECTANCE)) });
-    assert_eq!(scene.desc.lights, vec![octolux::light::Light::Constant { radiance: Color::ONE }]);
+    assert_eq!(scene.desc.lights, vec![octolux::scene::Light::Constant { radiance: Color::ONE }]);
 }

@@ -3,8 +3,8 @@
 //! Mitsuba 0.6's `ward` and `phong` (camelCase names, energy conservation), `extEta`; nothing
 //! the file asks for is replaced silently.
 
-use octolux::material::{Material, Microfacet, MicrofacetKind, Texture, WardVariant};
 use octolux::math::Color;
+use octolux::scene::material::{Material, Microfacet, MicrofacetKind, Texture, WardVariant};
 use octolux_io::mitsuba::load_str;
 use std::path::Path;
 

@@ -5,9 +5,9 @@
 
 use glam::{Mat3, Vec3};
 use octolux::image::Image;
-use octolux::light::Light;
 use octolux::math::Color;
 use octolux::scene::sunsky::{SolarTime, SunSkyDesc, SUN_APERTURE_DEG};
+use octolux::scene::Light;
 use octolux_io::mitsuba::load_str;
 use octolux_io::shared::shared_scene;
 use std::path::PathBuf;

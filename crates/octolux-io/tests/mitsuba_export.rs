@@ -2,10 +2,11 @@
 //! description must come back the same (within float tolerance), with no warning.
 
 use glam::{Mat4, Vec2, Vec3};
-use octolux::camera::{look_at, CameraDesc, FovAxis};
-use octolux::light::Light;
-use octolux::material::{Image, Material, Microfacet, MicrofacetKind, Texture};
+use octolux::image::Image;
 use octolux::math::{Color, Frame};
+use octolux::scene::camera::{look_at, CameraDesc, FovAxis};
+use octolux::scene::material::{Material, Microfacet, MicrofacetKind, Texture};
+use octolux::scene::Light;
 use octolux::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
 use octolux_io::export::{to_mitsuba_xml, write_mitsuba_scene};
 use octolux_io::mitsuba::load;

@@ -2,9 +2,9 @@
 //! 0.5 dialect, warnings for unsupported content, and errors that name the file and line.
 
 use glam::Vec3;
-use octolux::light::Light;
-use octolux::material::{Material, Texture};
 use octolux::math::Color;
+use octolux::scene::material::{Material, Texture};
+use octolux::scene::Light;
 use octolux::scene::{Geometry, PixelFilter};
 use octolux_io::mitsuba::{load, load_str};
 use octolux_io::IoError;
@@ -327,7 +327,7 @@ fn mitsuba_05_names_are_upgraded() {
     }
     // 35 mm focal length: diagonal field of view 2 atan(43.27 / 70).
     let cam = &s.desc.camera;
-    assert_eq!(cam.fov_axis, octolux::camera::FovAxis::Diagonal);
+    assert_eq!(cam.fov_axis, octolux::scene::camera::FovAxis::Diagonal);
     assert!((cam.fov_deg - 63.4399).abs() < 1e-3, "{}", cam.fov_deg);
     assert_eq!(cam.near_clip, 0.5);
     // Smooth plastic is exact now: nothing to report.

@@ -12,7 +12,7 @@
 use glam::Vec3;
 use octolux::accel::BackendKind;
 use octolux::math::Ray;
-use octolux::prepared::Scene;
+use octolux::scene::Scene;
 use octolux_io::mitsuba::load_str;
 use std::f32::consts::PI;
 use std::path::Path;

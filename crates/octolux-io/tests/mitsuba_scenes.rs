@@ -2,9 +2,9 @@
 //! test passes with one `skip:` line when its scene is absent (see `octolux_io::shared`).
 
 use glam::Vec3;
-use octolux::camera::FovAxis;
-use octolux::material::{Material, Texture};
 use octolux::math::Color;
+use octolux::scene::camera::FovAxis;
+use octolux::scene::material::{Material, Texture};
 use octolux::scene::{Geometry, PixelFilter};
 use octolux_io::mitsuba::load;
 use std::path::PathBuf;

@@ -22,23 +22,3 @@ pub mod testing;
 
 pub use glam;
 pub use math::Color;
-
-/// TEMP-ALIAS: moved to [`scene::material`] (and `Image` to [`image`]).
-pub mod material {
-    pub use crate::image::Image; // TEMP-ALIAS
-    pub use crate::scene::material::*; // TEMP-ALIAS
-}
-/// TEMP-ALIAS: moved to [`scene::lights`] (and the description enum `Light` to [`scene::desc`]).
-pub mod light {
-    pub use crate::scene::desc::Light; // TEMP-ALIAS
-    pub use crate::scene::lights::*; // TEMP-ALIAS
-}
-/// TEMP-ALIAS: moved to [`scene::camera`].
-pub mod camera {
-    pub use crate::scene::camera::*; // TEMP-ALIAS
-}
-/// TEMP-ALIAS: the prepared scene moved to [`scene`].
-pub mod prepared {
-    pub use crate::scene::{intersect_sphere, Scene, SphereShape, SurfaceHit}; // TEMP-ALIAS
-}
-pub use photon::trace as photon_pass; // TEMP-ALIAS: moved to photon::trace

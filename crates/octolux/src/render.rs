@@ -22,6 +22,7 @@
 //! result then depends on the machine's speed).
 
 use crate::film::{camera_sample, Pixel};
+use crate::film::{filter_radius, filter_weight, Reconstruction};
 use crate::image::Image;
 use crate::integrators::{Integrator, RayCounters};
 use crate::math::{Color, Ray};
@@ -32,8 +33,6 @@ use glam::Vec2;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
-
-pub use crate::film::{filter_radius, filter_weight, sample_filter, Reconstruction}; // TEMP-ALIAS: moved to crate::film
 
 /// Settings of the render loop.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]

@@ -10,7 +10,7 @@
 //! envmap.
 
 use glam::{Mat3, Mat4, Vec3};
-use octolux::material::Image;
+use octolux::image::Image;
 use octolux::math::Color;
 use octolux::scene::envmap::EnvMap;
 use octolux::scene::sunsky::{SolarTime, SunSky, SunSkyDesc};

@@ -11,16 +11,17 @@
 //!   directions point into the scene.
 
 use octolux::accel::BackendKind;
-use octolux::camera::{look_at, CameraDesc, FovAxis};
 use octolux::glam::{DVec3, Mat3, Mat4, Vec3};
+use octolux::image::Image;
 use octolux::integrators::{path::PathSettings, Integrator};
-use octolux::light::Light;
-use octolux::material::{Image, Material, Texture};
-use octolux::prepared::Scene;
 use octolux::render::{render, RenderSettings};
 use octolux::sampling::Sampler;
+use octolux::scene::camera::{look_at, CameraDesc, FovAxis};
 use octolux::scene::envmap::EnvMap;
+use octolux::scene::material::{Material, Texture};
 use octolux::scene::sunsky::{SunSky, SunSkyDesc};
+use octolux::scene::Light;
+use octolux::scene::Scene;
 use octolux::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
 use octolux::Color;
 use std::f64::consts::PI;

@@ -42,10 +42,10 @@ use normals::merge_normals;
 
 use crate::{IoError, LoadedScene};
 use glam::Vec3;
-use octolux::camera::{look_at, CameraDesc, FovAxis};
-use octolux::light::Light;
-use octolux::material::{Material, Texture};
 use octolux::math::Color;
+use octolux::scene::camera::{look_at, CameraDesc, FovAxis};
+use octolux::scene::material::{Material, Texture};
+use octolux::scene::Light;
 use octolux::scene::{FilmDesc, Geometry, SceneDesc, SceneHints, ShapeDesc, TriMesh};
 use std::path::Path;
 

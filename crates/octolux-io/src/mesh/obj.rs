@@ -5,8 +5,9 @@ use super::{compute_vertex_normals, merge_normals, push_fan, read_file, remove_d
 use crate::image_io::read_image;
 use crate::IoError;
 use glam::{Vec2, Vec3};
-use octolux::material::{Image, Material, Microfacet, MicrofacetKind, Texture};
+use octolux::image::Image;
 use octolux::math::Color;
+use octolux::scene::material::{Material, Microfacet, MicrofacetKind, Texture};
 use octolux::scene::{Geometry, SceneDesc, ShapeDesc, TriMesh};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

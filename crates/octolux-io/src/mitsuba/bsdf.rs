@@ -5,8 +5,8 @@ use super::props::{self, ColorKind, Props};
 use super::tree::Elem;
 use super::{spectra, Builder};
 use crate::IoError;
-use octolux::material::{Material, Microfacet, MicrofacetKind, Texture, WardVariant};
 use octolux::math::Color;
+use octolux::scene::material::{Material, Microfacet, MicrofacetKind, Texture, WardVariant};
 
 impl<'t> Builder<'t> {
     pub(super) fn default_material(&mut self) -> u32 {

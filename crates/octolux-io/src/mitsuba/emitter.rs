@@ -7,8 +7,8 @@ use super::tree::Elem;
 use super::Builder;
 use crate::IoError;
 use glam::{Mat4, Vec3};
-use octolux::light::Light;
 use octolux::math::Frame;
+use octolux::scene::Light;
 
 impl<'t> Builder<'t> {
     /// Emitter position and direction from `position`/`direction` or `to_world`.

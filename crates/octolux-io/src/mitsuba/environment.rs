@@ -24,9 +24,9 @@ use super::tree::{resolve_file, Elem};
 use super::Builder;
 use crate::IoError;
 use glam::{Mat3, Mat4, Vec3};
-use octolux::light::Light;
 use octolux::math::Color;
 use octolux::scene::sunsky::{SolarTime, SunSky, SunSkyDesc, SUN_APERTURE_DEG};
+use octolux::scene::Light;
 
 /// The rotation part of a transform's linear part (columns orthonormalised, handedness kept),
 /// and whether the linear part was a rotation times a uniform scale.

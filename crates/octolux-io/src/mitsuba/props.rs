@@ -121,7 +121,7 @@ pub(crate) fn parse_transform(t: &Elem) -> Result<Mat4, IoError> {
                 if up.length_squared() == 0.0 {
                     up = Frame::from_normal((target - origin).normalize()).s;
                 }
-                let r = octolux::camera::look_at(origin, target, up);
+                let r = octolux::scene::camera::look_at(origin, target, up);
                 if !r.is_finite() {
                     return Err(op.loc.error(format!(
                         "{}: invalid lookat transformation (origin equals target, or up is parallel to the view direction)",

@@ -6,7 +6,7 @@ use super::tree::Elem;
 use super::{Builder, DEFAULT_FILM};
 use crate::IoError;
 use glam::Mat4;
-use octolux::camera::FovAxis;
+use octolux::scene::camera::FovAxis;
 use octolux::scene::{FilmDesc, PixelFilter};
 
 impl<'t> Builder<'t> {

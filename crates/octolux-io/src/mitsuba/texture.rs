@@ -6,8 +6,8 @@ use super::tree::{resolve_file, Elem};
 use super::Builder;
 use crate::IoError;
 use glam::Vec2;
-use octolux::material::Texture;
 use octolux::math::Color;
+use octolux::scene::material::Texture;
 
 impl<'t> Builder<'t> {
     /// A colour parameter as a texture (default when absent).

@@ -19,8 +19,6 @@ pub mod photon;
 pub(crate) mod test_scenes;
 
 pub use common::RayCounters;
-pub use common::{direct_light, mis_power}; // TEMP-ALIAS: moved to integrators::common
-pub use photon::{christensen, photonmap, ward}; // TEMP-ALIAS: moved to integrators::photon
 
 use crate::math::{Color, Ray};
 use crate::sampling::Sampler;

@@ -28,8 +28,7 @@
 
 use super::{check_max_depth, validate_common, BaselineError, PhotonMapStats, Shading};
 
-pub use super::CacheView; // TEMP-ALIAS: moved to integrators::photon
-pub use super::{shade_irradiance, Vertex}; // TEMP-ALIAS: moved to integrators::photon
+use super::CacheView;
 use crate::caches::kdtree::{DensitySettings, SettingsError};
 use crate::integrators::common::{direct_light, walk_specular, RayCounters};
 use crate::math::{Color, Ray};

@@ -36,7 +36,9 @@
 
 use super::priming::{Primer, SampleRecipe, PRIME_SAMPLE_STREAM};
 
-pub use super::priming::{PhotonRadius, PrimePoints, WardCacheSettings, WardSampleMode}; // TEMP-ALIAS: moved to integrators::photon::priming
+#[cfg(test)]
+use super::priming::PhotonRadius;
+use super::priming::{WardCacheSettings, WardSampleMode};
 use super::{check_max_depth, render_vertex, validate_common, BaselineError, CacheView, PhotonMapStats, Shading, Vertex};
 use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SettingsError};
 use crate::caches::ward::{PrimeStats, WardCache, WardCacheStats};
