@@ -146,25 +146,25 @@ pub fn check_bytes(what: impl FnOnce() -> String, bytes: u64) -> Result<(), Budg
 
 /// Refuse `count` items of `item_bytes` each (overflow counts as too much).
 pub fn check_items(what: impl FnOnce() -> String, count: u64, item_bytes: u64) -> Result<(), BudgetError> {
-    check_bytes(what, count.checked_mul(item_bytes).unwrap_or(u64::MAX))
+    check_bytes(what, count.saturating_mul(item_bytes))
 }
 
 /// A film of `width` x `height` pixels (see [`FILM_BYTES_PER_PIXEL`]).
 pub fn check_film(width: u64, height: u64) -> Result<(), BudgetError> {
-    let pixels = width.checked_mul(height).unwrap_or(u64::MAX);
+    let pixels = width.saturating_mul(height);
     check_items(|| format!("a {width}x{height} film"), pixels, FILM_BYTES_PER_PIXEL)
 }
 
 /// A decoded image (texture, environment map) of `width` x `height` texels.
 pub fn check_image(width: u64, height: u64) -> Result<(), BudgetError> {
-    let texels = width.checked_mul(height).unwrap_or(u64::MAX);
+    let texels = width.saturating_mul(height);
     check_items(|| format!("a {width}x{height} image"), texels, TEXEL_BYTES)
 }
 
 /// A mesh of `vertices` vertices and `triangles` triangles.
 pub fn check_mesh(vertices: u64, triangles: u64) -> Result<(), BudgetError> {
-    let v = vertices.checked_mul(VERTEX_BYTES).unwrap_or(u64::MAX);
-    let t = triangles.checked_mul(TRIANGLE_BYTES).unwrap_or(u64::MAX);
+    let v = vertices.saturating_mul(VERTEX_BYTES);
+    let t = triangles.saturating_mul(TRIANGLE_BYTES);
     check_bytes(|| format!("a mesh of {vertices} vertices and {triangles} triangles"), v.saturating_add(t))
 }
 
