@@ -163,6 +163,13 @@ fn xml_film_beyond_memory_budget() {
     );
 }
 
+/// Six bytes that are not six characters (it panicked slicing inside a character).
+#[test]
+fn xml_hex_colour_with_multibyte_characters() {
+    let text = "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\">\n<srgb name=\"reflectance\" value=\"#ééé\"/>\n</bsdf>\n</scene>\n";
+    assert_eq!(xml_err(text), "h.xml:3: <srgb name=\"reflectance\">: could not parse the colour \"#ééé\"");
+}
+
 #[test]
 fn obj_index_beyond_u64_is_an_error() {
     setup();

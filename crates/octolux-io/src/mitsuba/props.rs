@@ -174,7 +174,7 @@ pub(crate) fn parse_transform(t: &Elem) -> Result<Mat4, IoError> {
 fn parse_hex(e: &Elem, s: &str) -> Result<Color, IoError> {
     let h = s.trim().trim_start_matches('#');
     let bad = || e.loc.error(format!("{}: could not parse the colour \"{s}\"", e.describe()));
-    if h.len() != 6 {
+    if h.len() != 6 || !h.is_ascii() {
         return Err(bad());
     }
     let mut c = [0.0f32; 3];

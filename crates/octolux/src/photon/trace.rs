@@ -59,6 +59,10 @@ pub enum PhotonError {
     NoPhotons(u64),
     #[error("the scene has no light to emit photons from")]
     NoLight,
+    /// The photons (at most one stored per emitted path and bounce; counted as one per path)
+    /// would not fit in the memory budget ([`crate::budget`]).
+    #[error(transparent)]
+    Budget(#[from] crate::budget::BudgetError),
 }
 
 /// Output of the photon pass.
@@ -82,6 +86,7 @@ pub fn trace_photons(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonM
     if scene.lights.is_empty() {
         return Err(PhotonError::NoLight);
     }
+    crate::budget::check_photons(settings.photons)?;
     let start = std::time::Instant::now();
     let n = settings.photons;
     let inv_n = 1.0 / n as f32;
