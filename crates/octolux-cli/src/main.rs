@@ -45,7 +45,12 @@ fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
 
 fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
     let defines = parse_defines(&args.define)?;
-    let loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
+    let mut loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
+    let xml = std::path::Path::new(&args.scene).extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"));
+    if !xml && !defines.is_empty() {
+        // Only Mitsuba XML has parameters; a built-in scene or a mesh would drop them silently.
+        loaded.warnings.push(format!("-D is ignored: '{}' is not a Mitsuba XML scene (it has no parameters)", args.scene));
+    }
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
