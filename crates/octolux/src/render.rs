@@ -374,7 +374,9 @@ mod tests {
 
     #[test]
     fn a_cancel_flag_drops_the_pass_under_way_and_keeps_the_whole_ones() {
-        let (n, spp) = (8u32, 2u32);
+        // 64 tiles: the flag goes up while most tiles of the pass have not started, on any
+        // machine with fewer threads than that.
+        let (n, spp) = (32u32, 2u32);
         let per_pass = (n * n * spp) as u64;
         let settings = RenderSettings { spp, seed: 1, tile: 4, time_budget_s: Some(1e6), ..Default::default() };
         let cancel = AtomicBool::new(false);
