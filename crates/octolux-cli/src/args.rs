@@ -244,6 +244,11 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Memory limit for sizes read from the input (film, photons, meshes, images): bytes with
+    /// an optional K, M, G or T suffix. Default: $OCTOLUX_MEMORY_LIMIT, else 3/4 of the
+    /// machine's memory.
+    #[arg(long, value_name = "SIZE")]
+    pub memory_limit: Option<String>,
     /// Ray-intersection backend.
     #[arg(long, value_enum, default_value = "auto")]
     pub backend: BackendArg,

@@ -5,9 +5,17 @@
 //! `octolux export SCENE -o scene.xml` writes the scene as Mitsuba 3 XML (meshes as PLY).
 //!
 //! Rooms: [`args`] (the command line), [`settings`] (flags, `--settings` and `--set` merged
-//! into the library's integrator settings), [`stats`] (`OUT.json` and the build log).
+//! into the library's integrator settings), [`stats`] (`OUT.json` and the build log),
+//! [`output`] (the output set: checked first, written through staged files, renamed JSON last),
+//! [`interrupt`] (SIGINT/SIGTERM: a partial render is written, a second signal exits).
+//!
+//! Hostile input (issue 12): sizes from the command line or the scene (film, photons) are
+//! checked against the memory budget ([`octolux::budget`]) and the output folder is checked
+//! before any long work; `compare` refuses images holding non-finite values.
 
 mod args;
+mod interrupt;
+mod output;
 mod settings;
 mod stats;
 
@@ -16,9 +24,10 @@ use args::{keys, BackendArg, Cli, Command, ExportArgs, ReconstructionArg, Render
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::accel::BackendKind;
+use octolux::budget;
 use octolux::film::Reconstruction;
 use octolux::integrators::{build, Integrator};
-use octolux::render::{render, RenderSettings};
+use octolux::render::{render_cancellable, RenderSettings};
 use octolux::scene::Scene;
 use serde_json::json;
 use settings::SettingsInput;
@@ -36,14 +45,19 @@ fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
 
 fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
     let defines = parse_defines(&args.define)?;
-    let loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
+    let mut loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
+    let xml = std::path::Path::new(&args.scene).extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"));
+    if !xml && !defines.is_empty() {
+        // Only Mitsuba XML has parameters; a built-in scene or a mesh would drop them silently.
+        loaded.warnings.push(format!("-D is ignored: '{}' is not a Mitsuba XML scene (it has no parameters)", args.scene));
+    }
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }
     Ok(loaded)
 }
 
-fn cmd_render(args: &RenderArgs) -> Result<()> {
+fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let t0 = Instant::now();
     if let Some(n) = args.threads {
         if n == 0 {
@@ -62,10 +76,17 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
     if let Some(d) = args.max_depth.filter(|&d| d < -1) {
         bail!("--max-depth must be -1 (unbounded) or at least 0, got {d}");
     }
-    let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("");
-    if !ext.eq_ignore_ascii_case("exr") {
-        bail!("output '{}' must end in .exr (a .png and a .json are written beside it)", args.output.display());
+    if let Some(m) = &args.memory_limit {
+        let bytes = budget::parse_bytes(m)
+            .with_context(|| format!("--memory-limit {m}: expected a memory size (bytes with an optional K, M, G or T suffix)"))?;
+        budget::set_memory_limit(bytes);
     }
+    // The film the flags ask for, before reading the scene.
+    if let Some((w, h)) = args.resolution {
+        budget::check_film(w as u64, h as u64).context("--resolution")?;
+    }
+    let outputs = output::Outputs::check(&args.output)?;
+    interrupt::install()?;
     let loaded = load(&args.scene)?;
     let load_s = t0.elapsed().as_secs_f64();
     let mut desc = loaded.desc;
@@ -73,6 +94,8 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
         desc.film.width = w;
         desc.film.height = h;
     }
+    // The loader checks a film it reads; a built-in scene's, or one set in code, is checked here.
+    budget::check_film(desc.film.width as u64, desc.film.height as u64).with_context(|| format!("scene '{}'", args.scene.scene))?;
     let spp = args.spp.or(desc.hints.spp).unwrap_or(64);
 
     // The integrator's settings, checked before any long work.
@@ -100,6 +123,19 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
     }
     let integrator_settings = resolved.settings;
     let name = integrator_settings.name();
+    if let Some(w) = settings::scene_integrator_warning(
+        desc.hints.integrator.as_deref(),
+        &args.scene.scene,
+        name,
+        args.integrator.is_some() || args.settings.is_some(),
+    ) {
+        eprintln!("warning: {w}");
+        warnings.push(w);
+    }
+    let photon_count = settings::get(&integrator_settings, keys::PHOTON_COUNT).and_then(|v| v.as_u64());
+    if let Some(n) = photon_count {
+        budget::check_photons(n).context("the photon count (--photons or photons.photons)")?;
+    }
 
     let backend = match args.backend {
         BackendArg::Auto => BackendKind::Auto,
@@ -112,7 +148,6 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
         eprintln!("warning: the scene has no light; the image will be black");
     }
     // The scene the photons are traced in (the rendered one unless --cache-scene says otherwise).
-    let photon_count = settings::get(&integrator_settings, keys::PHOTON_COUNT).and_then(|v| v.as_u64());
     let cache_scene = match &args.octree.cache_scene {
         Some(spec) if photon_count.is_some() => {
             let other = load(&SceneArgs { scene: spec.clone(), define: args.scene.define.clone() })?;
@@ -167,16 +202,16 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
         bar.set_length(total);
         bar.set_position(done.min(total));
     };
-    let (image, rstats) = render(&scene, &integrator, &render_settings, &progress);
+    interrupt::set_rendering(true);
+    let (image, rstats) = render_cancellable(&scene, &integrator, &render_settings, &progress, Some(&interrupt::CANCEL));
     bar.finish_and_clear();
+    if rstats.interrupted && rstats.passes == 0 {
+        eprintln!("octolux: interrupted before the first pass was complete; nothing written");
+        return Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED));
+    }
 
     let t2 = Instant::now();
-    let png = args.output.with_extension("png");
-    let json = args.output.with_extension("json");
-    octolux_io::image_io::write_exr(&args.output, &image).with_context(|| format!("cannot write {}", args.output.display()))?;
-    octolux_io::image_io::write_png(&png, &image).with_context(|| format!("cannot write {}", png.display()))?;
-    let write_s = t2.elapsed().as_secs_f64();
-    let stats = StatsFile {
+    let mut stats = StatsFile {
         octolux_version: env!("CARGO_PKG_VERSION"),
         command_line: std::env::args().collect(),
         scene: &args.scene.scene,
@@ -187,7 +222,7 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
         triangles: scene.triangle_count(),
         seed: args.seed,
         render_settings,
-        timings: Timings { load_s, prepare_s, build_s, render_s: rstats.render_s, write_s, total_s: t0.elapsed().as_secs_f64() },
+        timings: Timings { load_s, prepare_s, build_s, render_s: rstats.render_s, write_s: 0.0, total_s: 0.0 },
         samples_per_second: rstats.samples_per_second,
         rays_per_second: rstats.rays_per_second,
         render: &rstats,
@@ -195,8 +230,26 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
         build: build_report,
         render_report: integrator.render_report(),
         warnings: &warnings,
+        partial: rstats.interrupted.then(|| stats::Partial::interrupted(&rstats)),
     };
-    stats::write_json(&json, &stats)?;
+    // The JSON's own write time is not in it; the images' is.
+    outputs.write(&image, || {
+        stats.timings.write_s = t2.elapsed().as_secs_f64();
+        stats.timings.total_s = t0.elapsed().as_secs_f64();
+        Ok(serde_json::to_string_pretty(&stats)?)
+    })?;
+    let (png, json) = (&outputs.png, &outputs.json);
+    if rstats.interrupted {
+        eprintln!(
+            "octolux: interrupted after {} passes ({} spp); wrote the partial image to {}, {}, {}",
+            rstats.passes,
+            rstats.spp,
+            args.output.display(),
+            png.display(),
+            json.display()
+        );
+        return Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED));
+    }
     if !args.quiet {
         eprintln!(
             "rendered {} spp in {:.2} s: {:.3} M samples/s, {:.2} M rays/s -> {}, {}, {}",
@@ -209,7 +262,7 @@ fn cmd_render(args: &RenderArgs) -> Result<()> {
             json.display()
         );
     }
-    Ok(())
+    Ok(std::process::ExitCode::SUCCESS)
 }
 
 fn cmd_export(args: &ExportArgs) -> Result<()> {
@@ -222,10 +275,11 @@ fn cmd_export(args: &ExportArgs) -> Result<()> {
 }
 
 /// Errors are printed as one line with their chain of causes (no stack trace, even when
-/// RUST_BACKTRACE is set: these are user errors, not crashes), and the exit status is 1.
+/// RUST_BACKTRACE is set: these are user errors, not crashes), and the exit status is 1; an
+/// interrupted render exits with [`interrupt::EXIT_INTERRUPTED`].
 fn main() -> std::process::ExitCode {
     match run(Cli::parse()) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE
@@ -233,24 +287,42 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-fn run(cli: Cli) -> Result<()> {
+fn run(cli: Cli) -> Result<std::process::ExitCode> {
+    // A malformed OCTOLUX_MEMORY_LIMIT is an error, not a silently ignored setting.
+    budget::limit_from_env().map_err(anyhow::Error::msg)?;
     match cli.command {
         Command::Render(a) => cmd_render(&a),
-        Command::Export(a) => cmd_export(&a),
-        Command::Compare { image, reference } => {
-            let a = octolux_io::image_io::read_exr(&image).with_context(|| format!("cannot read {}", image.display()))?;
-            let r = octolux_io::image_io::read_exr(&reference).with_context(|| format!("cannot read {}", reference.display()))?;
-            let e = octolux::metrics::compare(&a, &r).with_context(|| {
-                format!("{} is {}x{} but {} is {}x{}", image.display(), a.width, a.height, reference.display(), r.width, r.height)
-            })?;
-            println!("{}", serde_json::to_string_pretty(&e)?);
-            Ok(())
-        }
+        Command::Export(a) => cmd_export(&a).map(|()| std::process::ExitCode::SUCCESS),
+        Command::Compare { image, reference } => cmd_compare(&image, &reference).map(|()| std::process::ExitCode::SUCCESS),
         Command::Scenes => {
             for n in octolux_io::builtin::NAMES {
                 println!("{n}");
             }
-            Ok(())
+            Ok(std::process::ExitCode::SUCCESS)
         }
     }
+}
+
+/// `compare`: refuses images holding NaN or infinite values (a metric over them would be NaN,
+/// printed as `null`), saying how many each holds.
+fn cmd_compare(image: &std::path::Path, reference: &std::path::Path) -> Result<()> {
+    let a = octolux_io::image_io::read_exr(image).with_context(|| format!("cannot read {}", image.display()))?;
+    let r = octolux_io::image_io::read_exr(reference).with_context(|| format!("cannot read {}", reference.display()))?;
+    let mut bad = Vec::new();
+    for (path, img) in [(image, &a), (reference, &r)] {
+        let n = img.data.iter().flat_map(|c| [c.x, c.y, c.z]).filter(|v| !v.is_finite()).count();
+        if n > 0 {
+            let pixels = img.data.iter().filter(|c| !c.is_finite()).count();
+            let plural = if pixels == 1 { "" } else { "s" };
+            bad.push(format!("{} holds {n} non-finite values (NaN or infinity) in {pixels} pixel{plural}", path.display()));
+        }
+    }
+    if !bad.is_empty() {
+        bail!("cannot compare: {}", bad.join("; "));
+    }
+    let e = octolux::metrics::compare(&a, &r).with_context(|| {
+        format!("{} is {}x{} but {} is {}x{}", image.display(), a.width, a.height, reference.display(), r.width, r.height)
+    })?;
+    println!("{}", serde_json::to_string_pretty(&e)?);
+    Ok(())
 }

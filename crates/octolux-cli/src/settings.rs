@@ -163,6 +163,24 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
     Ok(Resolved { settings, warnings })
 }
 
+/// Mitsuba integrators whose image octolux's `path` renders (path tracers: the volumetric and
+/// differentiable variants give the same image on surface scenes).
+const PATH_TRACERS: &[&str] = &["path", "volpath", "volpathmis", "prb", "prb_basic", "prbvolpath"];
+
+/// The warning due when the scene's `<integrator type>` is not what is rendered and nothing on
+/// the command line chose the integrator (`chosen`: `--integrator` or `--settings` given): an
+/// unknown or unsupported type would otherwise render `used` without a word.
+pub fn scene_integrator_warning(scene_type: Option<&str>, scene: &str, used: &str, chosen: bool) -> Option<String> {
+    let ty = scene_type?;
+    if chosen || ty == used || (used == "path" && PATH_TRACERS.contains(&ty)) {
+        return None;
+    }
+    Some(format!(
+        "scene '{scene}': <integrator type=\"{ty}\"> is not an octolux integrator; rendering with {used} (choose one with --integrator: {})",
+        IntegratorSettings::NAMES.join(", ")
+    ))
+}
+
 /// A settings file: the integrator it names (`type`) and its other keys.
 struct SettingsFile {
     integrator: Option<String>,

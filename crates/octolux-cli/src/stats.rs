@@ -1,11 +1,9 @@
 //! `OUT.json`: what was rendered, how, and every counter of the build and of the render; and
 //! the build statistics printed to the log.
 
-use anyhow::{Context, Result};
 use octolux::integrators::octree::OctreeBuildStats;
 use octolux::render::{RenderSettings, RenderStats};
 use serde::Serialize;
-use std::path::Path;
 
 /// Timings of the phases of one run, in seconds.
 #[derive(Serialize, Default)]
@@ -50,6 +48,28 @@ pub struct StatsFile<'a> {
     pub render_report: serde_json::Value,
     /// Warnings of the scene loader and of the command line.
     pub warnings: &'a [String],
+    /// Set when the render stopped early (an interrupt): the image holds what is said here,
+    /// fewer samples than asked for. Null for a complete render.
+    pub partial: Option<Partial>,
+}
+
+/// What a partial image holds.
+#[derive(Serialize, Debug)]
+pub struct Partial {
+    /// Why the render stopped (`"interrupted"`: SIGINT, SIGTERM or SIGHUP).
+    pub reason: &'static str,
+    /// Whole passes done (each of `render_settings.spp` samples per pixel).
+    pub passes: u32,
+    /// Samples per pixel in the image.
+    pub spp: u32,
+    /// Samples in the image (all pixels).
+    pub samples: u64,
+}
+
+impl Partial {
+    pub fn interrupted(r: &RenderStats) -> Self {
+        Partial { reason: "interrupted", passes: r.passes, spp: r.spp, samples: r.samples }
+    }
 }
 
 /// Share of the render's thread time spent in cache lookups.
@@ -60,14 +80,6 @@ pub fn query_share(r: &RenderStats, threads: usize) -> f64 {
     } else {
         0.0
     }
-}
-
-/// Writes `value` as pretty JSON, through a temporary file so that a reader never sees half.
-pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
-    let tmp = path.with_extension("json.tmp");
-    std::fs::write(&tmp, serde_json::to_string_pretty(value)?).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
 }
 
 /// Print the paper's table-1 / table-3 quantities.

@@ -20,6 +20,10 @@
 //! are added to the image in tile order, so the image is bit-identical for any thread count.
 //! With a time budget, whole passes of `spp` samples are added until the budget is spent (the
 //! result then depends on the machine's speed).
+//!
+//! Interrupts: [`render_cancellable`] takes a flag (set from a signal handler, say) checked
+//! before each tile; once it is set the pass under way is dropped and the loop stops, so the
+//! image holds the whole passes done so far ([`RenderStats::interrupted`], `passes`, `spp`).
 
 use crate::film::{camera_sample, Pixel};
 use crate::film::{filter_radius, filter_weight, Reconstruction};
@@ -32,6 +36,7 @@ use crate::scene::Scene;
 use glam::Vec2;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// Settings of the render loop.
@@ -68,6 +73,10 @@ pub struct RenderStats {
     pub samples_per_second: f64,
     pub counters: RayCounters,
     pub rays_per_second: f64,
+    /// The render stopped early on its cancel flag: the image holds `passes` whole passes
+    /// (none when `passes` is 0, and the image is black).
+    #[serde(default)]
+    pub interrupted: bool,
 }
 
 /// The widest splat margin in pixels (a Gaussian of stddev up to 2 px); a wider filter is cut
@@ -101,6 +110,24 @@ pub fn render_film<F>(
 where
     F: Fn(Vec2, &mut Sampler, &mut RayCounters) -> Color + Sync,
 {
+    render_film_cancellable(w, h, filter, settings, progress, None, li)
+}
+
+/// [`render_film`] that stops when `cancel` becomes true (checked before each tile): the pass
+/// under way is dropped, and the image and statistics are those of the whole passes done.
+pub fn render_film_cancellable<F>(
+    w: u32,
+    h: u32,
+    filter: PixelFilter,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    cancel: Option<&AtomicBool>,
+    li: F,
+) -> (Image, RenderStats)
+where
+    F: Fn(Vec2, &mut Sampler, &mut RayCounters) -> Color + Sync,
+{
+    let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
     let tile = settings.tile.max(1);
     let tiles_x = w.div_ceil(tile);
     let tiles_y = h.div_ceil(tile);
@@ -117,12 +144,16 @@ where
     let start = Instant::now();
     let mut passes = 0u32;
     let total_pixels = (w as u64) * (h as u64);
+    let mut interrupted = false;
     loop {
         let done = std::sync::atomic::AtomicU64::new(0);
         let pass = passes;
-        let results: Vec<TileBuffer> = (0..n_tiles as u32)
+        let results: Vec<Option<TileBuffer>> = (0..n_tiles as u32)
             .into_par_iter()
             .map(|ti| {
+                if cancelled() {
+                    return None;
+                }
                 let (tx, ty) = (ti % tiles_x, ti / tiles_x);
                 let (x0, y0) = (tx * tile, ty * tile);
                 let (x1, y1) = ((x0 + tile).min(w), (y0 + tile).min(h));
@@ -193,9 +224,14 @@ where
                 let n = ((x1 - x0) * (y1 - y0)) as u64;
                 let d = done.fetch_add(n, std::sync::atomic::Ordering::Relaxed) + n;
                 progress(d, total_pixels);
-                buf
+                Some(buf)
             })
             .collect();
+        // A pass cut short by the cancel flag is dropped whole.
+        let Some(results) = results.into_iter().collect::<Option<Vec<TileBuffer>>>() else {
+            interrupted = true;
+            break;
+        };
         // In tile order, whatever the threads did: the sums are bit-identical for any count.
         for buf in results {
             counters += buf.counters;
@@ -219,6 +255,10 @@ where
         }
         passes += 1;
         match settings.time_budget_s {
+            Some(_) if cancelled() => {
+                interrupted = true;
+                break;
+            }
             Some(b) if start.elapsed().as_secs_f64() < b => continue,
             _ => break,
         }
@@ -243,6 +283,7 @@ where
         samples_per_second: samples as f64 / render_s.max(1e-9),
         counters,
         rays_per_second: (counters.rays + counters.shadow_rays) as f64 / render_s.max(1e-9),
+        interrupted,
     };
     (Image { width: w, height: h, data }, stats)
 }
@@ -255,7 +296,19 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> (Image, RenderStats) {
-    render_film(scene.film.width, scene.film.height, scene.film.filter, settings, progress, |film, sampler, c| {
+    render_cancellable(scene, integrator, settings, progress, None)
+}
+
+/// [`render`] that stops when `cancel` becomes true (see [`render_film_cancellable`]).
+pub fn render_cancellable(
+    scene: &Scene,
+    integrator: &Integrator,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    cancel: Option<&AtomicBool>,
+) -> (Image, RenderStats) {
+    let f = &scene.film;
+    render_film_cancellable(f.width, f.height, f.filter, settings, progress, cancel, |film, sampler, c| {
         let (o, d, tmin) = scene.camera.generate_ray(film);
         let ray = Ray { o, d, tmin, tmax: f32::INFINITY };
         integrator.li(scene, ray, sampler, c)
@@ -327,5 +380,36 @@ mod tests {
                 assert!(img.data.iter().all(|c| c.is_finite()), "stddev {stddev}, {rec:?}");
             }
         }
+    }
+
+    #[test]
+    fn a_cancel_flag_drops_the_pass_under_way_and_keeps_the_whole_ones() {
+        // 64 tiles: the flag goes up while most tiles of the pass have not started, on any
+        // machine with fewer threads than that.
+        let (n, spp) = (32u32, 2u32);
+        let per_pass = (n * n * spp) as u64;
+        let settings = RenderSettings { spp, seed: 1, tile: 4, time_budget_s: Some(1e6), ..Default::default() };
+        let cancel = AtomicBool::new(false);
+        let calls = std::sync::atomic::AtomicU64::new(0);
+        // The flag goes up at the first sample of the fourth pass.
+        let (img, stats) = render_film_cancellable(n, n, PixelFilter::Box, &settings, &|_, _| {}, Some(&cancel), |_, _, _| {
+            if calls.fetch_add(1, Ordering::Relaxed) == 3 * per_pass {
+                cancel.store(true, Ordering::Relaxed);
+            }
+            Color::splat(0.5)
+        });
+        assert!(stats.interrupted);
+        assert_eq!((stats.passes, stats.spp, stats.samples), (3, 3 * spp, 3 * per_pass));
+        assert!(img.data.iter().all(|c| *c == Color::splat(0.5)), "every pixel holds whole passes only");
+
+        // Raised before the first pass: nothing rendered, said so.
+        let (_, stats) = render_film_cancellable(n, n, PixelFilter::Box, &settings, &|_, _| {}, Some(&cancel), |_, _, _| Color::ONE);
+        assert!(stats.interrupted);
+        assert_eq!((stats.passes, stats.samples), (0, 0));
+        // Without a flag (or never raised) nothing changes.
+        let once = RenderSettings { time_budget_s: None, ..settings };
+        let (_, stats) = render_film_cancellable(n, n, PixelFilter::Box, &once, &|_, _| {}, None, |_, _, _| Color::ONE);
+        assert!(!stats.interrupted);
+        assert_eq!(stats.passes, 1);
     }
 }

@@ -169,8 +169,11 @@ impl<'t> Builder<'t> {
     pub(super) fn sampler(&mut self, e: &'t Elem) -> Result<u32, IoError> {
         let p = self.props(e)?;
         let n = p.int("sample_count")?.unwrap_or(4);
-        if !(1..=u32::MAX as i64).contains(&n) {
+        if n < 1 {
             return Err(e.loc.error(format!("{}: sample_count {n} must be positive", e.describe())));
+        }
+        if n > u32::MAX as i64 {
+            return Err(e.loc.error(format!("{}: sample_count {n} is too large (at most {})", e.describe(), u32::MAX)));
         }
         // The sampler type and its settings only change the noise pattern.
         p.accept_all();

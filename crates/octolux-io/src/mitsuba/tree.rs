@@ -179,6 +179,7 @@ pub(crate) fn read(path: &Path, defines: &[(String, String)], warnings: &mut Vec
 pub(crate) fn read_str(text: &str, path: &Path, defines: &[(String, String)], warnings: &mut Vec<String>) -> Result<Tree, IoError> {
     let mut b = Builder {
         params: defines.to_vec(),
+        defines_used: vec![false; defines.len()],
         main_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         search_dirs: Vec::new(),
         warnings,
@@ -189,6 +190,12 @@ pub(crate) fn read_str(text: &str, path: &Path, defines: &[(String, String)], wa
     b.document(text, &file, None, 0, &mut out)?;
     if out.len() != 1 {
         return Err(IoError::invalid(path, "the document has no root element"));
+    }
+    // A define that neither overrides a <default> nor fills a $name changes nothing: say so.
+    for ((name, value), used) in defines.iter().zip(&b.defines_used) {
+        if !used {
+            b.warnings.push(format!("-D {name}={value} is unused: {} has no <default name=\"{name}\"> and no ${name}", path.display()));
+        }
     }
     let root = out.remove(0);
     if root.tag != "scene" {
@@ -227,6 +234,9 @@ pub(crate) fn camel_to_snake(name: &str) -> String {
 
 struct Builder<'w> {
     params: Vec<(String, String)>,
+    /// Per command-line define (the first entries of `params`): whether a `<default>` of its
+    /// name or a `$name` reference met it.
+    defines_used: Vec<bool>,
     main_dir: PathBuf,
     search_dirs: Vec<PathBuf>,
     warnings: &'w mut Vec<String>,
@@ -279,7 +289,7 @@ impl Builder<'_> {
     }
 
     /// `Some(is_legacy)` when the element carries a version attribute.
-    fn version_of(&self, doc: &Doc, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<Option<bool>, IoError> {
+    fn version_of(&mut self, doc: &Doc, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<Option<bool>, IoError> {
         match node.attribute("version") {
             None => Ok(None),
             Some(v) => {
@@ -311,15 +321,21 @@ impl Builder<'_> {
     }
 
     /// Replace `$name` references in an attribute value.
-    fn substitute(&self, value: &str, doc: &Doc, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<String, IoError> {
+    fn substitute(&mut self, value: &str, doc: &Doc, node: roxmltree::Node, file: &Rc<PathBuf>) -> Result<String, IoError> {
         if !value.contains('$') {
             return Ok(value.to_string());
         }
-        let mut params: Vec<&(String, String)> = self.params.iter().collect();
-        params.sort_by_key(|p| std::cmp::Reverse(p.0.len()));
+        let mut params: Vec<(usize, &(String, String))> = self.params.iter().enumerate().collect();
+        params.sort_by_key(|p| std::cmp::Reverse(p.1 .0.len()));
         let mut v = value.to_string();
-        for (name, val) in params {
-            v = v.replace(&format!("${name}"), val);
+        for (i, (name, val)) in params {
+            let reference = format!("${name}");
+            if v.contains(&reference) {
+                if let Some(u) = self.defines_used.get_mut(i) {
+                    *u = true;
+                }
+                v = v.replace(&reference, val);
+            }
         }
         if let Some(pos) = v.find('$') {
             let name: String = v[pos + 1..].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
@@ -366,6 +382,9 @@ impl Builder<'_> {
                 let value = elem.req_attr("value")?.to_string();
                 if name.is_empty() {
                     return Err(elem.loc.error("<default>: the name must not be empty"));
+                }
+                for (used, (n, _)) in self.defines_used.iter_mut().zip(&self.params) {
+                    *used |= *n == name;
                 }
                 if !self.params.iter().any(|(n, _)| *n == name) {
                     self.params.push((name, value));

@@ -1,0 +1,379 @@
+//! The command line under hostile input and failing disks (issue 12, CLI side): each case with
+//! the exact message it must give (docs/errors.md lists them). Cases that need a tmpfs mount
+//! (disk full, read-only folder) print one line and pass where mounting is not allowed.
+
+use octolux::budget;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// A fresh folder for one test, removed on drop (unmounted first if a tmpfs was put there).
+struct TempDir {
+    path: PathBuf,
+    mounted: bool,
+}
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let path = std::env::temp_dir().join(format!("octolux-hostile-cli-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&path);
+        std::fs::create_dir_all(&path).expect("temp dir");
+        TempDir { path, mounted: false }
+    }
+
+    /// Mount a tmpfs with `options` on this folder; false (after printing why) where not allowed.
+    fn mount_tmpfs(&mut self, options: &str, test: &str) -> bool {
+        let ok = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", options, "tmpfs"])
+            .arg(&self.path)
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        if !ok {
+            println!("skipped {test}: cannot mount a tmpfs here (needs root)");
+        }
+        self.mounted = ok;
+        ok
+    }
+
+    fn files(&self) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(&self.path)
+            .expect("read dir")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if self.mounted {
+            let _ = Command::new("umount").arg(&self.path).status();
+        }
+        let _ = std::fs::remove_dir_all(&self.path);
+    }
+}
+
+fn octolux() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_octolux"));
+    c.env_remove(budget::MEMORY_LIMIT_ENV);
+    c
+}
+
+fn run(args: &[&str]) -> Output {
+    octolux().args(args).output().expect("octolux runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A small Mitsuba scene: `integrator` type, `spp` (the sampler's sample_count, through the
+/// `$spp` default), and a `width`x8 film.
+fn scene_xml(integrator: &str, spp: &str, width: u64) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+    <default name="spp" value="{spp}"/>
+    <integrator type="{integrator}"/>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0,0,4" target="0,0,0" up="0,1,0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="{width}"/><integer name="height" value="8"/></film>
+    </sensor>
+    <shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1,1,1"/></emitter></shape>
+</scene>
+"#
+    )
+}
+
+fn write_scene(dir: &TempDir, integrator: &str, spp: &str, width: u64) -> String {
+    let p = dir.path.join("scene.xml");
+    std::fs::write(&p, scene_xml(integrator, spp, width)).expect("write scene");
+    p.to_string_lossy().into_owned()
+}
+
+fn path_str(p: &Path) -> String {
+    p.to_string_lossy().into_owned()
+}
+
+#[test]
+fn sizes_beyond_the_memory_budget_are_refused_before_any_work() {
+    let dir = TempDir::new("budget");
+    let out = path_str(&dir.path.join("x.exr"));
+    // The largest --resolution accepted by the parser, against a 1 GiB limit.
+    let o = run(&["render", "cornell-box", "--resolution", "32768x32768", "--memory-limit", "1G", "-q", "-o", &out]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(
+        stderr(&o),
+        "error: --resolution: a 32768x32768 film would need 64.0 GiB of memory, more than the limit of 1.0 GiB \
+         (set OCTOLUX_MEMORY_LIMIT to change the limit)\n"
+    );
+    // The same limit from the environment.
+    let o = octolux()
+        .env(budget::MEMORY_LIMIT_ENV, "1G")
+        .args(["render", "cornell-box", "--resolution", "32768x32768", "-q", "-o", &out])
+        .output()
+        .expect("runs");
+    assert!(stderr(&o).starts_with("error: --resolution: a 32768x32768 film would need 64.0 GiB"), "{}", stderr(&o));
+    // A malformed limit is an error, not ignored.
+    let o = octolux().env(budget::MEMORY_LIMIT_ENV, "lots").args(["render", "-q", "-o", &out]).output().expect("runs");
+    assert_eq!(
+        stderr(&o),
+        "error: OCTOLUX_MEMORY_LIMIT=\"lots\" is not a memory size (expected bytes with an optional K, M, G or T suffix)\n"
+    );
+    // 10^12 photons.
+    let o =
+        run(&["render", "cornell-box", "--integrator", "octree", "--photons", "1000000000000", "--memory-limit", "4G", "-q", "-o", &out]);
+    let need = budget::format_bytes(1_000_000_000_000 * budget::PHOTON_BYTES);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: the photon count (--photons or photons.photons): 1000000000000 photons would need {need} of memory, \
+             more than the limit of 4.0 GiB (set OCTOLUX_MEMORY_LIMIT to change the limit)\n"
+        )
+    );
+    // A film of the scene file (checked by the loader, naming file and line).
+    let scene = write_scene(&dir, "path", "4", 32768);
+    let o = run(&["render", &scene, "--memory-limit", "1M", "-q", "-o", &out]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(e.contains(&format!("{scene}:8")), "names file and line: {e}");
+    assert!(e.contains("a 32768x8 film would need 16.0 MiB of memory, more than the limit of 1.0 MiB"), "{e}");
+    let o = run(&["render", "--memory-limit", "1Q", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), "error: --memory-limit 1Q: expected a memory size (bytes with an optional K, M, G or T suffix)\n");
+    assert_eq!(dir.files(), vec!["scene.xml"], "nothing written");
+}
+
+#[test]
+fn the_output_folder_is_checked_before_the_scene_is_read() {
+    let dir = TempDir::new("outdir");
+    // The scene does not exist either: the output is what is reported, so it came first.
+    let missing = dir.path.join("missing").join("x.exr");
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &path_str(&missing)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), format!("error: output folder '{}' does not exist\n", dir.path.join("missing").display()));
+
+    std::fs::create_dir(dir.path.join("x.exr")).expect("mkdir");
+    let out = path_str(&dir.path.join("x.exr"));
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), format!("error: output path '{out}' is a folder\n"));
+    std::fs::create_dir(dir.path.join("y.json")).expect("mkdir");
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &path_str(&dir.path.join("y.exr"))]);
+    assert_eq!(stderr(&o), format!("error: output path '{}' is a folder\n", dir.path.join("y.json").display()));
+
+    let file = dir.path.join("plain");
+    std::fs::write(&file, "").expect("write");
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &path_str(&file.join("x.exr"))]);
+    assert_eq!(stderr(&o), format!("error: output folder '{}' is not a folder\n", file.display()));
+    let o = run(&["render", "-q", "-o", &path_str(&dir.path.join("x.png"))]);
+    assert_eq!(
+        stderr(&o),
+        format!("error: output '{}' must end in .exr (a .png and a .json are written beside it)\n", dir.path.join("x.png").display())
+    );
+    assert_eq!(dir.files(), vec!["plain", "x.exr", "y.json"]);
+}
+
+#[test]
+fn a_read_only_output_folder_is_refused_before_any_work() {
+    let mut dir = TempDir::new("readonly");
+    if !dir.mount_tmpfs("ro,size=64k", "a_read_only_output_folder_is_refused_before_any_work") {
+        return;
+    }
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert_eq!(stderr(&o), format!("error: output folder '{}' is not writable: Read-only file system (os error 30)\n", dir.path.display()));
+}
+
+#[test]
+fn a_full_disk_leaves_the_previous_outputs_and_no_new_file() {
+    let mut dir = TempDir::new("full");
+    // tmpfs counts whole pages: the 4x4 set takes 3 of the 8, a 96x96 EXR alone needs more.
+    if !dir.mount_tmpfs("size=32k", "a_full_disk_leaves_the_previous_outputs_and_no_new_file") {
+        return;
+    }
+    let out = path_str(&dir.path.join("x.exr"));
+    let small = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &out]);
+    assert!(small.status.success(), "{}", stderr(&small));
+    let before: Vec<Vec<u8>> = ["x.exr", "x.json", "x.png"].iter().map(|f| std::fs::read(dir.path.join(f)).expect("read")).collect();
+    let big = run(&["render", "cornell-box", "--resolution", "96x96", "--spp", "1", "--seed", "7", "-q", "-o", &out]);
+    assert_eq!(big.status.code(), Some(1));
+    let e = stderr(&big);
+    assert!(e.starts_with(&format!("error: cannot write {out}: ")) && e.contains("No space left on device"), "{e}");
+    assert_eq!(dir.files(), vec!["x.exr", "x.json", "x.png"], "no staged file left behind");
+    let after: Vec<Vec<u8>> = ["x.exr", "x.json", "x.png"].iter().map(|f| std::fs::read(dir.path.join(f)).expect("read")).collect();
+    assert!(before == after, "the previous outputs are untouched");
+}
+
+#[test]
+fn two_renders_to_the_same_path_leave_one_whole_set() {
+    let dir = TempDir::new("race");
+    let args = |seed: &str, out: &str| -> Vec<String> {
+        ["render", "cornell-box", "--resolution", "16x16", "--spp", "2", "-q", "--seed", seed, "-o", out]
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    };
+    // Each seed's set, rendered alone.
+    let mut alone = Vec::new();
+    for seed in ["1", "2"] {
+        let out = path_str(&dir.path.join(format!("alone{seed}.exr")));
+        assert!(octolux().args(args(seed, &out)).status().expect("runs").success());
+        alone.push((std::fs::read(&out).expect("exr"), std::fs::read(dir.path.join(format!("alone{seed}.png"))).expect("png")));
+    }
+    let out = path_str(&dir.path.join("x.exr"));
+    for round in 0..6 {
+        let a = octolux().args(args("1", &out)).stderr(Stdio::piped()).spawn().expect("spawn");
+        let b = octolux().args(args("2", &out)).stderr(Stdio::piped()).spawn().expect("spawn");
+        let (a, b) = (a.wait_with_output().expect("a"), b.wait_with_output().expect("b"));
+        assert!(a.status.success() && b.status.success(), "round {round}: {} {}", stderr(&a), stderr(&b));
+        let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("valid JSON");
+        let seed = json["seed"].as_u64().expect("seed") as usize;
+        let (exr, png) = (std::fs::read(&out).expect("exr"), std::fs::read(dir.path.join("x.png")).expect("png"));
+        assert!(exr == alone[seed - 1].0 && png == alone[seed - 1].1, "round {round}: the set mixes two runs");
+        let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
+        assert!(stray.is_empty(), "round {round}: left behind {stray:?}");
+    }
+}
+
+/// Start a render, wait for its stderr line starting with `marker` and then `wait`, send
+/// `signals` (`kill -s` names) a moment apart, and return its output and how long it took to
+/// exit after them.
+fn interrupt(args: &[&str], marker: &str, wait: Duration, signals: &[&str]) -> (Output, Duration) {
+    let mut child = octolux().args(args).stderr(Stdio::piped()).stdout(Stdio::null()).spawn().expect("spawn");
+    let mut err = BufReader::new(child.stderr.take().expect("stderr"));
+    let mut seen = String::new();
+    loop {
+        let mut line = String::new();
+        if err.read_line(&mut line).expect("read") == 0 {
+            panic!("octolux ended before '{marker}': {seen}");
+        }
+        seen.push_str(&line);
+        if line.starts_with(marker) {
+            break;
+        }
+    }
+    std::thread::sleep(wait);
+    let pid = child.id().to_string();
+    for s in signals {
+        assert!(Command::new("kill").args(["-s", s, &pid]).status().expect("kill").success());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let t = Instant::now();
+    let reader = std::thread::spawn(move || {
+        let mut rest = String::new();
+        let _ = std::io::Read::read_to_string(&mut err, &mut rest);
+        rest
+    });
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        assert!(t.elapsed() < Duration::from_secs(60), "octolux did not stop on {signals:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let took = t.elapsed();
+    seen.push_str(&reader.join().expect("reader"));
+    (Output { status, stdout: Vec::new(), stderr: seen.into_bytes() }, took)
+}
+
+#[test]
+fn an_interrupted_progressive_render_writes_its_passes_marked_partial() {
+    for signal in ["INT", "TERM"] {
+        let dir = TempDir::new(&format!("sig{signal}"));
+        let out = path_str(&dir.path.join("x.exr"));
+        let args = ["render", "cornell-box", "--resolution", "32x32", "--spp", "1", "--time-budget", "600", "-o", &out];
+        let (o, took) = interrupt(&args, "octolux: cornell-box", Duration::from_millis(1500), &[signal]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(130), "{e}");
+        assert!(took < Duration::from_secs(10), "took {took:?} to stop");
+        assert!(e.contains("octolux: interrupted; writing the passes done so far (interrupt again to exit at once)"), "{e}");
+        let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("JSON");
+        let p = &json["partial"];
+        assert_eq!(p["reason"], "interrupted", "{json}");
+        let passes = p["passes"].as_u64().expect("passes");
+        assert!(passes >= 1, "{p}");
+        assert_eq!(p["spp"].as_u64(), Some(passes), "{p}");
+        assert_eq!(p["samples"].as_u64(), Some(passes * 32 * 32), "{p}");
+        assert_eq!(json["render"]["interrupted"], true);
+        assert!(e.contains(&format!("octolux: interrupted after {passes} passes ({passes} spp); wrote the partial image to {out}")), "{e}");
+        let img = octolux_io::image_io::read_exr(Path::new(&out)).expect("a readable EXR");
+        assert!(img.data.iter().any(|c| c.x > 0.0), "the passes done are in the image");
+        assert_eq!(dir.files(), vec!["x.exr", "x.json", "x.png"]);
+    }
+}
+
+#[test]
+fn a_signal_before_the_render_loop_exits_at_once_and_writes_nothing() {
+    // The photon pass of 20M photons takes far longer than the wait; nothing is saved yet.
+    let dir = TempDir::new("sigbuild");
+    let out = path_str(&dir.path.join("x.exr"));
+    let args = ["render", "cornell-box", "--integrator", "photonmap", "--photons", "20000000", "--resolution", "8x8", "-o", &out];
+    let (o, took) = interrupt(&args, "photonmap: tracing", Duration::from_millis(200), &["INT"]);
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(took < Duration::from_secs(2), "took {took:?} to exit");
+    assert!(stderr(&o).ends_with("octolux: interrupted; exiting without writing\n"), "{}", stderr(&o));
+    assert!(dir.files().is_empty(), "{:?}", dir.files());
+}
+
+#[test]
+fn compare_refuses_non_finite_values_and_counts_them() {
+    let dir = TempDir::new("compare");
+    let px = |v: f32| octolux::math::Color::new(v, v, v);
+    let good = octolux::image::Image { width: 2, height: 2, data: vec![px(0.5); 4] };
+    let mut bad = good.clone();
+    bad.data[1] = octolux::math::Color::new(f32::NAN, 0.5, f32::INFINITY);
+    bad.data[3] = px(f32::NEG_INFINITY);
+    let (g, b) = (dir.path.join("good.exr"), dir.path.join("bad.exr"));
+    octolux_io::image_io::write_exr(&g, &good).expect("write");
+    octolux_io::image_io::write_exr(&b, &bad).expect("write");
+    let o = run(&["compare", &path_str(&b), &path_str(&g)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(o.stdout.is_empty());
+    assert_eq!(stderr(&o), format!("error: cannot compare: {} holds 5 non-finite values (NaN or infinity) in 2 pixels\n", b.display()));
+    let o = run(&["compare", &path_str(&g), &path_str(&b)]);
+    assert_eq!(stderr(&o), format!("error: cannot compare: {} holds 5 non-finite values (NaN or infinity) in 2 pixels\n", b.display()));
+    let o = run(&["compare", &path_str(&g), &path_str(&g)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn scene_inputs_that_used_to_be_dropped_silently_warn() {
+    let dir = TempDir::new("silent");
+    let out = path_str(&dir.path.join("x.exr"));
+    let scene = write_scene(&dir, "path", "1", 8);
+    // An unused -D warns; one that overrides a <default> does not.
+    let o = run(&["render", &scene, "-D", "nosuch=3", "-D", "spp=2", "-q", "-o", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), format!("warning: -D nosuch=3 is unused: {scene} has no <default name=\"nosuch\"> and no $nosuch\n"));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("JSON");
+    assert_eq!(json["render_settings"]["spp"], 2, "the used define applies");
+    assert!(json["warnings"][0].as_str().is_some_and(|w| w.starts_with("-D nosuch=3 is unused")), "{json}");
+
+    let o = run(&["render", "cornell-box", "-D", "spp=2", "--resolution", "4x4", "--spp", "1", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), "warning: -D is ignored: 'cornell-box' is not a Mitsuba XML scene (it has no parameters)\n");
+
+    // sample_count 2^32 is too large, not "not positive".
+    let scene = write_scene(&dir, "path", "4294967296", 8);
+    let o = run(&["render", &scene, "-q", "-o", &out]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("sample_count 4294967296 is too large (at most 4294967295)"), "{}", stderr(&o));
+
+    // An integrator octolux does not have renders path, with a word; a path tracer's does not.
+    let scene = write_scene(&dir, "bdpt", "1", 8);
+    let o = run(&["render", &scene, "-q", "-o", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "warning: scene '{scene}': <integrator type=\"bdpt\"> is not an octolux integrator; rendering with path \
+             (choose one with --integrator: path, octree, photonmap, ward, christensen)\n"
+        )
+    );
+    let o = run(&["render", &scene, "--integrator", "path", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), "", "chosen on the command line: nothing to say");
+    let scene = write_scene(&dir, "volpath", "1", 8);
+    let o = run(&["render", &scene, "-q", "-o", &out]);
+    assert_eq!(stderr(&o), "");
+}
