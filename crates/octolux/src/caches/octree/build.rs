@@ -17,9 +17,10 @@
 use super::cells::{LeafBuild, TreeView};
 use super::compress::{compress_leaf, compress_leaf_for_normals};
 use super::estimate::{EstimateCtx, LeafEstimate, Scratch};
+use super::geometry::AnalyticSphere;
 use super::settings::{Estimator, Split, Storage, MAX_DEPTH};
 use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg, SortKey, Sorted};
-use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, ALL_FACING, LEAF_BIT, NO_VALUE};
+use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, Surfaces, ALL_FACING, LEAF_BIT, NO_VALUE};
 use crate::math::Bounds3;
 use crate::photon::Photon;
 use glam::Vec3;
@@ -172,6 +173,7 @@ fn estimates<R: PhotonRec, K: SortKey>(
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
     triangles: &[[Vec3; 3]],
+    spheres: &[AnalyticSphere],
 ) -> (Tree, usize, Vec<LeafEstimate>) {
     let Sorted { keys, pos, recs } = sorted;
     let tree = subdivide(&keys, settings);
@@ -194,7 +196,7 @@ fn estimates<R: PhotonRec, K: SortKey>(
             .collect();
         distribute_triangles(&view, &tri_bounds, settings.epsilon, tree.valid.len())
     };
-    let ctx = EstimateCtx { view, start: &tree.start, pos: &pos, recs: &recs, settings, triangles, tri_lists: &tri_lists };
+    let ctx = EstimateCtx { view, start: &tree.start, pos: &pos, recs: &recs, settings, triangles, tri_lists: &tri_lists, spheres };
     let est: Vec<LeafEstimate> =
         tree.valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
     let n = recs.len();
@@ -210,11 +212,12 @@ fn sort_and_estimate<R: PhotonRec>(
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
     triangles: &[[Vec3; 3]],
+    spheres: &[AnalyticSphere],
 ) -> (Tree, usize, Vec<LeafEstimate>) {
     if 3 * kf.h < 32 {
-        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles)
+        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles, spheres)
     } else {
-        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles)
+        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles, spheres)
     }
 }
 
@@ -222,7 +225,7 @@ pub(super) fn build(
     photons: &[Photon],
     bounds: Bounds3,
     settings: &OctreeSettings,
-    geometry: Option<&[[Vec3; 3]]>,
+    geometry: Option<Surfaces<'_>>,
 ) -> Result<Octree, OctreeError> {
     let t0 = Instant::now();
     settings.validate()?;
@@ -243,11 +246,11 @@ pub(super) fn build(
     // 1.-2. sort and subdivision, 3.-4. estimates
     let cosine_min = (settings.estimator == Estimator::Cosine).then_some(settings.min_cos);
     let kf = KeyFn { origin, inv_quant, h };
-    let tris = geometry.filter(|_| settings.estimator == Estimator::GeometryArea).unwrap_or(&[]);
+    let surfaces = geometry.filter(|_| settings.estimator == Estimator::GeometryArea).unwrap_or_default();
     let (tree, n_kept, est) = if settings.estimator == Estimator::GeometryArea || settings.split == Split::Normal {
-        sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, tris)
+        sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, surfaces.triangles, surfaces.spheres)
     } else {
-        sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, &[])
+        sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, &[], &[])
     };
     let Tree { nodes, leaves, valid, .. } = tree;
     // The facing bits are kept only when they say something (Split::Normal with geometry);
