@@ -318,4 +318,15 @@ mod tests {
         let ratio = fis / splat;
         assert!((1.9..2.6).contains(&ratio), "variance ratio {ratio}, expected about 2.25");
     }
+
+    #[test]
+    fn a_degenerate_gaussian_given_to_the_render_loop_directly_ends() {
+        // Scene validation refuses such filters; the loop must still end without them.
+        for stddev in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            for rec in [Reconstruction::Splat, Reconstruction::ImportanceSampled] {
+                let img = film(PixelFilter::Gaussian { stddev }, rec, 5, 2, |_, _| Color::ONE);
+                assert!(img.data.iter().all(|c| c.is_finite()), "stddev {stddev}, {rec:?}");
+            }
+        }
+    }
 }
