@@ -60,7 +60,9 @@ fn render_stats(scene: &Scene, settings: &IntegratorSettings, spp: u32) -> (f64,
 /// of π at these photon counts (3% bound); the caches carry a quarter of the radiance
 /// (ρE/π = 0.5 of 2), so their share of the render's error is under 0.5%; direct light
 /// (NEE, 256 pixels x 16 spp) adds ~0.3%. 1% is about 3σ of the sum. No pixel may exceed
-/// 1.5x the truth (the analytic sphere's blow-ups were 700x).
+/// 5x the truth: the analytic sphere's blow-ups made the mean 35x and single pixels 700x,
+/// while honest noise reaches 2.5x (octree --gather in the cube, 16 spp: a gather ray that
+/// lands near an edge takes next-event light from the adjacent wall at 1/r²).
 #[test]
 fn inside_closed_shapes_every_cache_integrator_renders_two() {
     for (shape, scene) in [("analytic sphere", furnace_scene(0.5, 1.0)), ("mesh cube", furnace_box_scene(0.5, 1.0))] {
@@ -68,7 +70,7 @@ fn inside_closed_shapes_every_cache_integrator_renders_two() {
             let (mean, max) = render_stats(&scene, &settings, 16);
             eprintln!("furnace inside the {shape}, {name}: mean {mean:.4} (2), max {max:.3}");
             assert!((mean - 2.0).abs() < 0.02, "{shape}, {name}: mean {mean}, expected 2 within 1%");
-            assert!(max < 3.0, "{shape}, {name}: pixel {max}");
+            assert!(max < 10.0, "{shape}, {name}: pixel {max}");
         }
     }
 }

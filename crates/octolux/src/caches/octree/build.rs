@@ -17,7 +17,6 @@
 use super::cells::{LeafBuild, TreeView};
 use super::compress::{compress_leaf, compress_leaf_for_normals};
 use super::estimate::{EstimateCtx, LeafEstimate, Scratch};
-use super::geometry::AnalyticSphere;
 use super::settings::{Estimator, Split, Storage, MAX_DEPTH};
 use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg, SortKey, Sorted};
 use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, Surfaces, ALL_FACING, LEAF_BIT, NO_VALUE};
@@ -172,9 +171,9 @@ fn estimates<R: PhotonRec, K: SortKey>(
     origin: Vec3,
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
-    triangles: &[[Vec3; 3]],
-    spheres: &[AnalyticSphere],
+    surfaces: Surfaces<'_>,
 ) -> (Tree, usize, Vec<LeafEstimate>) {
+    let Surfaces { triangles, spheres } = surfaces;
     let Sorted { keys, pos, recs } = sorted;
     let tree = subdivide(&keys, settings);
     drop(keys);
@@ -211,13 +210,12 @@ fn sort_and_estimate<R: PhotonRec>(
     cosine_min: Option<f32>,
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
-    triangles: &[[Vec3; 3]],
-    spheres: &[AnalyticSphere],
+    surfaces: Surfaces<'_>,
 ) -> (Tree, usize, Vec<LeafEstimate>) {
     if 3 * kf.h < 32 {
-        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles, spheres)
+        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, surfaces)
     } else {
-        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles, spheres)
+        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, surfaces)
     }
 }
 
@@ -248,9 +246,9 @@ pub(super) fn build(
     let kf = KeyFn { origin, inv_quant, h };
     let surfaces = geometry.filter(|_| settings.estimator == Estimator::GeometryArea).unwrap_or_default();
     let (tree, n_kept, est) = if settings.estimator == Estimator::GeometryArea || settings.split == Split::Normal {
-        sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, surfaces.triangles, surfaces.spheres)
+        sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, surfaces)
     } else {
-        sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, &[], &[])
+        sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, Surfaces::default())
     };
     let Tree { nodes, leaves, valid, .. } = tree;
     // The facing bits are kept only when they say something (Split::Normal with geometry);
