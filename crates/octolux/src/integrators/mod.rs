@@ -12,6 +12,8 @@
 //! - [`common`]: what they share (direct light, MIS, the specular-chain walk, counters).
 
 pub mod common;
+#[cfg(test)]
+mod furnaces;
 pub mod octree;
 pub mod path;
 pub mod photon;

@@ -116,8 +116,13 @@ pub(crate) fn furnace_box_scene(rho: f32, le: f32) -> Scene {
 /// pixel sees the square). Its outgoing radiance is `rho sky` (irradiance `π sky`), all of
 /// it direct light: the square cannot see itself, so no light reaches it indirectly.
 pub(crate) fn sky_plane_scene(rho: f32, sky: f32) -> Scene {
+    Scene::prepare(sky_plane_desc(rho, sky), BackendKind::Bvh).expect("valid sky scene")
+}
+
+/// The description of [`sky_plane_scene`] (to swap its light).
+pub(crate) fn sky_plane_desc(rho: f32, sky: f32) -> SceneDesc {
     let to_world = Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2) * Mat4::from_scale(Vec3::splat(50.0));
-    let desc = SceneDesc {
+    SceneDesc {
         shapes: vec![quad("ground", to_world, 0, None)],
         materials: vec![Material::Diffuse { reflectance: Texture::Const(Color::splat(rho)) }],
         lights: vec![crate::scene::Light::Constant { radiance: Color::splat(sky) }],
@@ -129,6 +134,5 @@ pub(crate) fn sky_plane_scene(rho: f32, sky: f32) -> Scene {
         },
         film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box },
         ..Default::default()
-    };
-    Scene::prepare(desc, BackendKind::Bvh).expect("valid sky scene")
+    }
 }

@@ -201,6 +201,33 @@ impl Scene {
         out
     }
 
+    /// World-space triangles of the meshes whose material passes `keep` (no sphere), wound
+    /// so that their winding normal is the shape's front side (`flip_normals` honoured).
+    pub fn mesh_triangles_where(&self, keep: impl Fn(&Material) -> bool) -> Vec<[Vec3; 3]> {
+        self.triangles
+            .iter()
+            .zip(&self.tri_shape)
+            .filter(|(_, &s)| keep(&self.materials[self.shapes[s as usize].material as usize]))
+            .map(|(t, &s)| {
+                let p = |k: usize| self.positions[t[k] as usize];
+                if self.shapes[s as usize].flip {
+                    [p(0), p(2), p(1)]
+                } else {
+                    [p(0), p(1), p(2)]
+                }
+            })
+            .collect()
+    }
+
+    /// The analytic spheres whose material passes `keep`: `(centre, radius, flip_normals)`.
+    pub fn analytic_spheres_where(&self, keep: impl Fn(&Material) -> bool) -> Vec<(Vec3, f32, bool)> {
+        self.spheres
+            .iter()
+            .filter(|s| keep(&self.materials[self.shapes[s.shape as usize].material as usize]))
+            .map(|s| (s.center, s.radius, self.shapes[s.shape as usize].flip))
+            .collect()
+    }
+
     /// Closest hit along the ray.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<SurfaceHit> {

@@ -19,7 +19,7 @@ use super::compress::{compress_leaf, compress_leaf_for_normals};
 use super::estimate::{EstimateCtx, LeafEstimate, Scratch};
 use super::settings::{Estimator, Split, Storage, MAX_DEPTH};
 use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg, SortKey, Sorted};
-use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, ALL_FACING, LEAF_BIT, NO_VALUE};
+use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, Surfaces, ALL_FACING, LEAF_BIT, NO_VALUE};
 use crate::math::Bounds3;
 use crate::photon::Photon;
 use glam::Vec3;
@@ -171,8 +171,9 @@ fn estimates<R: PhotonRec, K: SortKey>(
     origin: Vec3,
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
-    triangles: &[[Vec3; 3]],
+    surfaces: Surfaces<'_>,
 ) -> (Tree, usize, Vec<LeafEstimate>) {
+    let Surfaces { triangles, spheres } = surfaces;
     let Sorted { keys, pos, recs } = sorted;
     let tree = subdivide(&keys, settings);
     drop(keys);
@@ -194,7 +195,7 @@ fn estimates<R: PhotonRec, K: SortKey>(
             .collect();
         distribute_triangles(&view, &tri_bounds, settings.epsilon, tree.valid.len())
     };
-    let ctx = EstimateCtx { view, start: &tree.start, pos: &pos, recs: &recs, settings, triangles, tri_lists: &tri_lists };
+    let ctx = EstimateCtx { view, start: &tree.start, pos: &pos, recs: &recs, settings, triangles, tri_lists: &tri_lists, spheres };
     let est: Vec<LeafEstimate> =
         tree.valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
     let n = recs.len();
@@ -209,12 +210,12 @@ fn sort_and_estimate<R: PhotonRec>(
     cosine_min: Option<f32>,
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
-    triangles: &[[Vec3; 3]],
+    surfaces: Surfaces<'_>,
 ) -> (Tree, usize, Vec<LeafEstimate>) {
     if 3 * kf.h < 32 {
-        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles)
+        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, surfaces)
     } else {
-        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, triangles)
+        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, surfaces)
     }
 }
 
@@ -222,7 +223,7 @@ pub(super) fn build(
     photons: &[Photon],
     bounds: Bounds3,
     settings: &OctreeSettings,
-    geometry: Option<&[[Vec3; 3]]>,
+    geometry: Option<Surfaces<'_>>,
 ) -> Result<Octree, OctreeError> {
     let t0 = Instant::now();
     settings.validate()?;
@@ -243,11 +244,11 @@ pub(super) fn build(
     // 1.-2. sort and subdivision, 3.-4. estimates
     let cosine_min = (settings.estimator == Estimator::Cosine).then_some(settings.min_cos);
     let kf = KeyFn { origin, inv_quant, h };
-    let tris = geometry.filter(|_| settings.estimator == Estimator::GeometryArea).unwrap_or(&[]);
+    let surfaces = geometry.filter(|_| settings.estimator == Estimator::GeometryArea).unwrap_or_default();
     let (tree, n_kept, est) = if settings.estimator == Estimator::GeometryArea || settings.split == Split::Normal {
-        sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, tris)
+        sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, surfaces)
     } else {
-        sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, &[])
+        sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, Surfaces::default())
     };
     let Tree { nodes, leaves, valid, .. } = tree;
     // The facing bits are kept only when they say something (Split::Normal with geometry);

@@ -8,7 +8,7 @@
 
 use super::cells::{LeafBuild, TreeView};
 use super::compress::FullLeaf;
-use super::geometry::{lit_areas, projected_lit_area, OrientedArea};
+use super::geometry::{lit_areas, projected_lit_area, AnalyticSphere, OrientedArea};
 use super::settings::{Enlarge, Estimator, Split};
 use super::sort::PhotonRec;
 use super::{OctreeSettings, ALL_FACING};
@@ -51,6 +51,8 @@ pub(super) struct EstimateCtx<'a, R> {
     pub triangles: &'a [[Vec3; 3]],
     /// Triangle indices per valid leaf (empty without geometry).
     pub tri_lists: &'a [Vec<u32>],
+    /// Analytic spheres (each leaf tests them all against its box).
+    pub spheres: &'a [AnalyticSphere],
 }
 
 /// The six 3x3 sums. Each photon adds `(w · weight) cᵀ` to one of 8 octant sums (by the
@@ -113,7 +115,7 @@ impl Accumulator {
     /// beside it). For one plane of normal `N`: `M_a^{s(N_a)} = ∫ L w dω` for every axis, so
     /// the query's `Σ_a N_a² = 1` returns it exactly.
     #[inline]
-    fn add_by_surface(&mut self, w: Vec3, c: Vec3, ng: Vec3, areas: &[OrientedArea], min_cos: f32) {
+    fn add_by_surface(&mut self, w: Vec3, c: Vec3, ng: Vec3, areas: &[OrientedArea], min_cos: f32, a_min: f32) {
         for a in 0..3 {
             if ng[a] == 0.0 {
                 continue;
@@ -127,7 +129,9 @@ impl Accumulator {
                     proj += g * e.n.dot(w).max(0.0);
                 }
             }
-            let den = proj.max(min_cos * total);
+            // `ng_a² min_cos a_min`: the photon's own surface, of normal `ng`, has at least
+            // `a_min` in the box (see `EstimateCtx::estimate`)
+            let den = proj.max(min_cos * total).max(ng[a] * ng[a] * min_cos * a_min);
             if !(den > 0.0) {
                 continue;
             }
@@ -187,8 +191,9 @@ impl Accumulator {
 }
 
 impl<R: PhotonRec> EstimateCtx<'_, R> {
-    /// Box gathered by a leaf and whether it is enlarged.
-    fn gather_box(&self, leaf: &LeafBuild) -> (Bounds3, bool) {
+    /// Box gathered by a leaf, whether it is enlarged, and the margin `δ = ε s / 2` between
+    /// the cell and the box (0 when not enlarged).
+    fn gather_box_margin(&self, leaf: &LeafBuild) -> (Bounds3, bool, f32) {
         let s = self.view.cell_size[leaf.depth as usize];
         let cmin = self.view.cell_min(leaf.depth, leaf.ijk);
         let eps = self.settings.epsilon;
@@ -200,9 +205,9 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         if enlarged {
             let c = cmin + Vec3::splat(0.5 * s);
             let half = Vec3::splat(0.5 * s * (1.0 + eps));
-            (Bounds3 { min: c - half, max: c + half }, true)
+            (Bounds3 { min: c - half, max: c + half }, true, 0.5 * s * eps)
         } else {
-            (Bounds3 { min: cmin, max: cmin + Vec3::splat(s) }, false)
+            (Bounds3 { min: cmin, max: cmin + Vec3::splat(s) }, false, 0.0)
         }
     }
 
@@ -251,7 +256,17 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
     }
 
     pub fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch) -> LeafEstimate {
-        let (ebox, enlarged) = self.gather_box(leaf);
+        let (ebox, enlarged, margin) = self.gather_box_margin(leaf);
+        // Lower bound on the area the photons stand for. The leaf's photons lie in its own
+        // cell, so some surface passes through a point q of the cell, and the ball of radius
+        // δ (the margin) around q lies in the gathering box. A plane through q has area πδ²
+        // in that ball, and so has any sphere of radius ≥ δ/2 (Archimedes: the part of a
+        // sphere within chord distance δ of a point on it has area πδ², whatever the
+        // radius). Surfaces that are not smaller than the margin therefore have at least
+        // πδ² in the box, and no photon is divided by less than `min_cos πδ²`: a leaf
+        // reports at most `Σ Φ_p / (min_cos π δ²)`, whatever the geometry found (too little
+        // of it, a shape the estimator does not know, a sliver in a corner).
+        let a_min = std::f32::consts::PI * margin * margin;
         self.gather(leaf, &ebox, enlarged, &mut sc.segs, &mut sc.singles);
         let photons = sc.segs.iter().map(|&(lo, hi)| (lo..hi).len()).sum::<usize>() + sc.singles.len();
         let edge = ebox.extent().x;
@@ -270,7 +285,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
                 sc.ng.push(recs[i as usize].ng());
             }
             let ids = self.tri_lists.get(value).map(Vec::as_slice).unwrap_or(&[]);
-            lit_areas(self.triangles, ids, &ebox, &sc.pos, &sc.ng, &mut sc.areas);
+            lit_areas(self.triangles, ids, self.spheres, &ebox, &sc.pos, &sc.ng, &mut sc.areas);
             lit_total = sc.areas.iter().map(|a| a.area).sum();
             if !(lit_total > 0.0) {
                 estimator = Estimator::Cosine;
@@ -285,13 +300,13 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
             let w = r.w();
             if by_normal && estimator == Estimator::GeometryArea {
                 // per-matrix areas: no single weight
-                acc.add_by_surface(w, r.c(), r.ng(), areas, min_cos);
+                acc.add_by_surface(w, r.c(), r.ng(), areas, min_cos, a_min);
                 return;
             }
             let weight = match estimator {
                 // `w` carries the cosine weight
                 Estimator::Paper | Estimator::Cosine => inv_da,
-                Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total),
+                Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total.max(a_min)),
             };
             if by_normal {
                 acc.add_by_normal(w, r.c(), weight, r.ng());

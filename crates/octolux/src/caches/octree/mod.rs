@@ -40,7 +40,11 @@
 //! - [`Estimator::GeometryArea`] removes both: each photon is divided by the lit projected
 //!   area `A⊥(w_p)` of the given triangles clipped to the gathering box (`geometry.rs`
 //!   derives why, and what is counted for two-sided sheets, corners and closed objects).
-//!   A valid leaf whose box contains no triangle falls back to `Cosine` (counted in
+//!   Analytic spheres are clipped exactly, not tessellated ([`Surfaces`]). No photon is
+//!   divided by less than `min_cos π δ²` (δ = the enlargement margin `ε s / 2`), the least
+//!   area a surface crossing the cell has in the box (`estimate.rs`): a leaf's estimate is
+//!   bounded by its photons' flux whatever geometry it finds.
+//!   A valid leaf whose box contains no surface falls back to `Cosine` (counted in
 //!   [`OctreeStats::geometry_fallback_leaves`]).
 //!
 //! # Normal interpolation (§5.2) and query (§7)
@@ -67,7 +71,15 @@ mod tests;
 /// Every matrix of the leaf carries a value.
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
+pub use geometry::AnalyticSphere;
 pub use settings::{Enlarge, Estimator, OctreeSettings, Split, Storage, MAX_DEPTH};
+
+/// The surfaces the geometry-area estimator clips to each gathering box (world space).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Surfaces<'a> {
+    pub triangles: &'a [[Vec3; 3]],
+    pub spheres: &'a [AnalyticSphere],
+}
 
 use crate::math::Bounds3;
 use compress::{CompressedLeaf, FullLeaf};
@@ -214,7 +226,18 @@ impl Octree {
         settings: &OctreeSettings,
         geometry: Option<&[[Vec3; 3]]>,
     ) -> Result<Octree, OctreeError> {
-        build::build(photons, bounds, settings, geometry)
+        build::build(photons, bounds, settings, geometry.map(|triangles| Surfaces { triangles, spheres: &[] }))
+    }
+
+    /// [`Octree::build`] with analytic spheres besides the triangles (`geometry.rs` clips
+    /// both exactly; tessellating a sphere would leave its photons off the triangles).
+    pub fn build_with_surfaces(
+        photons: &[crate::photon::Photon],
+        bounds: Bounds3,
+        settings: &OctreeSettings,
+        surfaces: Option<Surfaces<'_>>,
+    ) -> Result<Octree, OctreeError> {
+        build::build(photons, bounds, settings, surfaces)
     }
 
     pub fn stats(&self) -> &OctreeStats {
