@@ -31,9 +31,10 @@ pub const TEXEL_BYTES: u64 = 32;
 pub const VERTEX_BYTES: u64 = 64;
 /// Bytes per triangle: three u32 indices, the BVH's primitive reference and bounds, rounded up.
 pub const TRIANGLE_BYTES: u64 = 64;
-/// Bytes per stored photon: the [`crate::photon::Photon`] record and the search structure
-/// built over it (kd-tree or octree), rounded up.
-pub const PHOTON_BYTES: u64 = 2 * std::mem::size_of::<crate::photon::Photon>() as u64 + 16;
+/// Bytes per stored photon: twice the 48-byte photon record (the record and the search
+/// structure built over it, kd-tree or octree) plus 16. `photon/mod.rs` asserts at compile
+/// time that the record still fits (this module sits below `photon`, so it does not import it).
+pub const PHOTON_BYTES: u64 = 112;
 
 /// 0 means "not set yet": the limit is derived on first use.
 static LIMIT: AtomicU64 = AtomicU64::new(0);

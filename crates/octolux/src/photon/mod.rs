@@ -32,6 +32,9 @@ pub struct Photon {
     pub ng: Vec3,
 }
 
+// The memory budget counts photons at `budget::PHOTON_BYTES` each: keep it honest.
+const _: () = assert!(2 * std::mem::size_of::<Photon>() + 16 <= crate::budget::PHOTON_BYTES as usize);
+
 impl Photon {
     /// True when every field is finite.
     #[inline]
