@@ -119,7 +119,7 @@ impl<'t> Builder<'t> {
                         return Err(em.loc.error(format!("{} has more than one area emitter", e.describe())));
                     }
                     let ep = self.props(em)?;
-                    let radiance = self.color_param(&ep, "radiance", ColorKind::Unbounded, 1.0)?;
+                    let radiance = self.color_param(&ep, "radiance", ColorKind::Emission, 1.0)?;
                     if !radiance.is_finite() {
                         return Err(em.loc.error(format!("{}: radiance {radiance} is not finite", em.describe())));
                     }
