@@ -2,8 +2,12 @@
 //! side Mitsuba 3 lights. Mitsuba 3 takes the normal of `rectangle` and `disk` as
 //! `normalize(to_world * Normal3f(0, 0, 1))` (the inverse transpose: a mirror in the plane's own
 //! axes does not flip it, a mirror of z does), transforms the outward vertex normals of `cube`
-//! the same way (they stay outward) and keeps spheres outward; its `area` emitter emits on the
-//! side of that normal.
+//! the same way (they stay outward), and turns a mirrored sphere inside out (Dr.Jit's
+//! `transform_decompose` leaves the determinant's sign in the scale, a negative radius: normals
+//! inward; `flip_normals` turns them back out). Its `area` emitter emits on the side of that
+//! normal. Measured with Mitsuba 3.9.1 (scalar_rgb, a camera outside each shape): an emitting
+//! sphere under `scale x="-1"` (or y, or z, or `radius -1`) renders black, under two mirrors or a
+//! mirror plus `flip_normals` it renders lit; cubes render lit under every mirror.
 //!
 //! Check: the irradiance at a point facing the shape, measured through octolux's prepared scene
 //! (rays cast over the receiver's hemisphere, the core's own rule for the emitting side), against
@@ -115,7 +119,7 @@ fn mirrored_rectangles_and_disks_emit_on_mitsubas_side() {
 }
 
 #[test]
-fn mirrored_cubes_and_spheres_emit_outwards() {
+fn mirrored_cubes_emit_outwards_and_mirrored_spheres_inwards() {
     // Receiver above the top face (z = 1) of the cube [-1, 1]^3, at z = 2, facing down: only the
     // top face is seen (the side faces are edge-on).
     let p = Vec3::new(0.0, 0.0, 2.0);
@@ -124,8 +128,26 @@ fn mirrored_cubes_and_spheres_emit_outwards() {
         assert_lit(&s, p, -Vec3::Z, square_irradiance(1.0, 1.0), &format!("cube {scale}"));
         // From inside, nothing emits towards the centre.
         assert_dark(&s, Vec3::ZERO, Vec3::Z, &format!("cube {scale}, inside"));
-        // A unit sphere seen from distance 2: E = pi L (r / d)^2.
+        // A unit sphere seen from distance 2: E = pi L (r / d)^2 when it emits outward; a
+        // mirrored one emits inward only (the inside, from the centre: E = pi L).
         let s = scene("sphere", "", scale);
-        assert_lit(&s, p, -Vec3::Z, PI * L / 4.0, &format!("sphere {scale}"));
+        let mirrored = !scale.starts_with(r#"<scale x="1" y="1" z="1"/>"#);
+        if mirrored {
+            assert_dark(&s, p, -Vec3::Z, &format!("sphere {scale}, outside"));
+            assert_lit(&s, Vec3::ZERO, Vec3::Z, PI * L, &format!("sphere {scale}, inside"));
+        } else {
+            assert_lit(&s, p, -Vec3::Z, PI * L / 4.0, &format!("sphere {scale}"));
+            assert_dark(&s, Vec3::ZERO, Vec3::Z, &format!("sphere {scale}, inside"));
+        }
     }
+    // Two mirrors make a rotation, and flip_normals undoes one mirror: outward again.
+    for (extra, ops) in
+        [("", r#"<scale x="-1" y="-1" z="1"/>"#), (r#"<boolean name="flip_normals" value="true"/>"#, r#"<scale x="-1" y="1" z="1"/>"#)]
+    {
+        let s = scene("sphere", extra, ops);
+        assert_lit(&s, p, -Vec3::Z, PI * L / 4.0, &format!("sphere {extra} {ops}"));
+    }
+    // A negative radius is a mirror too.
+    let s = scene("sphere", r#"<float name="radius" value="-1"/>"#, "");
+    assert_dark(&s, p, -Vec3::Z, "sphere of radius -1, outside");
 }

@@ -15,8 +15,9 @@
 //! and recomputes (from the transformed winding, so a mirror flips them) the normals of meshes
 //! stored without any. [`place_mesh`] follows these rules and, where the normals are
 //! transformed and the determinant is negative, reverses the winding so that octolux's winding
-//! normal is Mitsuba's shading normal. Spheres are unaffected: both renderers take their normal
-//! outward (`p - c`).
+//! normal is Mitsuba's shading normal. Spheres are not meshes: Mitsuba 3 turns a mirrored
+//! sphere inside out (its normals point inward), which the loader expresses with the shape's
+//! `flip_normals` (`mitsuba::shape`).
 
 use glam::{Mat4, Vec2, Vec3};
 use octolux::scene::TriMesh;

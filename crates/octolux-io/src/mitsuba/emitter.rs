@@ -27,7 +27,7 @@ impl<'t> Builder<'t> {
         p.accept(&["sampling_weight"]);
         let light = match ty {
             "point" => {
-                let intensity = self.color_param(&p, "intensity", ColorKind::Unbounded, 1.0)?;
+                let intensity = self.color_param(&p, "intensity", ColorKind::Emission, 1.0)?;
                 let position = match self.placement(&p, "position")? {
                     (Some(v), _) => v,
                     (None, Some(m)) => m.transform_point3(Vec3::ZERO),
@@ -36,7 +36,7 @@ impl<'t> Builder<'t> {
                 Light::Point { position, intensity }
             }
             "spot" => {
-                let intensity = self.color_param(&p, "intensity", ColorKind::Unbounded, 1.0)?;
+                let intensity = self.color_param(&p, "intensity", ColorKind::Emission, 1.0)?;
                 let cutoff = p.float_or("cutoff_angle", 20.0)?;
                 let mut beam = p.float_or("beam_width", cutoff * 0.75)?;
                 if !(cutoff > 0.0 && cutoff < 180.0) {
@@ -63,7 +63,7 @@ impl<'t> Builder<'t> {
                 }
             }
             "directional" => {
-                let irradiance = self.color_param(&p, "irradiance", ColorKind::Unbounded, 1.0)?;
+                let irradiance = self.color_param(&p, "irradiance", ColorKind::Emission, 1.0)?;
                 let d = match self.placement(&p, "direction")? {
                     (Some(v), _) => v,
                     (None, Some(m)) => m.transform_vector3(Vec3::Z),
@@ -74,7 +74,7 @@ impl<'t> Builder<'t> {
                 }
                 Light::Directional { direction: d.normalize(), irradiance }
             }
-            "constant" => Light::Constant { radiance: self.color_param(&p, "radiance", ColorKind::Unbounded, 1.0)? },
+            "constant" => Light::Constant { radiance: self.color_param(&p, "radiance", ColorKind::Emission, 1.0)? },
             "envmap" => self.envmap(e, &p)?,
             "sunsky" | "sun" | "sky" if ty == "sunsky" || e.legacy => {
                 let lights = self.sunsky(e, &p, e.legacy, ty)?;

@@ -29,8 +29,15 @@ pub(crate) fn is_value(e: &Elem) -> bool {
 pub(crate) enum ColorKind {
     /// Reflectance-like: spectra are clamped to [0, 1].
     Bounded,
-    /// Emission or complex IOR: spectra are only clamped to >= 0.
+    /// Complex IOR and other unbounded values: spectra are only clamped to >= 0.
     Unbounded,
+    /// Emitted radiance, intensity or irradiance: unbounded, and a single-valued `<spectrum>`
+    /// is an equal-energy spectrum of that value, converted to linear sRGB as Mitsuba 3 does in
+    /// its RGB variants (about (1.205, 0.948, 0.909) times the value: E is reddish next to
+    /// sRGB's D65 white). Measured with Mitsuba 3.9.1 (`scalar_rgb`, `llvm_ad_rgb`): an area
+    /// or constant emitter of `<spectrum value="1"/>` renders (1.2048, 0.9483, 0.9089), one of
+    /// `<rgb value="1"/>` renders (1, 1, 1); a reflectance `<spectrum value="0.5"/>` stays grey.
+    Emission,
 }
 
 /// A colour-valued parameter: a constant or a texture object (to be built by the caller).
@@ -216,7 +223,11 @@ fn parse_color_unchecked(e: &Elem, kind: ColorKind, warnings: &mut Vec<String>) 
                 (Some(v), None) => {
                     let toks = tokens(v);
                     if toks.len() == 1 && !toks[0].contains(':') {
-                        return Ok(Color::splat(parse_f32(e, toks[0])?));
+                        let v = parse_f32(e, toks[0])?;
+                        return Ok(match kind {
+                            ColorKind::Emission => spectra::equal_energy_rgb() * v,
+                            ColorKind::Bounded | ColorKind::Unbounded => Color::splat(v),
+                        });
                     }
                     let mut wl = Vec::new();
                     let mut vals = Vec::new();

@@ -14,7 +14,7 @@
 use super::props::{ColorKind, Props};
 use super::tree::{resolve_file, Elem};
 use super::Builder;
-use crate::mesh::{load_mesh_raw, load_serialized, orient_to_given_normals, place_mesh, rebuild_topology, NormalSource};
+use crate::mesh::{load_mesh_raw, load_serialized, mirrors, orient_to_given_normals, place_mesh, rebuild_topology, NormalSource};
 use crate::IoError;
 use glam::{Mat4, Vec3};
 use octolux::scene::{Geometry, ShapeDesc, TriMesh};
@@ -25,6 +25,8 @@ impl<'t> Builder<'t> {
         let p = self.props(e)?;
         let to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
         let mut name = e.attr("id").map(str::to_string);
+        // Mitsuba 3 turns a mirrored sphere inside out (see `sphere` below).
+        let mut inside_out = false;
         let mut geometry = match ty {
             "obj" | "ply" | "serialized" => {
                 let (mesh, stem) = self.mesh_file(e, &p, ty, &to_world)?;
@@ -53,6 +55,12 @@ impl<'t> Builder<'t> {
                 if !(r > 0.0 && r.is_finite() && m.w_axis.is_finite()) {
                     return Err(e.loc.error(format!("{}: the sphere radius {r} must be positive", e.describe())));
                 }
+                // Mitsuba 3 splits `to_world` into scale, rotation and translation with the
+                // determinant's sign in the scale (Dr.Jit's `transform_decompose`): a mirror (a
+                // negative scale, or a negative `radius`) turns the normals inward, so the sphere
+                // then emits and reflects on its inside only (measured with Mitsuba 3.9.1;
+                // `flip_normals` turns it back).
+                inside_out = mirrors(&m);
                 Geometry::Sphere { center: m.w_axis.truncate(), radius: r }
             }
             // Their normals are transformed ones (Mitsuba 3's inverse transpose): under a mirror
@@ -87,7 +95,7 @@ impl<'t> Builder<'t> {
                 self.warn(e, format!("removed {removed} degenerate triangle{} of {before}", if removed == 1 { "" } else { "s" }));
             }
         }
-        let flip_normals = p.bool_or("flip_normals", false)?;
+        let flip_normals = p.bool_or("flip_normals", false)? != inside_out;
         let mut material = None;
         let mut emission = None;
         for (i, o) in p.objects() {
@@ -111,7 +119,7 @@ impl<'t> Builder<'t> {
                         return Err(em.loc.error(format!("{} has more than one area emitter", e.describe())));
                     }
                     let ep = self.props(em)?;
-                    let radiance = self.color_param(&ep, "radiance", ColorKind::Unbounded, 1.0)?;
+                    let radiance = self.color_param(&ep, "radiance", ColorKind::Emission, 1.0)?;
                     if !radiance.is_finite() {
                         return Err(em.loc.error(format!("{}: radiance {radiance} is not finite", em.describe())));
                     }

@@ -282,6 +282,12 @@ pub fn spectrum_to_rgb(wavelengths: &[f64], values: &[f64], bounded: bool) -> (C
     (Color::from_array(out), clamped)
 }
 
+/// Linear sRGB of the equal-energy spectrum of value 1 (CIE illuminant E at unit luminance):
+/// what Mitsuba 3's RGB variants make of an emitter's single-valued `<spectrum>`.
+pub fn equal_energy_rgb() -> Color {
+    spectrum_to_rgb(&[CIE_MIN, CIE_MAX], &[1.0, 1.0], false).0
+}
+
 /// Inverse sRGB transfer function (encoded value in [0,1] -> linear).
 pub fn srgb_to_linear(v: f32) -> f32 {
     if v <= 0.040_45 {
@@ -369,6 +375,16 @@ mod tests {
         assert!(!clamped);
         // An equal-energy spectrum is reddish in sRGB (its white point is E, not D65).
         assert!(c.x > c.y && c.y > c.z, "{c}");
+    }
+
+    #[test]
+    fn equal_energy_white_is_mitsubas() {
+        // Mitsuba 3.9.1 renders an area emitter of <spectrum value="1"/> as this colour.
+        let mitsuba = [1.204795f32, 0.948_291_5, 0.908_916_4];
+        let c = equal_energy_rgb().to_array();
+        for k in 0..3 {
+            assert!((c[k] - mitsuba[k]).abs() < 2e-3, "{c:?} vs Mitsuba 3 {mitsuba:?}");
+        }
     }
 
     #[test]
