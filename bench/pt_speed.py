@@ -3,7 +3,7 @@
 
     python3 bench/pt_speed.py                      # default cases, 2 threads, 512x512
     python3 bench/pt_speed.py --skip-octolux       # Mitsuba half only
-    python3 bench/pt_speed.py --case bitterli:65 --spp 64 --json /tmp/pt_speed.json
+    python3 bench/pt_speed.py --case bitterli:65 --spp 64 --json target/pt_speed.json
 
 Cases are SCENE:MAX_DEPTH with SCENE one of
   cornell-box  octolux's built-in scene (octolux renders it by name; Mitsuba renders the XML that
