@@ -22,6 +22,9 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to OUT.exr, OUT.png and OUT.json.
     Render(Box<RenderArgs>),
+    /// Trace the photons and build the `octree` integrator's global and caustic octrees, and
+    /// write them to a lighting cache file (`render --cache` renders any camera from it).
+    Bake(Box<BakeArgs>),
     /// Write a scene as Mitsuba 3 XML (meshes as PLY files in a `meshes/` folder beside it).
     Export(ExportArgs),
     /// List the built-in scenes.
@@ -259,12 +262,79 @@ pub struct RenderArgs {
     pub reconstruction: ReconstructionArg,
     #[command(flatten)]
     pub octree: OctreeArgs,
+    /// Render from a lighting cache written by `octolux bake` (the `octree` integrator, no
+    /// photon traced). Refused when the scene's geometry, materials or emitters differ from
+    /// the bake's; camera and film may change.
+    #[arg(long, value_name = "FILE.oxc")]
+    pub cache: Option<PathBuf>,
+    /// With --cache: render even when the scene's geometry, materials or emitters changed
+    /// since the bake (a warning says which).
+    #[arg(long, requires = "cache")]
+    pub allow_stale_cache: bool,
+    /// Render the frames of a camera path (JSON or TOML keyframes: time, position, target,
+    /// up, fov; `fps`) to OUT_0001.exr, OUT_0002.exr, ... from one cache.
+    #[arg(long, value_name = "FILE", conflicts_with = "sensors")]
+    pub camera_path: Option<PathBuf>,
+    /// Render every <sensor> of the scene file as a frame, OUT_0001.exr, ... from one cache.
+    #[arg(long)]
+    pub sensors: bool,
+    /// With --camera-path or --sensors: render frames A to B only (from 1, both included).
+    #[arg(long, value_name = "A..B", value_parser = parse_frames)]
+    pub frames: Option<(u64, u64)>,
     /// Output image path; `.exr` (and `.png`, `.json` beside it).
     #[arg(short, long, default_value = "out.exr")]
     pub output: PathBuf,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+#[derive(clap::Args)]
+pub struct BakeArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// The lighting cache to write (e.g. lighting.oxc).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// `octree` settings as JSON or TOML (as for `render --settings`).
+    #[arg(long, value_name = "FILE")]
+    pub settings: Option<PathBuf>,
+    /// Set one `octree` setting (as for `render --set`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Longest path in vertices, Mitsuba's meaning (default: the scene's, else -1).
+    #[arg(long, allow_negative_numbers = true)]
+    pub max_depth: Option<i32>,
+    /// Seed of the photon pass (a render reproduces an uncached one with the same --seed).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Memory limit for sizes read from the input (as for `render`).
+    #[arg(long, value_name = "SIZE")]
+    pub memory_limit: Option<String>,
+    /// Ray-intersection backend.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub backend: BackendArg,
+    #[command(flatten)]
+    pub octree: OctreeArgs,
+    /// No statistics on the log.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// `A..B` (both included, from 1) or `A`.
+fn parse_frames(s: &str) -> Result<(u64, u64), String> {
+    let num = |t: &str| t.trim().parse::<u64>().map_err(|_| format!("'{s}' is not a frame range A..B (e.g. 2..5)"));
+    let (a, b) = match s.split_once("..") {
+        Some((a, b)) => (num(a)?, num(b.trim_start_matches('='))?),
+        None => (num(s)?, num(s)?),
+    };
+    if a == 0 || b < a {
+        return Err(format!("frame range {a}..{b}: frames count from 1 and B must not be below A"));
+    }
+    Ok((a, b))
 }
 
 #[derive(clap::Args)]

@@ -3,17 +3,23 @@
 //! `octolux render [SCENE] ...` renders a built-in scene (default `cornell-box`), a Mitsuba XML
 //! file, or an OBJ/PLY mesh, and writes `OUT.exr`, `OUT.png` and `OUT.json` (statistics).
 //! `octolux export SCENE -o scene.xml` writes the scene as Mitsuba 3 XML (meshes as PLY).
+//! `octolux bake SCENE -o lighting.oxc` writes the `octree` integrator's lighting, which
+//! `render --cache` renders from, for one image or the frames of `--camera-path` / `--sensors`
+//! (docs/baking.md).
 //!
 //! Rooms: [`args`] (the command line), [`settings`] (flags, `--settings` and `--set` merged
 //! into the library's integrator settings), [`stats`] (`OUT.json` and the build log),
 //! [`output`] (the output set: checked first, written through staged files, renamed JSON last),
-//! [`interrupt`] (SIGINT/SIGTERM: a partial render is written, a second signal exits).
+//! [`interrupt`] (SIGINT/SIGTERM: a partial render is written, a second signal exits),
+//! [`bake`] (`bake`, and the checks of `render --cache`), [`frames`] (camera paths, sensors).
 //!
 //! Hostile input (issue 12): sizes from the command line or the scene (film, photons) are
 //! checked against the memory budget ([`octolux::budget`]) and the output folder is checked
 //! before any long work; `compare` refuses images holding non-finite values.
 
 mod args;
+mod bake;
+mod frames;
 mod interrupt;
 mod output;
 mod settings;
@@ -22,12 +28,14 @@ mod stats;
 use anyhow::{bail, Context, Result};
 use args::{keys, BackendArg, Cli, Command, ExportArgs, ReconstructionArg, RenderArgs, SceneArgs};
 use clap::Parser;
+use frames::FrameInfo;
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::accel::BackendKind;
 use octolux::budget;
 use octolux::film::Reconstruction;
-use octolux::integrators::{build, Integrator};
+use octolux::integrators::{build, Integrator, IntegratorSettings};
 use octolux::render::{render_cancellable, RenderSettings};
+use octolux::scene::camera::Camera;
 use octolux::scene::Scene;
 use serde_json::json;
 use settings::SettingsInput;
@@ -43,7 +51,7 @@ fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
         .collect()
 }
 
-fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
+pub(crate) fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
     let defines = parse_defines(&args.define)?;
     let mut loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
     let xml = std::path::Path::new(&args.scene).extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"));
@@ -57,14 +65,17 @@ fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
     Ok(loaded)
 }
 
+pub(crate) fn backend_kind(b: BackendArg) -> BackendKind {
+    match b {
+        BackendArg::Auto => BackendKind::Auto,
+        BackendArg::Embree => BackendKind::Embree,
+        BackendArg::Bvh => BackendKind::Bvh,
+    }
+}
+
 fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let t0 = Instant::now();
-    if let Some(n) = args.threads {
-        if n == 0 {
-            bail!("--threads must be at least 1");
-        }
-        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot start the worker threads")?;
-    }
+    bake::check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
     if let Some(b) = args.time_budget {
         if !(b.is_finite() && b > 0.0) {
             bail!("--time-budget must be a positive number of seconds, got {b}");
@@ -73,22 +84,28 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     if args.spp == Some(0) {
         bail!("--spp must be at least 1");
     }
-    if let Some(d) = args.max_depth.filter(|&d| d < -1) {
-        bail!("--max-depth must be -1 (unbounded) or at least 0, got {d}");
-    }
-    if let Some(m) = &args.memory_limit {
-        let bytes = budget::parse_bytes(m)
-            .with_context(|| format!("--memory-limit {m}: expected a memory size (bytes with an optional K, M, G or T suffix)"))?;
-        budget::set_memory_limit(bytes);
-    }
     // The film the flags ask for, before reading the scene.
     if let Some((w, h)) = args.resolution {
         budget::check_film(w as u64, h as u64).context("--resolution")?;
     }
     let outputs = output::Outputs::check(&args.output)?;
+    // A lighting cache is read and checked before the scene (which may take long to load).
+    let cache = match &args.cache {
+        Some(path) => {
+            if let Some(n) = args.integrator.as_deref().filter(|&n| n != "octree") {
+                bail!("--cache holds the octree integrator's lighting; --integrator {n} cannot render from it");
+            }
+            if args.octree.cache_scene.is_some() {
+                bail!("--cache and --cache-scene exclude each other: the cache's lighting was baked in its own scene");
+            }
+            Some(bake::read_cache(path)?)
+        }
+        None => None,
+    };
     interrupt::install()?;
     let loaded = load(&args.scene)?;
     let load_s = t0.elapsed().as_secs_f64();
+    let plan = frames::plan(args, &loaded.sensors, &loaded.desc.camera)?;
     let mut desc = loaded.desc;
     if let Some((w, h)) = args.resolution {
         desc.film.width = w;
@@ -109,9 +126,19 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
             at_most: false,
         });
     }
+    let (integrator_name, base, derived) = match &cache {
+        // the cache's settings are the defaults; nothing is derived from the scene or the seed
+        Some((c, _)) => (Some("octree"), Some(bake::base_settings(c)?), vec![]),
+        None => (
+            args.integrator.as_deref(),
+            None,
+            vec![(keys::MAX_DEPTH, json!(desc.hints.max_depth.unwrap_or(-1))), (keys::PHOTON_SEED, json!(args.seed))],
+        ),
+    };
     let resolved = settings::resolve(&SettingsInput {
-        integrator: args.integrator.as_deref(),
-        derived: vec![(keys::MAX_DEPTH, json!(desc.hints.max_depth.unwrap_or(-1))), (keys::PHOTON_SEED, json!(args.seed))],
+        integrator: integrator_name,
+        base,
+        derived,
         file: args.settings.as_deref(),
         flags,
         sets: &args.set,
@@ -122,28 +149,27 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         warnings.push(w.clone());
     }
     let integrator_settings = resolved.settings;
+    if let (Some((c, _)), Some(path)) = (&cache, &args.cache) {
+        bake::check_settings(path, c, &integrator_settings)?;
+    }
     let name = integrator_settings.name();
     if let Some(w) = settings::scene_integrator_warning(
         desc.hints.integrator.as_deref(),
         &args.scene.scene,
         name,
-        args.integrator.is_some() || args.settings.is_some(),
+        args.integrator.is_some() || args.settings.is_some() || cache.is_some(),
     ) {
         eprintln!("warning: {w}");
         warnings.push(w);
     }
     let photon_count = settings::get(&integrator_settings, keys::PHOTON_COUNT).and_then(|v| v.as_u64());
-    if let Some(n) = photon_count {
+    if let (Some(n), None) = (photon_count, &cache) {
         budget::check_photons(n).context("the photon count (--photons or photons.photons)")?;
     }
 
-    let backend = match args.backend {
-        BackendArg::Auto => BackendKind::Auto,
-        BackendArg::Embree => BackendKind::Embree,
-        BackendArg::Bvh => BackendKind::Bvh,
-    };
+    let backend = backend_kind(args.backend);
     let t1 = Instant::now();
-    let scene = Scene::prepare(desc, backend).with_context(|| format!("cannot prepare scene '{}'", args.scene.scene))?;
+    let mut scene = Scene::prepare(desc, backend).with_context(|| format!("cannot prepare scene '{}'", args.scene.scene))?;
     if scene.lights.is_empty() {
         eprintln!("warning: the scene has no light; the image will be black");
     }
@@ -161,10 +187,31 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let threads = rayon::current_num_threads();
 
     let t_build = Instant::now();
-    if let (Some(n), false) = (photon_count, args.quiet) {
-        eprintln!("{name}: tracing {n} photons and building the cache ...");
-    }
-    let integrator = build(&integrator_settings, photon_scene).context("cannot build the integrator")?;
+    let (integrator, cache_report) = match (cache, &args.cache) {
+        (Some((c, load_s)), Some(path)) => {
+            let stale = bake::check_fingerprint(path, &c, &scene.lighting_fingerprint(), &args.scene.scene, args.allow_stale_cache)?;
+            if let Some(w) = &stale {
+                eprintln!("warning: {w}");
+                warnings.push(w.clone());
+            }
+            let report = bake::report(path, &c, load_s, &stale);
+            let mut integrator = c.integrator;
+            // only the render-time keys (view, gather) may differ: check_settings
+            if let (Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&mut integrator, &integrator_settings) {
+                o.settings = s.clone();
+            }
+            if !args.quiet {
+                eprintln!("octree: lighting from {} (read and checked in {load_s:.3} s, no photon traced)", path.display());
+            }
+            (integrator, Some(report))
+        }
+        _ => {
+            if let (Some(n), false) = (photon_count, args.quiet) {
+                eprintln!("{name}: tracing {n} photons and building the cache ...");
+            }
+            (build(&integrator_settings, photon_scene).context("cannot build the integrator")?, None)
+        }
+    };
     let build_s = t_build.elapsed().as_secs_f64();
     let build_report = integrator.build_report();
     if !args.quiet {
@@ -193,74 +240,99 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         ReconstructionArg::Importance => Reconstruction::ImportanceSampled,
     };
     let render_settings = RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, reconstruction, ..Default::default() };
-    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((scene.film.width as u64) * (scene.film.height as u64)) };
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    let progress = |done: u64, total: u64| {
-        bar.set_length(total);
-        bar.set_position(done.min(total));
-    };
-    interrupt::set_rendering(true);
-    let (image, rstats) = render_cancellable(&scene, &integrator, &render_settings, &progress, Some(&interrupt::CANCEL));
-    bar.finish_and_clear();
-    if rstats.interrupted && rstats.passes == 0 {
-        eprintln!("octolux: interrupted before the first pass was complete; nothing written");
-        return Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED));
-    }
 
-    let t2 = Instant::now();
-    let mut stats = StatsFile {
-        octolux_version: env!("CARGO_PKG_VERSION"),
-        command_line: std::env::args().collect(),
-        scene: &args.scene.scene,
-        integrator: integrator.name(),
-        integrator_settings: serde_json::to_value(&integrator_settings)?,
-        backend: scene.backend_name(),
-        threads,
-        triangles: scene.triangle_count(),
-        seed: args.seed,
-        render_settings,
-        timings: Timings { load_s, prepare_s, build_s, render_s: rstats.render_s, write_s: 0.0, total_s: 0.0 },
-        samples_per_second: rstats.samples_per_second,
-        rays_per_second: rstats.rays_per_second,
-        render: &rstats,
-        cache_query_share: stats::query_share(&rstats, threads),
-        build: build_report,
-        render_report: integrator.render_report(),
-        warnings: &warnings,
-        partial: rstats.interrupted.then(|| stats::Partial::interrupted(&rstats)),
+    // One job per image: the single one, or each frame of the plan.
+    let jobs: Vec<(output::Outputs, Option<(frames::Frame, FrameInfo)>)> = match &plan {
+        None => vec![(outputs, None)],
+        Some(p) => {
+            let mut jobs = Vec::with_capacity(p.frames.len());
+            for f in &p.frames {
+                let out = output::Outputs::check(&output::frame_path(&args.output, f.index, p.count))?;
+                let info = FrameInfo { index: f.index, count: p.count, time_s: f.time_s, source: p.source.clone() };
+                jobs.push((out, Some((f.clone(), info))));
+            }
+            if !args.quiet {
+                eprintln!("{}: rendering frames {}..{} of {}", p.source, p.frames[0].index, p.frames[p.frames.len() - 1].index, p.count);
+            }
+            jobs
+        }
     };
-    // The JSON's own write time is not in it; the images' is.
-    outputs.write(&image, || {
-        stats.timings.write_s = t2.elapsed().as_secs_f64();
-        stats.timings.total_s = t0.elapsed().as_secs_f64();
-        Ok(serde_json::to_string_pretty(&stats)?)
-    })?;
-    let (png, json) = (&outputs.png, &outputs.json);
-    if rstats.interrupted {
-        eprintln!(
-            "octolux: interrupted after {} passes ({} spp); wrote the partial image to {}, {}, {}",
-            rstats.passes,
-            rstats.spp,
-            args.output.display(),
-            png.display(),
-            json.display()
+    for (outputs, frame) in jobs {
+        let t_frame = Instant::now();
+        if let Some((f, _)) = &frame {
+            scene.camera = Camera::new(&f.camera, scene.film.width, scene.film.height);
+        }
+        let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((scene.film.width as u64) * (scene.film.height as u64)) };
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
-        return Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED));
-    }
-    if !args.quiet {
-        eprintln!(
-            "rendered {} spp in {:.2} s: {:.3} M samples/s, {:.2} M rays/s -> {}, {}, {}",
-            rstats.spp,
-            rstats.render_s,
-            rstats.samples_per_second * 1e-6,
-            rstats.rays_per_second * 1e-6,
-            args.output.display(),
-            png.display(),
-            json.display()
-        );
+        let progress = |done: u64, total: u64| {
+            bar.set_length(total);
+            bar.set_position(done.min(total));
+        };
+        interrupt::set_rendering(true);
+        let (image, rstats) = render_cancellable(&scene, &integrator, &render_settings, &progress, Some(&interrupt::CANCEL));
+        bar.finish_and_clear();
+        if rstats.interrupted && rstats.passes == 0 {
+            eprintln!("octolux: interrupted before the first pass was complete; nothing written");
+            return Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED));
+        }
+
+        let t2 = Instant::now();
+        let mut stats = StatsFile {
+            octolux_version: env!("CARGO_PKG_VERSION"),
+            command_line: std::env::args().collect(),
+            scene: &args.scene.scene,
+            integrator: integrator.name(),
+            integrator_settings: serde_json::to_value(&integrator_settings)?,
+            backend: scene.backend_name(),
+            threads,
+            triangles: scene.triangle_count(),
+            seed: args.seed,
+            render_settings,
+            timings: Timings { load_s, prepare_s, build_s, render_s: rstats.render_s, write_s: 0.0, total_s: 0.0 },
+            samples_per_second: rstats.samples_per_second,
+            rays_per_second: rstats.rays_per_second,
+            render: &rstats,
+            cache_query_share: stats::query_share(&rstats, threads),
+            build: build_report.clone(),
+            render_report: integrator.render_report(),
+            warnings: &warnings,
+            partial: rstats.interrupted.then(|| stats::Partial::interrupted(&rstats)),
+            cache: cache_report.clone(),
+            frame: frame.as_ref().map(|(_, info)| info.clone()),
+        };
+        // The JSON's own write time is not in it; the images' is.
+        outputs.write(&image, || {
+            stats.timings.write_s = t2.elapsed().as_secs_f64();
+            stats.timings.total_s = if frame.is_some() { t_frame.elapsed().as_secs_f64() } else { t0.elapsed().as_secs_f64() };
+            Ok(serde_json::to_string_pretty(&stats)?)
+        })?;
+        let (png, json) = (&outputs.png, &outputs.json);
+        if rstats.interrupted {
+            eprintln!(
+                "octolux: interrupted after {} passes ({} spp); wrote the partial image to {}, {}, {}",
+                rstats.passes,
+                rstats.spp,
+                outputs.exr.display(),
+                png.display(),
+                json.display()
+            );
+            return Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED));
+        }
+        if !args.quiet {
+            eprintln!(
+                "rendered {} spp in {:.2} s: {:.3} M samples/s, {:.2} M rays/s -> {}, {}, {}",
+                rstats.spp,
+                rstats.render_s,
+                rstats.samples_per_second * 1e-6,
+                rstats.rays_per_second * 1e-6,
+                outputs.exr.display(),
+                png.display(),
+                json.display()
+            );
+        }
     }
     Ok(std::process::ExitCode::SUCCESS)
 }
@@ -292,6 +364,7 @@ fn run(cli: Cli) -> Result<std::process::ExitCode> {
     budget::limit_from_env().map_err(anyhow::Error::msg)?;
     match cli.command {
         Command::Render(a) => cmd_render(&a),
+        Command::Bake(a) => bake::cmd_bake(&a),
         Command::Export(a) => cmd_export(&a).map(|()| std::process::ExitCode::SUCCESS),
         Command::Compare { image, reference } => cmd_compare(&image, &reference).map(|()| std::process::ExitCode::SUCCESS),
         Command::Scenes => {

@@ -107,6 +107,55 @@ impl Outputs {
     }
 }
 
+/// The folder of an output file (`.` for a bare name), checked as [`Outputs::check`] checks
+/// it: it exists, is a folder, and a file can be created in it; `path` is not a folder.
+pub fn check_file(path: &Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    match std::fs::metadata(&dir) {
+        Ok(m) if m.is_dir() => {}
+        Ok(_) => bail!("output folder '{}' is not a folder", dir.display()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!("output folder '{}' does not exist", dir.display()),
+        Err(e) => bail!("output folder '{}' cannot be read: {e}", dir.display()),
+    }
+    if path.is_dir() {
+        bail!("output path '{}' is a folder", path.display());
+    }
+    let probe = staging_name(path, "probe");
+    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
+        Ok(f) => {
+            drop(f);
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => bail!("output folder '{}' is not writable: {e}", dir.display()),
+    }
+}
+
+/// Write one file as the output set is written: staged beside it, synced, then renamed, so
+/// that the final name holds the previous file or the whole new one, never a part.
+pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let staged = staging_name(path, "staged");
+    STAGED.lock().unwrap_or_else(|e| e.into_inner()).push(staged.clone());
+    let result = write_synced(&staged, bytes)
+        .with_context(|| format!("cannot write {}", path.display()))
+        .and_then(|()| std::fs::rename(&staged, path).with_context(|| format!("cannot write {}", path.display())));
+    let _ = std::fs::remove_file(&staged);
+    STAGED.lock().unwrap_or_else(|e| e.into_inner()).retain(|p| p != &staged);
+    result
+}
+
+/// The output of frame `i` of an animation: `out.exr` -> `out_0001.exr` (at least four
+/// digits, as many as `last` needs).
+pub fn frame_path(exr: &Path, i: u64, last: u64) -> PathBuf {
+    let width = last.to_string().len().max(4);
+    let stem = exr.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let ext = exr.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_else(|| "exr".into());
+    exr.with_file_name(format!("{stem}_{i:0width$}.{ext}"))
+}
+
 /// Write `bytes` to a new file and flush it to the disk, so that a full disk shows here and
 /// not after the rename.
 fn write_synced(path: &Path, bytes: &[u8]) -> std::io::Result<()> {

@@ -44,6 +44,9 @@ pub struct FlagSetting {
 pub struct SettingsInput<'a> {
     /// `--integrator`, if given.
     pub integrator: Option<&'a str>,
+    /// Replaces the library's defaults as layer 1 (a lighting cache's settings, which the
+    /// other layers may then change), as a settings object without `type`.
+    pub base: Option<Value>,
     /// Values the CLI derives (layer 1): written silently where the integrator has the key.
     pub derived: Vec<(&'static str, Value)>,
     pub file: Option<&'a Path>,
@@ -81,7 +84,10 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
         (None, Some(ty)) => ty.to_string(),
         (None, None) => "path".to_string(),
     };
-    let mut base = defaults(&name)?;
+    let mut base = match &input.base {
+        Some(b) => b.clone(),
+        None => defaults(&name)?,
+    };
     for (key, value) in &input.derived {
         if let Some(slot) = lookup_mut(&mut base, key) {
             *slot = value.clone();
@@ -375,7 +381,7 @@ mod tests {
     use serde_json::json;
 
     fn input<'a>(integrator: &'a str, flags: Vec<FlagSetting>, sets: &'a [String]) -> SettingsInput<'a> {
-        SettingsInput { integrator: Some(integrator), derived: vec![], file: None, flags, sets }
+        SettingsInput { integrator: Some(integrator), base: None, derived: vec![], file: None, flags, sets }
     }
 
     #[test]

@@ -51,6 +51,11 @@ pub struct StatsFile<'a> {
     /// Set when the render stopped early (an interrupt): the image holds what is said here,
     /// fewer samples than asked for. Null for a complete render.
     pub partial: Option<Partial>,
+    /// With `--cache`: the file, its size, its load time (read, checksum, octree checks) and
+    /// where it was baked; null otherwise.
+    pub cache: Option<serde_json::Value>,
+    /// For the frames of `--camera-path` / `--sensors`: which frame this is; null otherwise.
+    pub frame: Option<crate::frames::FrameInfo>,
 }
 
 /// What a partial image holds.

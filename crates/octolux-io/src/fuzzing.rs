@@ -16,7 +16,7 @@ use std::path::Path;
 pub const FUZZ_MEMORY_LIMIT: u64 = 256 << 20;
 
 /// Names of the targets, which are also the folders under `fuzz/corpus/`.
-pub const TARGETS: [&str; 5] = ["xml", "obj", "ply", "serialized", "image"];
+pub const TARGETS: [&str; 6] = ["xml", "obj", "ply", "serialized", "image", "cache"];
 
 /// Run target `name` on `data`; `None` for an unknown target name.
 pub fn run_target(name: &str, data: &[u8]) -> Option<Result<(), IoError>> {
@@ -26,6 +26,7 @@ pub fn run_target(name: &str, data: &[u8]) -> Option<Result<(), IoError>> {
         "ply" => ply(data),
         "serialized" => serialized(data),
         "image" => image(data),
+        "cache" => cache(data),
         _ => return None,
     })
 }
@@ -63,4 +64,11 @@ pub fn image(data: &[u8]) -> Result<(), IoError> {
         None => ("png", data),
     };
     crate::image_io::decode_image(Path::new(&format!("fuzz.{ext}")), bytes).map(|_| ())
+}
+
+/// A baked lighting file (`.oxc`): parsed and its octrees checked as `render --cache` does,
+/// except the CRC, which is not compared so that mutated inputs reach the parser (the
+/// checksum's own refusals are tested in `tests/cache.rs`).
+pub fn cache(data: &[u8]) -> Result<(), IoError> {
+    crate::cache::load_bytes(data, false).map(|_| ()).map_err(|m| IoError::invalid(Path::new("fuzz.oxc"), m))
 }

@@ -1,11 +1,12 @@
 //! octolux-io: everything that touches files — scene loaders (built-in scenes, Mitsuba 3 XML
 //! including the 0.5/0.6 dialect, OBJ/MTL, PLY), image input/output (OpenEXR, PNG, textures),
-//! the Mitsuba XML exporter and (later) cache files.
+//! the Mitsuba XML exporter and baked lighting files ([`cache`], docs/baking.md).
 //!
 //! Errors name the file (and line where there is one); problems that can be skipped safely are
 //! returned as warnings in [`LoadedScene::warnings`] instead.
 
 pub mod builtin;
+pub mod cache;
 pub mod export;
 pub mod fuzzing;
 pub mod image_io;
@@ -52,6 +53,10 @@ impl IoError {
 pub struct LoadedScene {
     pub desc: SceneDesc,
     pub warnings: Vec<String>,
+    /// The camera of every usable `<sensor>` of a Mitsuba file, in file order (the first is
+    /// `desc.camera`); empty for scenes without sensors (built-in scenes, meshes). Rendered as
+    /// frames by `octolux render --sensors`.
+    pub sensors: Vec<octolux::scene::camera::CameraDesc>,
 }
 
 /// Load a scene from a built-in name (`cornell-box`, `cornell-spheres`) or a path (`.xml` is
@@ -61,7 +66,7 @@ pub fn load_scene(spec: &str, defines: &[(String, String)]) -> Result<LoadedScen
     let path = Path::new(spec);
     if !path.exists() {
         if let Some(desc) = builtin::scene(spec) {
-            return Ok(LoadedScene { desc, warnings: Vec::new() });
+            return Ok(LoadedScene { desc, ..Default::default() });
         }
         if path.extension().is_none() {
             return Err(IoError::UnknownScene { name: spec.to_string(), known: builtin::NAMES.join(", ") });

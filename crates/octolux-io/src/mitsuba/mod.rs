@@ -84,9 +84,10 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
         materials: HashMap::new(),
         images: HashMap::new(),
         default_material: None,
+        sensors: Vec::new(),
     };
     b.scene(&tree.root)?;
-    Ok(LoadedScene { desc: b.desc, warnings: b.warnings })
+    Ok(LoadedScene { desc: b.desc, warnings: b.warnings, sensors: b.sensors })
 }
 
 /// Map every object `id` to its element; duplicate ids are an error.
@@ -119,6 +120,8 @@ struct Builder<'t> {
     /// Image index of each texture file already read.
     images: HashMap<PathBuf, u32>,
     default_material: Option<u32>,
+    /// The camera of every usable sensor, in file order.
+    sensors: Vec<octolux::scene::camera::CameraDesc>,
 }
 
 /// Mitsuba 3's film when a scene gives none.
@@ -141,9 +144,26 @@ impl<'t> Builder<'t> {
                 "integrator" => self.integrator(c)?,
                 "sensor" => {
                     if have_sensor {
-                        self.warn(c, "only the first sensor is used; this one is ignored");
+                        // Read for `render --sensors`, without changing the first one's camera,
+                        // film and sample count.
+                        let kept = (self.desc.camera.clone(), self.desc.film, self.desc.hints.spp);
+                        if self.sensor(c)? {
+                            self.sensors.push(self.desc.camera.clone());
+                            if self.desc.film != kept.1 {
+                                self.warn(c, "this sensor's film differs from the first one's; its frame uses the first film");
+                            }
+                            let n = self.sensors.len();
+                            self.warn(
+                                c,
+                                format!("a single image uses the first sensor only; this one is frame {n} of `octolux render --sensors`"),
+                            );
+                        }
+                        (self.desc.camera, self.desc.film, self.desc.hints.spp) = kept;
                     } else {
                         have_sensor = self.sensor(c)?;
+                        if have_sensor {
+                            self.sensors.push(self.desc.camera.clone());
+                        }
                     }
                 }
                 "bsdf" => {

@@ -25,7 +25,7 @@ pub use common::RayCounters;
 use crate::math::{Color, Ray};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
-use octree::{OctreeIntegrator, OctreeIntegratorSettings};
+use octree::{OctreeIntegrator, OctreeIntegratorParts, OctreeIntegratorSettings};
 use path::PathSettings;
 use photon::christensen::{ChristensenIntegrator, ChristensenSettings};
 use photon::photonmap::{PhotonMapIntegrator, PhotonMapSettings};
@@ -100,6 +100,13 @@ pub fn build(settings: &IntegratorSettings, scene: &Scene) -> Result<Integrator,
             Integrator::Christensen(Box::new(ChristensenIntegrator::build(scene, s.clone()).map_err(baseline("christensen"))?))
         }
     })
+}
+
+/// The `octree` integrator from prebuilt octrees (a cache file, docs/baking.md): no photon is
+/// traced; the parts are checked ([`OctreeIntegrator::from_parts`]). The CLI, tests (and
+/// later Python) share this one path, as they share [`build`].
+pub fn build_from_parts(parts: OctreeIntegratorParts) -> Result<Integrator, IntegratorError> {
+    Ok(Integrator::Octree(Box::new(OctreeIntegrator::from_parts(parts)?)))
 }
 
 /// A prepared integrator.

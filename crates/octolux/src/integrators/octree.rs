@@ -19,7 +19,7 @@
 //! otherwise is already in the direct term.
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
-use crate::caches::octree::{AnalyticSphere, Surfaces};
+use crate::caches::octree::{AnalyticSphere, OctreeParts, PartsError, Surfaces};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
 use crate::math::{Color, Frame, Ray};
 use crate::photon::trace::{trace_photons, PhotonError, PhotonSettings};
@@ -109,10 +109,13 @@ pub enum BuildError {
     Global(OctreeError),
     #[error("caustic octree: {0}")]
     Caustic(OctreeError),
+    /// Prebuilt octrees ([`OctreeIntegrator::from_parts`]) that do not make an integrator.
+    #[error("{tree} octree: {source}")]
+    Parts { tree: &'static str, source: PartsError },
 }
 
 /// Statistics of the build (the paper's tables 1 and 3).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OctreeBuildStats {
     pub photons_emitted: u64,
     pub global_photons: usize,
@@ -139,7 +142,47 @@ pub struct OctreeIntegrator {
     pub stats: OctreeBuildStats,
 }
 
+/// A built `octree` integrator as plain data: what a cache file holds (docs/baking.md).
+/// Extend [`OctreeParts`] for per-leaf data, this struct for per-integrator data.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OctreeIntegratorParts {
+    pub settings: OctreeIntegratorSettings,
+    pub global: OctreeParts,
+    pub caustic: Option<OctreeParts>,
+    pub stats: OctreeBuildStats,
+}
+
 impl OctreeIntegrator {
+    /// The integrator as plain data ([`Octree::to_parts`] of both octrees).
+    pub fn to_parts(&self) -> OctreeIntegratorParts {
+        OctreeIntegratorParts {
+            settings: self.settings.clone(),
+            global: self.global.to_parts(),
+            caustic: self.caustic.as_ref().map(Octree::to_parts),
+            stats: self.stats.clone(),
+        }
+    }
+
+    /// The integrator from prebuilt octrees, without tracing a photon: every octree invariant
+    /// is checked ([`Octree::from_parts`]) and each octree's settings must be the integrator's.
+    /// Renders are bit-identical to those of the integrator the parts came from.
+    pub fn from_parts(parts: OctreeIntegratorParts) -> Result<OctreeIntegrator, BuildError> {
+        let OctreeIntegratorParts { settings, global, caustic, mut stats } = parts;
+        let tree = |name: &'static str, want: &OctreeSettings, p: OctreeParts| {
+            let err = |source| BuildError::Parts { tree: name, source };
+            if p.settings != *want {
+                return Err(err(PartsError(format!("its settings {:?} are not the integrator's {want:?}", p.settings))));
+            }
+            Octree::from_parts(p).map_err(err)
+        };
+        let global = tree("global", &settings.global, global)?;
+        let caustic = caustic.map(|c| tree("caustic", &settings.caustic, c)).transpose()?;
+        stats.global = global.stats().clone();
+        stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
+        stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
+        Ok(OctreeIntegrator { settings, global, caustic, stats })
+    }
+
     /// Trace the photons and build both octrees over the scene's bounds.
     pub fn build(scene: &Scene, settings: OctreeIntegratorSettings) -> Result<OctreeIntegrator, BuildError> {
         settings.global.validate().map_err(BuildError::Global)?;

@@ -21,6 +21,15 @@ pub(crate) fn box_scene(res: u32) -> Scene {
 
 /// [`box_scene`] with another reconstruction filter.
 pub(crate) fn box_scene_with(res: u32, filter: PixelFilter) -> Scene {
+    Scene::prepare(box_desc_with(res, filter), BackendKind::Bvh).expect("valid test scene")
+}
+
+/// The description of [`box_scene`] (8² pixels).
+pub(crate) fn box_desc() -> SceneDesc {
+    box_desc_with(8, PixelFilter::Box)
+}
+
+fn box_desc_with(res: u32, filter: PixelFilter) -> SceneDesc {
     use std::f32::consts::FRAC_PI_2;
     let t = Mat4::from_translation;
     let rx = Mat4::from_rotation_x;
@@ -34,7 +43,7 @@ pub(crate) fn box_scene_with(res: u32, filter: PixelFilter) -> Scene {
         quad("right", t(Vec3::new(1.0, 1.0, 0.0)) * ry(-FRAC_PI_2), 2, None),
         quad("light", t(Vec3::new(0.0, 1.99, 0.0)) * rx(FRAC_PI_2) * Mat4::from_scale(Vec3::splat(0.3)), 0, Some(Color::splat(15.0))),
     ];
-    let desc = SceneDesc {
+    SceneDesc {
         shapes,
         materials: vec![
             Material::Diffuse { reflectance: Texture::Const(Color::splat(0.7)) },
@@ -49,8 +58,7 @@ pub(crate) fn box_scene_with(res: u32, filter: PixelFilter) -> Scene {
         },
         film: FilmDesc { width: res, height: res, filter },
         ..Default::default()
-    };
-    Scene::prepare(desc, BackendKind::Bvh).expect("valid test scene")
+    }
 }
 
 /// The inside of a sphere of radius 1 whose walls are Lambertian of albedo `rho` and emit

@@ -17,14 +17,17 @@
 //! - this module: the prepared [`Scene`] and its [`SurfaceHit`].
 
 pub mod camera;
+pub mod camera_path;
 pub mod desc;
 pub mod environment;
 pub mod envmap;
+pub mod fingerprint;
 pub mod lights;
 pub mod material;
 pub mod sunsky;
 
 pub use desc::{FilmDesc, Geometry, Light, PixelFilter, SceneDesc, SceneError, SceneHints, ShapeDesc, TriMesh};
+pub use fingerprint::LightingFingerprint;
 
 use crate::accel::{Accel, BackendKind};
 use crate::image::Image;

@@ -235,11 +235,9 @@ pub(super) fn build(
     }
     let (origin, size) = cube_of(&bounds)?;
     let h = settings.h_max;
-    let inv_quant = ((1u64 << h) as f64 / size as f64) as f32;
-    let mut cell_size = [0.0f32; MAX_DEPTH as usize + 1];
-    for (d, cs) in cell_size.iter_mut().enumerate() {
-        *cs = size / (1u64 << d) as f32;
-    }
+    // shared with `parts.rs`, so that an octree read back has the same bits
+    let inv_quant = super::parts::morton_scale(h, size);
+    let cell_size = super::parts::cell_sizes(size);
 
     // 1.-2. sort and subdivision, 3.-4. estimates
     let cosine_min = (settings.estimator == Estimator::Cosine).then_some(settings.min_cos);

@@ -55,13 +55,15 @@
 //! negative irradiance channels are clamped to 0 after the blend. The blend is `C0`: the
 //! weights are continuous in `P`.
 //!
-//! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices.
+//! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices. As plain
+//! data for cache files: `parts.rs` ([`Octree::to_parts`], [`Octree::from_parts`], docs/baking.md).
 
 mod build;
 mod cells;
 pub mod compress;
 mod estimate;
 mod geometry;
+mod parts;
 mod query;
 mod settings;
 mod sort;
@@ -72,6 +74,7 @@ mod tests;
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
 pub use geometry::AnalyticSphere;
+pub use parts::{LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use settings::{Enlarge, Estimator, OctreeSettings, Split, Storage, MAX_DEPTH};
 
 /// The surfaces the geometry-area estimator clips to each gathering box (world space).
@@ -84,7 +87,7 @@ pub struct Surfaces<'a> {
 use crate::math::Bounds3;
 use compress::{CompressedLeaf, FullLeaf};
 use glam::Vec3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Errors of the octree build.
 #[derive(Debug, thiserror::Error)]
@@ -100,7 +103,7 @@ pub enum OctreeError {
 }
 
 /// Statistics of a built octree (the paper's tables 1 and 3).
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct OctreeStats {
     /// Build time (sorting, subdivision, estimates, compression), seconds (`t_c`).
     pub t_build_s: f64,

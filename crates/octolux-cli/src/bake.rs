@@ -1,0 +1,182 @@
+//! `octolux bake` and the lighting cache of `render --cache` (issue 13, docs/baking.md).
+//!
+//! `bake` resolves the `octree` integrator's settings as `render` does (defaults, the scene's
+//! `max_depth`, `--seed` for the photons, `--settings`, flags, `--set`), traces the photons,
+//! builds both octrees and writes them with the scene's lighting fingerprint
+//! ([`octolux_io::cache`]; staged and renamed like every output). `render --cache` reads and
+//! checks the file before the scene is even loaded, takes the cache's settings as the base of
+//! its own (so only the render-time keys `view` and `gather` may change; a key that shaped the
+//! octrees is refused), and compares the fingerprints once the scene is prepared.
+
+use crate::args::{keys, BakeArgs};
+use crate::settings::{self, SettingsInput};
+use crate::{backend_kind, load, output, stats};
+use anyhow::{bail, Context, Result};
+use octolux::budget;
+use octolux::integrators::octree::OctreeIntegrator;
+use octolux::integrators::IntegratorSettings;
+use octolux::scene::{LightingFingerprint, Scene};
+use octolux_io::cache::{self, CacheFile, CacheInfo, LoadedCache};
+use serde_json::{json, Value};
+use std::path::Path;
+use std::time::Instant;
+
+/// The settings keys that shape the octrees: a render from a cache may not change them.
+pub const BAKE_KEYS: [&str; 4] = ["photons", "global", "caustic", "max_depth"];
+
+/// Checks shared by `render` and `bake` before any work: threads, memory limit, max depth.
+pub fn check_run_flags(threads: Option<usize>, memory_limit: Option<&str>, max_depth: Option<i32>) -> Result<()> {
+    if let Some(n) = threads {
+        if n == 0 {
+            bail!("--threads must be at least 1");
+        }
+        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot start the worker threads")?;
+    }
+    if let Some(d) = max_depth.filter(|&d| d < -1) {
+        bail!("--max-depth must be -1 (unbounded) or at least 0, got {d}");
+    }
+    if let Some(m) = memory_limit {
+        let bytes = budget::parse_bytes(m)
+            .with_context(|| format!("--memory-limit {m}: expected a memory size (bytes with an optional K, M, G or T suffix)"))?;
+        budget::set_memory_limit(bytes);
+    }
+    Ok(())
+}
+
+pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
+    let t0 = Instant::now();
+    check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
+    if args.octree.cache_scene.is_some() {
+        bail!("--cache-scene does not apply to bake: bake that scene itself");
+    }
+    output::check_file(&args.output)?;
+    let loaded = load(&args.scene)?;
+    let desc = loaded.desc;
+    let mut flags = args.octree.settings();
+    if let Some(d) = args.max_depth {
+        flags.push(settings::FlagSetting {
+            flag: "--max-depth",
+            only: None,
+            keys: vec![keys::MAX_DEPTH.into()],
+            value: json!(d),
+            at_most: false,
+        });
+    }
+    let resolved = settings::resolve(&SettingsInput {
+        integrator: Some("octree"),
+        base: None,
+        derived: vec![(keys::MAX_DEPTH, json!(desc.hints.max_depth.unwrap_or(-1))), (keys::PHOTON_SEED, json!(args.seed))],
+        file: args.settings.as_deref(),
+        flags,
+        sets: &args.set,
+    })?;
+    for w in &resolved.warnings {
+        eprintln!("warning: {w}");
+    }
+    let IntegratorSettings::Octree(octree_settings) = resolved.settings else {
+        bail!("bake builds the octree integrator's lighting; the settings name another integrator");
+    };
+    budget::check_photons(octree_settings.photons.photons).context("the photon count (--photons or photons.photons)")?;
+    let t1 = Instant::now();
+    let scene = Scene::prepare(desc, backend_kind(args.backend)).with_context(|| format!("cannot prepare scene '{}'", args.scene.scene))?;
+    let prepare_s = t1.elapsed().as_secs_f64();
+    let t2 = Instant::now();
+    let fingerprint = scene.lighting_fingerprint();
+    let fingerprint_s = t2.elapsed().as_secs_f64();
+    if !args.quiet {
+        eprintln!("octree: tracing {} photons and building the octrees ...", octree_settings.photons.photons);
+    }
+    let t3 = Instant::now();
+    let o = OctreeIntegrator::build(&scene, octree_settings).context("cannot build the octrees")?;
+    let bake_s = t3.elapsed().as_secs_f64();
+    if !args.quiet {
+        stats::print_octree_stats(&o.stats);
+    }
+    let t4 = Instant::now();
+    let info =
+        CacheInfo { octolux_version: env!("CARGO_PKG_VERSION").into(), scene: args.scene.scene.clone(), backend: scene.backend_name() };
+    let bytes = cache::encode(&CacheFile { fingerprint, info, parts: o.to_parts() });
+    output::write_file_atomic(&args.output, &bytes)?;
+    let write_s = t4.elapsed().as_secs_f64();
+    let valid = o.stats.global.valid_leaves + o.stats.caustic.as_ref().map_or(0, |c| c.valid_leaves);
+    eprintln!(
+        "baked {} -> {}: {} bytes on disk ({:.1} B per valid leaf, {} valid leaves), {} bytes in memory; photons + octrees {:.3} s, \
+         fingerprint {:.3} s, encode + write {:.3} s (prepare {:.3} s, total {:.3} s)",
+        args.scene.scene,
+        args.output.display(),
+        bytes.len(),
+        bytes.len() as f64 / valid.max(1) as f64,
+        valid,
+        o.stats.bytes,
+        bake_s,
+        fingerprint_s,
+        write_s,
+        prepare_s,
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(std::process::ExitCode::SUCCESS)
+}
+
+/// Read a lighting cache (every check of [`octolux_io::cache`]) and time it.
+pub fn read_cache(path: &Path) -> Result<(LoadedCache, f64)> {
+    let t = Instant::now();
+    let c = cache::read(path)?;
+    Ok((c, t.elapsed().as_secs_f64()))
+}
+
+/// The cache's settings as the base layer of the render's (an object without `type`).
+pub fn base_settings(c: &LoadedCache) -> Result<Value> {
+    let mut v = serde_json::to_value(c.integrator.settings())?;
+    if let Value::Object(m) = &mut v {
+        m.remove("type");
+    }
+    Ok(v)
+}
+
+/// Refuse resolved settings that differ from the cache's in a key that shaped the octrees.
+pub fn check_settings(path: &Path, c: &LoadedCache, resolved: &IntegratorSettings) -> Result<()> {
+    let (baked, now) = (serde_json::to_value(c.integrator.settings())?, serde_json::to_value(resolved)?);
+    let changed: Vec<&str> = BAKE_KEYS.iter().copied().filter(|k| baked.get(k) != now.get(k)).collect();
+    if !changed.is_empty() {
+        bail!(
+            "lighting cache {}: the settings {} differ from the bake's, and they shape the octrees: re-bake with them, or drop \
+             them (with --cache only `view` and `gather` may change)",
+            path.display(),
+            changed.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// Compare the scene's lighting fingerprint with the bake's: an error naming what changed,
+/// or with `allow_stale` a warning (returned, and printed by the caller).
+pub fn check_fingerprint(
+    path: &Path,
+    c: &LoadedCache,
+    scene: &LightingFingerprint,
+    scene_name: &str,
+    allow_stale: bool,
+) -> Result<Option<String>> {
+    let changes = scene.changes(&c.fingerprint);
+    if changes.is_empty() {
+        return Ok(None);
+    }
+    let what = changes.join(", ");
+    let msg = format!("lighting cache {} was baked from '{}', whose {what} differ from scene '{scene_name}'", path.display(), c.info.scene);
+    if allow_stale {
+        Ok(Some(format!("{msg}; rendering anyway (--allow-stale-cache): the indirect light is the bake's")))
+    } else {
+        bail!("{msg}: re-bake it, or pass --allow-stale-cache to render with it anyway (camera and film changes need neither)")
+    }
+}
+
+/// What `OUT.json` says of the cache.
+pub fn report(path: &Path, c: &LoadedCache, load_s: f64, stale: &Option<String>) -> Value {
+    json!({
+        "file": path.display().to_string(),
+        "file_bytes": c.file_bytes,
+        "load_s": load_s,
+        "baked_from": c.info,
+        "stale": stale,
+    })
+}

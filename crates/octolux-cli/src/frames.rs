@@ -1,0 +1,88 @@
+//! The frames of an animation (issue 13): a camera path file (`--camera-path`, interpolated
+//! by `octolux::scene::camera_path`) or the `<sensor>`s of the scene file (`--sensors`), each
+//! frame written as `OUT_0001.exr` (and its `.png`, `.json`) by the output rules of
+//! [`crate::output`]. `--frames A..B` keeps frames A to B (both included), so frames can be
+//! spread over machines: a frame's image depends only on the lighting (one cache), its camera
+//! and `--seed`, never on the other frames.
+
+use crate::args::RenderArgs;
+use anyhow::{bail, Context, Result};
+use octolux::scene::camera::CameraDesc;
+use octolux::scene::camera_path::CameraPath;
+use serde::Serialize;
+use std::path::Path;
+
+/// One frame to render.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// From 1.
+    pub index: u64,
+    pub camera: CameraDesc,
+    /// Seconds along the camera path (none for sensors).
+    pub time_s: Option<f64>,
+}
+
+/// What `OUT_i.json` says of its frame.
+#[derive(Serialize, Debug, Clone)]
+pub struct FrameInfo {
+    pub index: u64,
+    /// Frames of the whole animation.
+    pub count: u64,
+    pub time_s: Option<f64>,
+    /// `camera path FILE` or `sensors`.
+    pub source: String,
+}
+
+/// The frames asked for.
+pub struct Plan {
+    pub frames: Vec<Frame>,
+    /// Frames of the whole animation (numbers are padded for it).
+    pub count: u64,
+    pub source: String,
+}
+
+/// Read a camera path file (JSON or TOML by extension), validated; errors name the file.
+pub fn read_camera_path(path: &Path) -> Result<CameraPath> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read camera path {}", path.display()))?;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let p: CameraPath = match ext.as_str() {
+        "json" => serde_json::from_str(&text).with_context(|| format!("camera path {} is not valid", path.display()))?,
+        "toml" => toml::from_str(&text).with_context(|| format!("camera path {} is not valid", path.display()))?,
+        _ => bail!("camera path {}: expected a .json or .toml file", path.display()),
+    };
+    p.validate().map_err(|m| anyhow::anyhow!("camera path {}: {m}", path.display()))?;
+    Ok(p)
+}
+
+/// The frames of `args` (`None`: a single image), checked before any long work. `sensors` are
+/// the scene file's cameras, `base` the scene's camera (its fov axis and near clip serve the
+/// path's cameras).
+pub fn plan(args: &RenderArgs, sensors: &[CameraDesc], base: &CameraDesc) -> Result<Option<Plan>> {
+    let (count, source, camera_at): (u64, String, Box<dyn Fn(u64) -> Frame>) = if let Some(file) = &args.camera_path {
+        let path = read_camera_path(file)?;
+        let count = path.frame_count();
+        let base = base.clone();
+        let at = move |i: u64| {
+            let t = path.frame_time(i);
+            Frame { index: i, camera: path.pose_at(t).camera(&base), time_s: Some(t) }
+        };
+        (count, format!("camera path {}", file.display()), Box::new(at))
+    } else if args.sensors {
+        if sensors.is_empty() {
+            bail!("--sensors: scene '{}' has no <sensor> (only a Mitsuba XML file has sensors)", args.scene.scene);
+        }
+        let cams = sensors.to_vec();
+        let at = move |i: u64| Frame { index: i, camera: cams[(i - 1) as usize].clone(), time_s: None };
+        (sensors.len() as u64, "sensors".to_string(), Box::new(at))
+    } else {
+        if args.frames.is_some() {
+            bail!("--frames needs --camera-path or --sensors");
+        }
+        return Ok(None);
+    };
+    let (a, b) = args.frames.unwrap_or((1, count));
+    if b > count {
+        bail!("--frames {a}..{b}: the {source} makes {count} frames");
+    }
+    Ok(Some(Plan { frames: (a..=b).map(camera_at).collect(), count, source }))
+}

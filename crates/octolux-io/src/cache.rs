@@ -1,0 +1,351 @@
+//! Baked lighting files (`.oxc`, issue 13): the `octree` integrator's global and caustic
+//! octrees with their settings, and the fingerprint of the scene they were baked in. The byte
+//! layout is tabled in docs/baking.md; in short (all integers little-endian):
+//!
+//! ```text
+//! header   magic "OXCACHE\0" (8) | format version u32 | reserved u32 = 0 | body length u64
+//! body     fingerprint: geometry u64, materials u64, emitters u64
+//!          meta: u32 length + JSON {octolux_version, scene, backend, settings, stats}
+//!          tree count u8 (1: global; 2: global, caustic), then per tree:
+//!            u32 length + JSON {stats}; origin 3 x f32; size f32;
+//!            node count u32, nodes (link u32, photons u32);
+//!            storage u8 (0 compressed, 1 full), value count u32, values
+//!              (36 bytes, or 54 f32: six column-major 3x3 matrices);
+//!            facing count u32, facing bytes
+//! trailer  CRC-32 (IEEE, zlib's) of every byte before it, u32
+//! ```
+//!
+//! Reading checks, in this order and before any large allocation: the length (at least a
+//! header and a trailer), the magic, the version (a newer one is refused by name), the length
+//! the header announces (truncated or trailing bytes), the checksum, then every count against
+//! the bytes left, the JSON, and last the octrees' invariants (`Octree::from_parts`). Every
+//! error names the file. The checksum is `flate2::Crc` (already a dependency for EXR and PNG):
+//! CRC-32 catches every burst error up to 32 bits and any truncation the length check missed;
+//! it is not a defence against a forged file, and the invariants checked after it are.
+
+use crate::IoError;
+use glam::{Mat3, Vec3};
+use octolux::caches::octree::compress::{CompressedLeaf, FullLeaf, LEAF_BYTES};
+use octolux::caches::octree::{LeafValueParts, OctreeParts};
+use octolux::caches::OctreeStats;
+use octolux::integrators::octree::{OctreeBuildStats, OctreeIntegratorParts, OctreeIntegratorSettings};
+use octolux::integrators::{build_from_parts, Integrator};
+use octolux::scene::LightingFingerprint;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The first 8 bytes of a cache file.
+pub const MAGIC: [u8; 8] = *b"OXCACHE\0";
+/// The format version this octolux writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+/// Header bytes: magic, version, reserved, body length.
+pub const HEADER_BYTES: usize = 24;
+/// Trailer bytes: the CRC-32.
+pub const TRAILER_BYTES: usize = 4;
+/// Bytes of a full leaf on disk (54 f32).
+pub const FULL_LEAF_BYTES: usize = 6 * 9 * 4;
+
+/// Where a cache came from (informative; only the fingerprint is checked).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CacheInfo {
+    /// The octolux version that baked it.
+    pub octolux_version: String,
+    /// The scene as named on the bake's command line.
+    pub scene: String,
+    /// The ray-intersection backend of the bake (a render reproduces the bake bit for bit only
+    /// with the same backend).
+    pub backend: String,
+}
+
+/// The content of a cache file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CacheFile {
+    pub fingerprint: LightingFingerprint,
+    pub info: CacheInfo,
+    pub parts: OctreeIntegratorParts,
+}
+
+/// A cache read and checked, its integrator ready to render.
+pub struct LoadedCache {
+    pub fingerprint: LightingFingerprint,
+    pub info: CacheInfo,
+    /// The `octree` integrator built from the cached octrees (no photon traced).
+    pub integrator: Integrator,
+    /// Bytes of the file.
+    pub file_bytes: usize,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Meta {
+    octolux_version: String,
+    scene: String,
+    backend: String,
+    settings: OctreeIntegratorSettings,
+    stats: OctreeBuildStats,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TreeMeta {
+    stats: OctreeStats,
+}
+
+// ---------------------------------------------------------------- writing
+
+fn put_u32(out: &mut Vec<u8>, v: u32) {
+    out.extend_from_slice(&v.to_le_bytes());
+}
+
+fn put_f32(out: &mut Vec<u8>, v: f32) {
+    out.extend_from_slice(&v.to_le_bytes());
+}
+
+/// A count as u32 (the octree's counts are u32 by construction).
+fn count(n: usize) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+fn put_json(out: &mut Vec<u8>, v: &impl Serialize) {
+    // The metadata is plain numbers, strings and enums: serialising cannot fail.
+    let text = serde_json::to_vec(v).unwrap_or_default();
+    put_u32(out, count(text.len()));
+    out.extend_from_slice(&text);
+}
+
+fn put_tree(out: &mut Vec<u8>, t: &OctreeParts) {
+    put_json(out, &TreeMeta { stats: t.stats.clone() });
+    for v in t.origin.to_array() {
+        put_f32(out, v);
+    }
+    put_f32(out, t.size);
+    put_u32(out, count(t.nodes.len()));
+    for [link, photons] in &t.nodes {
+        put_u32(out, *link);
+        put_u32(out, *photons);
+    }
+    match &t.values {
+        LeafValueParts::Compressed(v) => {
+            out.push(0);
+            put_u32(out, count(v.len()));
+            v.iter().for_each(|l| out.extend_from_slice(l));
+        }
+        LeafValueParts::Full(v) => {
+            out.push(1);
+            put_u32(out, count(v.len()));
+            for m in v.iter().flatten() {
+                m.to_cols_array().iter().for_each(|&x| put_f32(out, x));
+            }
+        }
+    }
+    put_u32(out, count(t.facing.len()));
+    out.extend_from_slice(&t.facing);
+}
+
+/// The bytes of a cache file.
+pub fn encode(c: &CacheFile) -> Vec<u8> {
+    let mut body = Vec::new();
+    for v in [c.fingerprint.geometry, c.fingerprint.materials, c.fingerprint.emitters] {
+        body.extend_from_slice(&v.to_le_bytes());
+    }
+    let meta = Meta {
+        octolux_version: c.info.octolux_version.clone(),
+        scene: c.info.scene.clone(),
+        backend: c.info.backend.clone(),
+        settings: c.parts.settings.clone(),
+        stats: c.parts.stats.clone(),
+    };
+    put_json(&mut body, &meta);
+    body.push(1 + c.parts.caustic.is_some() as u8);
+    put_tree(&mut body, &c.parts.global);
+    if let Some(t) = &c.parts.caustic {
+        put_tree(&mut body, t);
+    }
+    let mut out = Vec::with_capacity(HEADER_BYTES + body.len() + TRAILER_BYTES);
+    out.extend_from_slice(&MAGIC);
+    put_u32(&mut out, FORMAT_VERSION);
+    put_u32(&mut out, 0);
+    out.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    out.extend_from_slice(&body);
+    let crc = crc32(&out);
+    put_u32(&mut out, crc);
+    out
+}
+
+/// CRC-32 (IEEE 802.3, as zlib and PNG compute it).
+pub fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = flate2::Crc::new();
+    c.update(bytes);
+    c.sum()
+}
+
+// ---------------------------------------------------------------- reading
+
+/// A reader that never reads past the end: every take is checked against what is left.
+struct Reader<'a> {
+    data: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn left(&self) -> usize {
+        self.data.len() - self.at
+    }
+
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
+        if n > self.left() {
+            return Err(format!("{what}: {n} bytes needed at offset {}, {} left", self.at + HEADER_BYTES, self.left()));
+        }
+        let s = &self.data[self.at..self.at + n];
+        self.at += n;
+        Ok(s)
+    }
+
+    fn u8(&mut self, what: &str) -> Result<u8, String> {
+        Ok(self.take(1, what)?[0])
+    }
+
+    fn u32(&mut self, what: &str) -> Result<u32, String> {
+        let b = self.take(4, what)?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+
+    fn u64(&mut self, what: &str) -> Result<u64, String> {
+        let b = self.take(8, what)?;
+        Ok(u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+    }
+
+    fn f32(&mut self, what: &str) -> Result<f32, String> {
+        Ok(f32::from_bits(self.u32(what)?))
+    }
+
+    /// A count of items of `size` bytes, checked against the bytes left before anything is
+    /// allocated; returns the count and the items' bytes.
+    fn array(&mut self, size: usize, what: &str) -> Result<(usize, &'a [u8]), String> {
+        let n = self.u32(what)? as usize;
+        let bytes = n.checked_mul(size).filter(|&b| b <= self.left());
+        match bytes {
+            Some(b) => Ok((n, self.take(b, what)?)),
+            None => Err(format!("{what}: {n} entries of {size} bytes announced, {} bytes left", self.left())),
+        }
+    }
+
+    fn json<T: serde::de::DeserializeOwned>(&mut self, what: &str) -> Result<T, String> {
+        let (_, text) = self.array(1, what)?;
+        serde_json::from_slice(text).map_err(|e| format!("{what}: {e}"))
+    }
+}
+
+fn words(b: &[u8]) -> impl Iterator<Item = u32> + '_ {
+    b.chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]))
+}
+
+fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSettings) -> Result<OctreeParts, String> {
+    let what = |w: &str| format!("{name} octree, {w}");
+    let meta: TreeMeta = r.json(&what("statistics"))?;
+    let origin = Vec3::new(r.f32(&what("origin"))?, r.f32(&what("origin"))?, r.f32(&what("origin"))?);
+    let size = r.f32(&what("size"))?;
+    let (_, nb) = r.array(8, &what("nodes"))?;
+    let w: Vec<u32> = words(nb).collect();
+    let nodes = w.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let values = match r.u8(&what("storage"))? {
+        0 => {
+            let (_, b) = r.array(LEAF_BYTES, &what("compressed leaves"))?;
+            LeafValueParts::Compressed(b.chunks_exact(LEAF_BYTES).map(|l| CompressedLeaf::try_from(l).unwrap_or([0; LEAF_BYTES])).collect())
+        }
+        1 => {
+            let (_, b) = r.array(FULL_LEAF_BYTES, &what("full leaves"))?;
+            let f: Vec<f32> = words(b).map(f32::from_bits).collect();
+            LeafValueParts::Full(
+                f.chunks_exact(54).map(|l| -> FullLeaf { std::array::from_fn(|k| Mat3::from_cols_slice(&l[9 * k..9 * k + 9])) }).collect(),
+            )
+        }
+        s => return Err(what(&format!("unknown storage {s} (0: compressed, 1: full)"))),
+    };
+    let (_, facing) = r.array(1, &what("facing bits"))?;
+    Ok(OctreeParts { origin, size, settings: settings.clone(), nodes, values, facing: facing.to_vec(), stats: meta.stats })
+}
+
+/// Parse the bytes of a cache file (module docs for the order of the checks). The octrees'
+/// invariants are not checked here but by [`read`] (`Octree::from_parts`). With
+/// `verify_checksum` false the CRC is not compared (the fuzz target, so that mutated inputs
+/// reach the parser; every other check still runs).
+pub fn decode(bytes: &[u8], verify_checksum: bool) -> Result<CacheFile, String> {
+    if bytes.len() < HEADER_BYTES + TRAILER_BYTES {
+        return Err(format!("{} bytes: too short for an octolux cache file ({} at least)", bytes.len(), HEADER_BYTES + TRAILER_BYTES));
+    }
+    if bytes[..8] != MAGIC {
+        return Err("not an octolux cache file (its first bytes are not \"OXCACHE\")".into());
+    }
+    let word = |at: usize| u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+    let version = word(8);
+    if version > FORMAT_VERSION {
+        return Err(format!(
+            "cache format version {version} was written by a newer octolux; this one reads version {FORMAT_VERSION}: re-bake, or use a newer octolux"
+        ));
+    }
+    if version != FORMAT_VERSION {
+        return Err(format!("unknown cache format version {version} (this octolux reads {FORMAT_VERSION})"));
+    }
+    if word(12) != 0 {
+        return Err(format!("reserved header field is {:#x}, not 0", word(12)));
+    }
+    let body_len = u64::from_le_bytes(bytes[16..24].try_into().unwrap_or([0; 8]));
+    let expected = (HEADER_BYTES + TRAILER_BYTES) as u64 + body_len.min(u64::MAX - 64);
+    if (bytes.len() as u64) < expected {
+        return Err(format!("truncated: {} bytes, the header announces {expected}", bytes.len()));
+    }
+    if (bytes.len() as u64) > expected {
+        return Err(format!("{} bytes after the end the header announces ({expected} bytes)", bytes.len() as u64 - expected));
+    }
+    let end = bytes.len() - TRAILER_BYTES;
+    let stored = word(end);
+    if verify_checksum {
+        let actual = crc32(&bytes[..end]);
+        if actual != stored {
+            return Err(format!("corrupt: checksum {actual:08x} does not match the stored {stored:08x}"));
+        }
+    }
+    let mut r = Reader { data: &bytes[HEADER_BYTES..end], at: 0 };
+    let fingerprint =
+        LightingFingerprint { geometry: r.u64("fingerprint")?, materials: r.u64("fingerprint")?, emitters: r.u64("fingerprint")? };
+    let meta: Meta = r.json("metadata")?;
+    let trees = r.u8("tree count")?;
+    if !(1..=2).contains(&trees) {
+        return Err(format!("{trees} octrees (1 or 2: global, caustic)"));
+    }
+    let global = read_tree(&mut r, "global", &meta.settings.global)?;
+    let caustic = if trees == 2 { Some(read_tree(&mut r, "caustic", &meta.settings.caustic)?) } else { None };
+    if r.left() != 0 {
+        return Err(format!("{} unread bytes after the octrees", r.left()));
+    }
+    Ok(CacheFile {
+        fingerprint,
+        info: CacheInfo { octolux_version: meta.octolux_version, scene: meta.scene, backend: meta.backend },
+        parts: OctreeIntegratorParts { settings: meta.settings, global, caustic, stats: meta.stats },
+    })
+}
+
+/// Decode and check bytes into a ready integrator; errors are plain messages (no file).
+pub fn load_bytes(bytes: &[u8], verify_checksum: bool) -> Result<LoadedCache, String> {
+    let c = decode(bytes, verify_checksum)?;
+    let integrator = build_from_parts(c.parts).map_err(|e| e.to_string())?;
+    Ok(LoadedCache { fingerprint: c.fingerprint, info: c.info, integrator, file_bytes: bytes.len() })
+}
+
+/// Read a cache file: every check of the module docs, errors naming the file.
+pub fn read(path: &Path) -> Result<LoadedCache, IoError> {
+    let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
+    load_bytes(&bytes, true).map_err(|m| IoError::invalid(path, format!("cannot use this lighting cache: {m}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crc32_is_zlibs() {
+        assert_eq!(crc32(b"123456789"), 0xcbf4_3926);
+        assert_eq!(crc32(b""), 0);
+    }
+}
