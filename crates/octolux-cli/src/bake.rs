@@ -162,7 +162,11 @@ pub fn check_fingerprint(
         return Ok(None);
     }
     let what = changes.join(", ");
-    let msg = format!("lighting cache {} was baked from '{}', whose {what} differ from scene '{scene_name}'", path.display(), c.info.scene);
+    let msg = format!(
+        "lighting cache {} does not match scene '{scene_name}': the {what} changed since it was baked (from '{}')",
+        path.display(),
+        c.info.scene
+    );
     if allow_stale {
         Ok(Some(format!("{msg}; rendering anyway (--allow-stale-cache): the indirect light is the bake's")))
     } else {

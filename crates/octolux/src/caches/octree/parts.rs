@@ -141,12 +141,12 @@ impl Walk<'_> {
             return bad(format!("node {id}: children at {first}, expected {} of {} nodes", self.next, self.nodes.len()));
         }
         self.next += 8;
+        for c in 0..8 {
+            self.node(first + c, depth + 1)?;
+        }
         let sum: u64 = self.nodes[first..first + 8].iter().map(|n| n[1] as u64).sum();
         if sum != photons as u64 {
             return bad(format!("node {id}: {photons} photons, its children hold {sum}"));
-        }
-        for c in 0..8 {
-            self.node(first + c, depth + 1)?;
         }
         Ok(())
     }
