@@ -9,9 +9,9 @@
 //!
 //! The camera, the film and the render hints are left out: any camera renders from one bake.
 //!
-//! The hash is 64-bit FNV-1a (Fowler–Noll–Vo), written here: a dozen lines, a published test
-//! vector, stable across Rust versions and platforms (std's `DefaultHasher` promises neither),
-//! and about 1 GB/s, a small fraction of a bake. Floats are hashed by their bits; materials and
+//! The hash is 64-bit FNV-1a (Fowler–Noll–Vo), written here: a dozen lines, published test
+//! vectors, stable across Rust versions and platforms (std's `DefaultHasher` promises neither).
+//! Numbers go in one 64-bit word per step (two floats per word), text byte by byte. Floats are hashed by their bits; materials and
 //! lights by their `Debug` text, which prints every `f32` in its shortest exactly round-tripping
 //! form, so a variant added to `Material` or `Light` is covered without code here.
 
@@ -60,12 +60,20 @@ impl Fnv1a {
             self.0 = (self.0 ^ x as u64).wrapping_mul(0x0000_0100_0000_01b3);
         }
     }
+    /// One FNV-1a step on a whole 64-bit word (8x fewer multiplies than byte by byte; each
+    /// step is a bijection of the state for a fixed word and of the word for a fixed state,
+    /// so a change of any single word always changes the hash).
     pub fn u64(&mut self, v: u64) {
-        self.bytes(&v.to_le_bytes());
+        self.0 = (self.0 ^ v).wrapping_mul(0x0000_0100_0000_01b3);
     }
+    /// Floats by their bits, two per word.
     pub fn f32s(&mut self, v: &[f32]) {
-        for x in v {
-            self.bytes(&x.to_bits().to_le_bytes());
+        let mut pairs = v.chunks_exact(2);
+        for p in &mut pairs {
+            self.u64(p[0].to_bits() as u64 | (p[1].to_bits() as u64) << 32);
+        }
+        for x in pairs.remainder() {
+            self.u64(x.to_bits() as u64);
         }
     }
     pub fn finish(&self) -> u64 {
