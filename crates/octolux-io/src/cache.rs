@@ -15,7 +15,8 @@
 //! trailer  CRC-32 (IEEE, zlib's) of every byte before it, u32
 //! ```
 //!
-//! Reading checks, in this order and before any large allocation: the length (at least a
+//! Reading checks, in this order and before any large allocation: the file size against the
+//! memory budget (twice the file: its bytes and the octrees), the length (at least a
 //! header and a trailer), the magic, the version (a newer one is refused by name), the length
 //! the header announces (truncated or trailing bytes), the checksum, then every count against
 //! the bytes left, the JSON, and last the octrees' invariants (`Octree::from_parts`). Every
@@ -335,6 +336,10 @@ pub fn load_bytes(bytes: &[u8], verify_checksum: bool) -> Result<LoadedCache, St
 
 /// Read a cache file: every check of the module docs, errors naming the file.
 pub fn read(path: &Path) -> Result<LoadedCache, IoError> {
+    // the file and the octrees made from it, about twice its size, within the memory budget
+    let len = std::fs::metadata(path).map_err(|e| IoError::os(path, e))?.len();
+    octolux::budget::check_items(|| format!("a lighting cache of {len} bytes"), len, 2)
+        .map_err(|b| IoError::invalid(path, b.to_string()))?;
     let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
     load_bytes(&bytes, true).map_err(|m| IoError::invalid(path, format!("cannot use this lighting cache: {m}")))
 }
