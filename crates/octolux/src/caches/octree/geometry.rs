@@ -31,6 +31,54 @@
 
 use crate::math::Bounds3;
 use glam::{DVec3, Vec3};
+use std::collections::HashMap;
+
+/// Unit vectors indexed by a coarse grid over their components, so that the first of them
+/// (lowest index) within a small distance of a query is found without scanning them all: a
+/// leaf of a curved, finely tessellated mesh holds tens of thousands of distinct normals, and
+/// linear scans made [`lit_areas`] quadratic in them (minutes for one leaf of Bitterli's
+/// dining room). The answer is exactly a linear scan's (`Iterator::find` in index order).
+struct NormalGrid {
+    cells: HashMap<[i32; 3], Vec<u32>>,
+}
+
+impl NormalGrid {
+    /// Grid step in normal components; a match lies within `(2 (1 − cos_min))^½ < STEP` of
+    /// the query, hence in one of the 27 cells around the query's.
+    const STEP: f32 = 1e-2;
+
+    fn new() -> NormalGrid {
+        NormalGrid { cells: HashMap::new() }
+    }
+
+    fn key(n: Vec3) -> [i32; 3] {
+        let k = (n / Self::STEP).floor();
+        [k.x as i32, k.y as i32, k.z as i32]
+    }
+
+    fn insert(&mut self, n: Vec3, index: u32) {
+        self.cells.entry(Self::key(n)).or_default().push(index);
+    }
+
+    /// The lowest index whose entry satisfies `matches` among those near `n` (for predicates
+    /// that hold only within [`Self::STEP`] of `n`).
+    fn first(&self, n: Vec3, mut matches: impl FnMut(u32) -> bool) -> Option<u32> {
+        let k = Self::key(n);
+        let mut best: Option<u32> = None;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    let Some(list) = self.cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) else { continue };
+                    // lists grow in index order: the first match is the list's lowest
+                    if let Some(&i) = list.iter().take_while(|&&i| best.is_none_or(|b| i < b)).find(|&&i| matches(i)) {
+                        best = Some(i);
+                    }
+                }
+            }
+        }
+        best
+    }
+}
 
 /// A triangle clipped to a cell: area inside the cell and which sides are lit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,6 +205,7 @@ pub(crate) fn lit_areas(
     let edge = cell.extent().max_element();
     let plane_tol = 1e-4 * edge + 1e-5 * (1.0 + cell.min.abs().max(cell.max.abs()).max_element());
     let mut groups: Vec<PlaneGroup> = Vec::new();
+    let mut group_grid = NormalGrid::new();
     for &ti in tri_ids {
         let t = &triangles[ti as usize];
         let area = clipped_area(t, cell);
@@ -165,18 +214,28 @@ pub(crate) fn lit_areas(
         }
         let Some(on) = OnTriangle::new(t) else { continue };
         let d = on.n.dot(on.v0);
-        match groups.iter_mut().find(|g| g.n.dot(on.n) > 1.0 - 1e-5 && (g.d - d).abs() <= plane_tol) {
-            Some(g) => {
+        let same = |gi: u32| {
+            let g = &groups[gi as usize];
+            g.n.dot(on.n) > 1.0 - 1e-5 && (g.d - d).abs() <= plane_tol
+        };
+        match group_grid.first(on.n, same) {
+            Some(gi) => {
+                let g = &mut groups[gi as usize];
                 g.area += area as f32;
                 g.tris.push(on);
             }
-            None => groups.push(PlaneGroup { n: on.n, d, area: area as f32, tris: vec![on] }),
+            None => {
+                group_grid.insert(on.n, groups.len() as u32);
+                groups.push(PlaneGroup { n: on.n, d, area: area as f32, tris: vec![on] });
+            }
         }
     }
+    let mut out_grid = NormalGrid::new();
     let mut push = |n: Vec3, area: f32| {
-        if let Some(e) = out.iter_mut().find(|e| e.n.dot(n) > 1.0 - 1e-6) {
-            e.area += area;
+        if let Some(i) = out_grid.first(n, |i| out[i as usize].n.dot(n) > 1.0 - 1e-6) {
+            out[i as usize].area += area;
         } else {
+            out_grid.insert(n, out.len() as u32);
             out.push(OrientedArea { n, area });
         }
     };
