@@ -518,4 +518,42 @@ mod tests {
         assert_eq!(out.len(), 1);
         assert!(out[0].n == Vec3::Z);
     }
+
+    /// The grid finds what a linear scan finds (lowest matching index), for normals closer and
+    /// farther than both tolerances of `lit_areas`, across grid-cell boundaries.
+    #[test]
+    fn normal_grid_answers_as_a_linear_scan() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rand = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let mut normals: Vec<Vec3> = Vec::new();
+        for _ in 0..300 {
+            let base = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize_or(Vec3::Z);
+            normals.push(base);
+            // neighbours from 0 to 6e-3 away: both sides of both tolerances (1.4e-3, 4.5e-3)
+            for _ in 0..4 {
+                let off = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5) * (0.012 * rand());
+                normals.push((base + off).normalize());
+            }
+        }
+        for cos_min in [1.0 - 1e-6, 1.0 - 1e-5] {
+            let mut grid = NormalGrid::new();
+            let mut kept: Vec<Vec3> = Vec::new();
+            let mut merged = 0;
+            for &n in &normals {
+                let linear = kept.iter().position(|k| k.dot(n) > cos_min).map(|i| i as u32);
+                let found = grid.first(n, |i| kept[i as usize].dot(n) > cos_min);
+                assert_eq!(found, linear, "normal {n}");
+                if found.is_none() {
+                    grid.insert(n, kept.len() as u32);
+                    kept.push(n);
+                } else {
+                    merged += 1;
+                }
+            }
+            assert!(merged > 50 && kept.len() > 300, "the case should exercise both answers ({merged} merged, {} kept)", kept.len());
+        }
+    }
 }
