@@ -150,12 +150,23 @@ fn region_mean_se(img: &octolux::image::Image, (x0, x1): (u32, u32), (y0, y1): (
 /// converges is the mean over many pixels: we compare the image mean and the means of 12
 /// regions (80x80 pixels) of one `BOX_SPP` render with the reference's, each with its standard
 /// error from the spread of 4x4-pixel block means (the reference's image mean has a 4.5%
-/// standard error, its regions' 10–30%). Asserted: every channel's image mean within 1% plus
-/// three combined standard errors, and every region's within four.
+/// standard error, its regions' 10–30%; ours, with 8x fewer samples, at least √8 times the
+/// reference's). Asserted: every channel's image mean within 1% plus three combined standard
+/// errors, and every region's within four. Measured (128 spp): image means −8.5% / −8.5% /
+/// −11.7% (z −0.8, −0.8, −1.0), largest region |z| 3.3 without the floor on our error. This
+/// catches a black or missing caustic, a region or channel off by about half, not 10%:
+/// resolving that would take about 100 times the samples here.
 #[test]
 fn path_agrees_with_mitsuba_on_box() {
     let name = "box";
-    let Some(common::Reference { scene_file, image: reference, max_depth, .. }) = common::reference(name) else { return };
+    let Some(common::Reference { entry, scene_file, image: reference, max_depth }) = common::reference(name) else { return };
+    // A region where our render met none of the rare paths has no spread, hence no measured
+    // error: ours is at least the reference's, scaled by the sample counts (same estimator).
+    let spp_ratio = (entry["spp"].as_f64().expect("spp") / BOX_SPP as f64).sqrt();
+    let ours_mean_se = |img: &octolux::image::Image, xs, ys| {
+        let ((m, s), (_, sr)) = (region_mean_se(img, xs, ys), region_mean_se(&reference, xs, ys));
+        (m, std::array::from_fn::<f64, 3, _>(|c| s[c].max(sr[c] * spp_ratio)))
+    };
     let loaded = octolux_io::load_scene(&scene_file.to_string_lossy(), &[])
         .unwrap_or_else(|e| panic!("{name}: octolux does not load {}: {e}", scene_file.display()));
     let mut desc = loaded.desc;
@@ -168,7 +179,7 @@ fn path_agrees_with_mitsuba_on_box() {
     println!("{name}: {}x{} {BOX_SPP} spp, render {:.1}s", ours.width, ours.height, t0.elapsed().as_secs_f64());
     let (w, h) = (ours.width, ours.height);
     let mut failures = Vec::new();
-    let (mo, so) = region_mean_se(&ours, (0, w), (0, h));
+    let (mo, so) = ours_mean_se(&ours, (0, w), (0, h));
     let (mr, sr) = region_mean_se(&reference, (0, w), (0, h));
     for c in 0..3 {
         let se = (so[c].powi(2) + sr[c].powi(2)).sqrt();
@@ -190,7 +201,7 @@ fn path_agrees_with_mitsuba_on_box() {
     let mut worst = 0.0f64;
     for y0 in (0..h - REGION + 1).step_by(REGION as usize) {
         for x0 in (0..w - REGION + 1).step_by(REGION as usize) {
-            let (mo, so) = region_mean_se(&ours, (x0, x0 + REGION), (y0, y0 + REGION));
+            let (mo, so) = ours_mean_se(&ours, (x0, x0 + REGION), (y0, y0 + REGION));
             let (mr, sr) = region_mean_se(&reference, (x0, x0 + REGION), (y0, y0 + REGION));
             let z: [f64; 3] = std::array::from_fn(|c| (mo[c] - mr[c]) / (so[c].powi(2) + sr[c].powi(2)).sqrt().max(1e-12));
             println!("{name}: region x {x0}.. y {y0}..: means ours {mo:.4?} ref {mr:.4?}, z {z:+.2?}");
