@@ -64,7 +64,7 @@ pub fn reference(name: &str) -> Option<Reference> {
 
 /// `img` averaged over `k`x`k` pixel blocks (a box-filter downsample; the size must divide).
 pub fn downsample(img: &Image, k: u32) -> Image {
-    assert!(k >= 1 && img.width % k == 0 && img.height % k == 0, "{}x{} is not a multiple of {k}", img.width, img.height);
+    assert!(k >= 1 && img.width.is_multiple_of(k) && img.height.is_multiple_of(k), "{}x{} is not a multiple of {k}", img.width, img.height);
     let (w, h) = (img.width / k, img.height / k);
     let mut data = Vec::with_capacity((w * h) as usize);
     for y in 0..h {
