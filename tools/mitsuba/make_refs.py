@@ -217,6 +217,8 @@ def make_one(name: str, cfg: dict, spp: int, variant: str, threads: int | None, 
 COLLECTION_DIR = os.path.join(REFS, "collection")
 COLLECTION_WIDTH = 320
 COLLECTION_SPP = 1024
+# Block sizes k at which each collection reference's own noise is also measured (k x k means).
+NOISE_BLOCKS = (4, 8, 16)
 # name -> scene. "shared:" under the shared scenes folder (Mitsuba 0.6 files, translated by
 # translate.py on the fly), "repo:" in this repository (written by tools/make_testdata.py).
 COLLECTION = {
@@ -267,6 +269,17 @@ def make_collection_one(name: str, spp: int, variant: str, threads: int | None, 
     ref = 0.5 * (imgs[0] + imgs[1])
     norm = ref * ref + compare.REL_EPS
     halves = float(np.mean((imgs[0] - imgs[1]) ** 2 / norm))
+    # The same noise measured on k x k block means (box-filter downsample): what a comparison at a
+    # reduced resolution needs (agreement_collection.rs compares `box`, lit by caustics only, so).
+    h, w, _ = ref.shape
+    blocks = {}
+    for k in NOISE_BLOCKS:
+        if w % k == 0 and h % k == 0:
+            def down(x, k=k):
+                return x.reshape(h // k, k, w // k, k, 3).mean(axis=(1, 3))
+            rd = down(ref)
+            hb = float(np.mean((down(imgs[0]) - down(imgs[1])) ** 2 / (rd * rd + compare.REL_EPS)))
+            blocks[str(k)] = {"rel_mse_halves": hb, "ref_rel_mse": hb / 4}
     os.makedirs(COLLECTION_DIR, exist_ok=True)
     path = os.path.join(COLLECTION_DIR, f"{name}.exr")
     fmt = write_half_exr(path, ref)
@@ -312,6 +325,9 @@ def make_collection_one(name: str, spp: int, variant: str, threads: int | None, 
             "rel_mse_halves": halves,
             "ref_rel_mse": halves / 4,
             "storage_rel_mse": quant,
+            "blocks": blocks,
+            "blocks_what": ("the same two numbers after averaging both halves (and normalising by the "
+                            "reference averaged likewise) over k x k pixel blocks, per k"),
         },
         "command": (f".venv-mitsuba/bin/python tools/mitsuba/make_refs.py --collection --only {name} --spp {spp}"
                     f"  (= render.py {shown} --spp {half} --resolution {res[0]}x{res[1]} --max-depth {depth}"
