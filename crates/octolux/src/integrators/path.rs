@@ -5,6 +5,11 @@
 //! `max_depth` counts path vertices as Mitsuba 3 does: 1 = only emitters seen directly,
 //! 2 = direct illumination, -1 = unbounded. Russian roulette starts at depth `rr_depth`
 //! (Mitsuba: 5) with continuation probability `min(max(throughput) · η², 0.95)`.
+//!
+//! As in Mitsuba 3's `path.cpp`: a `mask`'s pass-through ([`Lobe::Null`]) is a delta vertex
+//! (it counts towards `max_depth`, and the emitter it reaches gets no MIS weight); shadow rays
+//! stop at masks whatever their opacity; bump- and normal-mapped hits apply the side check
+//! [`crate::scene::SurfaceHit::same_side`] to light samples and BSDF samples.
 
 use super::common::{mis_power, RayCounters};
 use crate::math::{max_component, Color, Ray};
@@ -75,7 +80,7 @@ pub fn li(settings: &PathSettings, scene: &Scene, mut ray: Ray, sampler: &mut Sa
                 if ls.pdf > 0.0 && ls.li != Color::ZERO {
                     let wi = hit.frame.to_local(ls.wi);
                     let f = material.eval(&scene.images, hit.uv, wo, wi);
-                    if f != Color::ZERO {
+                    if f != Color::ZERO && hit.same_side(ls.wi) {
                         counters.shadow_rays += 1;
                         if !scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
                             let w = if ls.delta { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
@@ -98,10 +103,13 @@ pub fn li(settings: &PathSettings, scene: &Scene, mut ray: Ray, sampler: &mut Sa
             break;
         }
         let wi = hit.frame.to_world(bs.wi);
+        if bs.lobe != Lobe::Null && !hit.same_side(wi) {
+            break;
+        }
         throughput *= bs.weight;
         eta *= bs.eta;
         prev_pdf = bs.pdf;
-        prev_delta = bs.lobe == Lobe::Specular;
+        prev_delta = bs.lobe.is_delta();
         prev_p = hit.p;
         ray = hit.spawn(wi);
         depth += 1;

@@ -158,7 +158,8 @@ fn trace_path(scene: &Scene, settings: &PhotonSettings, index: u64, inv_n: f32, 
         // Purely specular surfaces are never shaded from a photon estimate (renderers follow
         // their delta lobes), and photons kept on them would leak into the estimates of the
         // diffuse surfaces they touch (the floor under a glass sphere: +43% there, measured).
-        let storable = settings.store_on_specular || material.has_smooth_lobe();
+        // No photon where a mask is fully transparent: nothing is there to reflect it.
+        let storable = (settings.store_on_specular || material.has_smooth_lobe()) && material.opacity(&scene.images, hit.uv) > 0.0;
         visit(PathHit { photon: Photon { p: hit.p, wi, power, ng: facing(hit.ng, wi) }, bounces, all_specular, storable });
         if bounces >= settings.max_bounces {
             break;
@@ -180,9 +181,15 @@ fn trace_path(scene: &Scene, settings: &PhotonSettings, index: u64, inv_n: f32, 
         if q <= 0.0 || sampler.next_1d() >= q {
             break;
         }
-        power *= weight / q;
-        all_specular &= bs.lobe == Lobe::Specular;
         let dir = hit.frame.to_world(bs.wi);
+        if bs.lobe != Lobe::Null && !hit.same_side(dir) {
+            break;
+        }
+        power *= weight / q;
+        // A mask's pass-through is a delta vertex like a mirror (Mitsuba's depth count): light
+        // reaching a diffuse surface only through it stays a caustic-map photon, which the
+        // camera side needs since its shadow rays stop at masks.
+        all_specular &= bs.lobe.is_delta();
         ray = hit.spawn(dir);
         bounces += 1;
     }
