@@ -266,9 +266,29 @@ impl<'t> Builder<'t> {
                 let [inner] = nested.as_slice() else {
                     return Err(e.loc.error(format!("{} needs exactly one nested bsdf, found {}", e.describe(), nested.len())));
                 };
-                self.warn(e, format!("\"{ty}\" is not supported; using its nested bsdf alone"));
-                p.accept_all();
-                self.material(inner)?
+                let inner = Box::new(self.material(inner)?);
+                match ty {
+                    // Mitsuba 3 (and 0.6): `opacity`, a float or a texture, default 0.5.
+                    "mask" => Material::Mask { opacity: self.texture_param(&p, "opacity", ColorKind::Bounded, 0.5)?, nested: inner },
+                    // Mitsuba 3 and 0.6: one nested texture of any name, `scale` (default 1).
+                    "bumpmap" => {
+                        let textures: Vec<(usize, &'t Elem)> =
+                            p.objects().filter(|(_, o)| o.target.tag == "texture").map(|(i, o)| (i, o.target)).collect();
+                        let [(i, tex)] = textures.as_slice() else {
+                            return Err(e.loc.error(format!("{} needs exactly one nested texture, found {}", e.describe(), textures.len())));
+                        };
+                        p.mark(*i);
+                        let height = self.texture(tex)?;
+                        Material::BumpMap { height, scale: p.float_or("scale", 1.0)?, nested: inner }
+                    }
+                    // Mitsuba 3 only: the texture `normalmap` (0.6 has no such plugin).
+                    _ => {
+                        if !p.has("normalmap") {
+                            return Err(e.loc.error(format!("{} needs a \"normalmap\" texture", e.describe())));
+                        }
+                        Material::NormalMap { normals: self.texture_param(&p, "normalmap", ColorKind::Bounded, 0.5)?, nested: inner }
+                    }
+                }
             }
             "null" => {
                 self.warn(e, "the null bsdf (invisible surface) is not supported; the surface is black diffuse");
