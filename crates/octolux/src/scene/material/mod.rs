@@ -37,6 +37,8 @@ pub mod plastic;
 mod tests;
 #[cfg(test)]
 mod tests_models;
+#[cfg(test)]
+mod tests_wrappers;
 pub mod texture;
 pub mod ward;
 
