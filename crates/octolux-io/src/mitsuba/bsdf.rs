@@ -19,6 +19,18 @@ impl<'t> Builder<'t> {
         i
     }
 
+    /// The material of an emitting shape without a bsdf: Mitsuba 3's `Shape` (and 0.6's)
+    /// gives it a `diffuse` of reflectance 0, so that a light source reflects nothing.
+    pub(super) fn default_emitter_material(&mut self) -> u32 {
+        if let Some(i) = self.default_emitter_material {
+            return i;
+        }
+        self.desc.materials.push(Material::Diffuse { reflectance: Texture::Const(Color::ZERO) });
+        let i = (self.desc.materials.len() - 1) as u32;
+        self.default_emitter_material = Some(i);
+        i
+    }
+
     /// Index of the material for bsdf element `e`, instantiating it once.
     pub(super) fn material_index(&mut self, e: &'t Elem) -> Result<u32, IoError> {
         let key = e as *const Elem;
@@ -275,7 +287,11 @@ impl<'t> Builder<'t> {
                         let textures: Vec<(usize, &'t Elem)> =
                             p.objects().filter(|(_, o)| o.target.tag == "texture").map(|(i, o)| (i, o.target)).collect();
                         let [(i, tex)] = textures.as_slice() else {
-                            return Err(e.loc.error(format!("{} needs exactly one nested texture, found {}", e.describe(), textures.len())));
+                            return Err(e.loc.error(format!(
+                                "{} needs exactly one nested texture, found {}",
+                                e.describe(),
+                                textures.len()
+                            )));
                         };
                         p.mark(*i);
                         let height = self.texture(tex)?;

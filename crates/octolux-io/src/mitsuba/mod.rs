@@ -84,6 +84,7 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
         materials: HashMap::new(),
         images: HashMap::new(),
         default_material: None,
+        default_emitter_material: None,
     };
     b.scene(&tree.root)?;
     Ok(LoadedScene { desc: b.desc, warnings: b.warnings })
@@ -119,6 +120,8 @@ struct Builder<'t> {
     /// Image index of each texture file already read.
     images: HashMap<PathBuf, u32>,
     default_material: Option<u32>,
+    /// Black diffuse: the bsdf Mitsuba (3 and 0.6) gives an emitting shape that names none.
+    default_emitter_material: Option<u32>,
 }
 
 /// Mitsuba 3's film when a scene gives none.
