@@ -192,7 +192,9 @@ fn mat_eq(a: &Material, ai: &[Image], b: &Material, bi: &[Image]) -> bool {
             tex_eq(w1, ai, w2, bi) && mat_eq(f1, ai, f2, bi) && mat_eq(s1, ai, s2, bi)
         }
         (Mask { opacity: o1, nested: n1 }, Mask { opacity: o2, nested: n2 })
-        | (NormalMap { normals: o1, nested: n1 }, NormalMap { normals: o2, nested: n2 }) => tex_eq(o1, ai, o2, bi) && mat_eq(n1, ai, n2, bi),
+        | (NormalMap { normals: o1, nested: n1 }, NormalMap { normals: o2, nested: n2 }) => {
+            tex_eq(o1, ai, o2, bi) && mat_eq(n1, ai, n2, bi)
+        }
         (BumpMap { height: h1, scale: s1, nested: n1 }, BumpMap { height: h2, scale: s2, nested: n2 }) => {
             tex_eq(h1, ai, h2, bi) && s1 == s2 && mat_eq(n1, ai, n2, bi)
         }

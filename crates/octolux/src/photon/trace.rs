@@ -351,7 +351,12 @@ mod tests {
         let desc = SceneDesc {
             shapes,
             materials,
-            camera: CameraDesc { to_world: look_at(Vec3::new(0.0, 1.0, 4.0), Vec3::ZERO, Vec3::Y), fov_deg: 40.0, fov_axis: FovAxis::X, near_clip: 1e-3 },
+            camera: CameraDesc {
+                to_world: look_at(Vec3::new(0.0, 1.0, 4.0), Vec3::ZERO, Vec3::Y),
+                fov_deg: 40.0,
+                fov_axis: FovAxis::X,
+                near_clip: 1e-3,
+            },
             film: FilmDesc { width: 4, height: 4, filter: PixelFilter::Box },
             ..Default::default()
         };

@@ -81,8 +81,11 @@ fn mask_sampling_matches_its_pdf_and_opacity() {
     let cfg = Chi2Config { samples: 200_000, tests: 3, ..Default::default() };
     let images = vec![Image { width: 2, height: 1, data: vec![white(0.3), white(0.9)] }];
     let textured = Material::Mask { opacity: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE }, nested: Box::new(plastic()) };
-    for (m, uv, wo) in [(mask(0.6), Vec2::ZERO, dir(35.0, 20.0)), (mask(0.25), Vec2::ZERO, dir(75.0, 200.0)), (textured, Vec2::new(0.25, 0.5), dir(50.0, 0.0))]
-    {
+    for (m, uv, wo) in [
+        (mask(0.6), Vec2::ZERO, dir(35.0, 20.0)),
+        (mask(0.25), Vec2::ZERO, dir(75.0, 200.0)),
+        (textured, Vec2::new(0.25, 0.5), dir(50.0, 0.0)),
+    ] {
         let out = check_bsdf(&cfg, &m, &images, uv, wo);
         assert!(out.passed, "{m:?} wo {wo}: {out:?}");
         let o = m.opacity(&images, uv) as f64;
@@ -108,7 +111,12 @@ fn quad_hit(m: Material, images: Vec<Image>, uv: Vec2) -> (Scene, SurfaceHit) {
         }],
         materials: vec![m],
         images,
-        camera: CameraDesc { to_world: look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y), fov_deg: 40.0, fov_axis: FovAxis::X, near_clip: 1e-3 },
+        camera: CameraDesc {
+            to_world: look_at(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, Vec3::Y),
+            fov_deg: 40.0,
+            fov_axis: FovAxis::X,
+            near_clip: 1e-3,
+        },
         film: FilmDesc { width: 4, height: 4, filter: PixelFilter::Box },
         ..Default::default()
     };
@@ -192,7 +200,9 @@ fn resolving_a_mask_picks_the_nested_material_with_the_opacity() {
 fn wrappers_validate_their_parts() {
     let bad_nested = Material::Diffuse { reflectance: Texture::Const(white(-1.0)) };
     assert!(Material::Mask { opacity: Texture::Const(white(0.5)), nested: Box::new(bad_nested.clone()) }.validate(0).is_err());
-    assert!(Material::Mask { opacity: Texture::Bitmap { image: 3, uv_scale: Vec2::ONE }, nested: Box::new(plastic()) }.validate(1).is_err());
+    assert!(Material::Mask { opacity: Texture::Bitmap { image: 3, uv_scale: Vec2::ONE }, nested: Box::new(plastic()) }
+        .validate(1)
+        .is_err());
     assert!(Material::BumpMap { height: Texture::Const(white(0.5)), scale: f32::NAN, nested: Box::new(plastic()) }.validate(0).is_err());
     assert!(Material::NormalMap { normals: Texture::Const(white(0.5)), nested: Box::new(bad_nested) }.validate(0).is_err());
     assert!(Material::BumpMap { height: Texture::Const(white(0.5)), scale: -2.0, nested: Box::new(plastic()) }.validate(0).is_ok());
