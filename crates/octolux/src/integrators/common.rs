@@ -78,8 +78,8 @@ pub fn direct_light(
     if !(ls.pdf > 0.0) || ls.li == Color::ZERO {
         return Color::ZERO;
     }
-    let f = material.eval(&scene.images, hit.uv, wo, hit.frame.to_local(ls.wi));
-    if f == Color::ZERO || !hit.same_side(ls.wi) {
+    let f = material.eval(&scene.images, hit.uv, wo, hit.frame.to_local(ls.wi)) * hit.shading_factor(ls.wi);
+    if f == Color::ZERO {
         return Color::ZERO;
     }
     counters.shadow_rays += 1;
@@ -185,12 +185,10 @@ pub fn walk_specular(
         if !bs.lobe.is_delta() || !bs.weight.is_finite() {
             return walk;
         }
-        throughput *= bs.weight;
-        if throughput == Color::ZERO {
-            return walk;
-        }
         let d = hit.frame.to_world(bs.wi);
-        if bs.lobe != Lobe::Null && !hit.same_side(d) {
+        let k = if bs.lobe == Lobe::Null { 1.0 } else { hit.shading_factor(d) };
+        throughput *= bs.weight * k;
+        if throughput == Color::ZERO {
             return walk;
         }
         ray = hit.spawn(d);

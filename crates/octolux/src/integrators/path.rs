@@ -8,8 +8,9 @@
 //!
 //! As in Mitsuba 3's `path.cpp`: a `mask`'s pass-through ([`Lobe::Null`]) is a delta vertex
 //! (it counts towards `max_depth`, and the emitter it reaches gets no MIS weight); shadow rays
-//! stop at masks whatever their opacity; bump- and normal-mapped hits apply the side check
-//! [`crate::scene::SurfaceHit::same_side`] to light samples and BSDF samples.
+//! stop at masks whatever their opacity; bump- and normal-mapped hits scale BSDF values and
+//! sample weights by [`crate::scene::SurfaceHit::shading_factor`] (side check, terminator
+//! shadowing).
 
 use super::common::{mis_power, RayCounters};
 use crate::math::{max_component, Color, Ray};
@@ -79,8 +80,8 @@ pub fn li(settings: &PathSettings, scene: &Scene, mut ray: Ray, sampler: &mut Sa
             if let Some(ls) = scene.lights.sample_li(hit.p, u_sel, u) {
                 if ls.pdf > 0.0 && ls.li != Color::ZERO {
                     let wi = hit.frame.to_local(ls.wi);
-                    let f = material.eval(&scene.images, hit.uv, wo, wi);
-                    if f != Color::ZERO && hit.same_side(ls.wi) {
+                    let f = material.eval(&scene.images, hit.uv, wo, wi) * hit.shading_factor(ls.wi);
+                    if f != Color::ZERO {
                         counters.shadow_rays += 1;
                         if !scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
                             let w = if ls.delta { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
@@ -103,10 +104,11 @@ pub fn li(settings: &PathSettings, scene: &Scene, mut ray: Ray, sampler: &mut Sa
             break;
         }
         let wi = hit.frame.to_world(bs.wi);
-        if bs.lobe != Lobe::Null && !hit.same_side(wi) {
+        let k = if bs.lobe == Lobe::Null { 1.0 } else { hit.shading_factor(wi) };
+        if k == 0.0 {
             break;
         }
-        throughput *= bs.weight;
+        throughput *= bs.weight * k;
         eta *= bs.eta;
         prev_pdf = bs.pdf;
         prev_delta = bs.lobe.is_delta();

@@ -168,7 +168,9 @@ fn trace_path(scene: &Scene, settings: &PhotonSettings, index: u64, inv_n: f32, 
         let u_lobe = sampler.next_1d();
         let u = sampler.next_2d();
         let Some(bs) = material.sample(&scene.images, hit.uv, wo_local, u_lobe, u) else { break };
-        let mut weight = bs.weight;
+        let dir = hit.frame.to_world(bs.wi);
+        // Bump and normal maps: side check and terminator shadowing (1 elsewhere).
+        let mut weight = bs.weight * if bs.lobe == Lobe::Null { 1.0 } else { hit.shading_factor(dir) };
         if bs.eta != 1.0 {
             // Undo the radiance-mode 1/eta² scaling: flux is not compressed by refraction.
             weight *= bs.eta * bs.eta;
@@ -179,10 +181,6 @@ fn trace_path(scene: &Scene, settings: &PhotonSettings, index: u64, inv_n: f32, 
         // Russian roulette by reflectance: keep the photon's power roughly constant.
         let q = max_component(weight).min(1.0);
         if q <= 0.0 || sampler.next_1d() >= q {
-            break;
-        }
-        let dir = hit.frame.to_world(bs.wi);
-        if bs.lobe != Lobe::Null && !hit.same_side(dir) {
             break;
         }
         power *= weight / q;
@@ -325,6 +323,7 @@ mod tests {
     /// A floor (y = 0, 400x400: it catches all but ~1e-4 of the light), a light (0.5x0.5, facing down at y = 2) and, when `opacity` is
     /// given, a horizontal mask quad (y = 1, 1.6x1.6, diffuse inside) between them.
     fn masked_light_scene(opacity: Option<f32>) -> Scene {
+        use crate::math::Color;
         use crate::scene::camera::{look_at, CameraDesc, FovAxis};
         use crate::scene::material::{Material, Texture};
         use crate::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};

@@ -54,8 +54,10 @@ pub struct SurfaceHit {
     /// perturbed by a `bumpmap` or `normalmap` material ([`material::bump`]).
     pub frame: Frame,
     /// The shading normal before any bump or normal map (`frame.n` when there is none), for
-    /// Mitsuba's side check [`SurfaceHit::same_side`].
+    /// [`SurfaceHit::shading_factor`].
     pub base_n: Vec3,
+    /// Terminator-shadowing parameter `α²` of a bump or normal map (0 without one).
+    pub terminator_alpha2: f32,
     pub uv: Vec2,
     /// Position derivatives with respect to uv (world units per unit of uv, not normalised),
     /// as Mitsuba 3 defines them: from the triangle's uvs (its edges `p1 - p0`, `p2 - p0` when
@@ -81,13 +83,18 @@ impl SurfaceHit {
         let o = offset_origin(self.p, self.ng, d);
         Ray::segment(o, d, dist * (1.0 - 1e-3))
     }
-    /// Mitsuba's check for perturbed shading frames (`bumpmap`, `normalmap`): world direction
-    /// `w` lies on the same side of the perturbed and of the unperturbed shading plane. BSDF
-    /// values and samples in other directions are zero. Always true (for `w` off the plane)
-    /// without a perturbation.
+    /// The factor Mitsuba 3's `bumpmap` and `normalmap` apply to the nested BSDF's value and
+    /// sample weight for the unit world direction `w` (module [`material::bump`]): 0 when `w`
+    /// lies on different sides of the perturbed and the unperturbed shading planes, else the
+    /// terminator shadowing (1 without a perturbation). Integrators multiply `eval` and
+    /// `sample` weights by it (not pdfs).
     #[inline]
-    pub fn same_side(&self, w: Vec3) -> bool {
-        w.dot(self.base_n) * w.dot(self.frame.n) > 0.0
+    pub fn shading_factor(&self, w: Vec3) -> f32 {
+        let c0 = w.dot(self.base_n);
+        if !(c0 * w.dot(self.frame.n) > 0.0) {
+            return 0.0;
+        }
+        material::bump::terminator_shadowing(self.terminator_alpha2, c0)
     }
 }
 
@@ -213,28 +220,29 @@ impl Scene {
     }
 
     /// Apply the shading-frame wrappers (`bumpmap`, `normalmap`, also under a `mask`) of the
-    /// hit's material to `hit.frame` (module [`material::bump`]).
-    fn perturb_frame(&self, hit: &mut SurfaceHit) {
+    /// hit's material to `hit.frame`, for the unit direction `wi` towards the viewer (module
+    /// [`material::bump`]).
+    fn perturb_frame(&self, hit: &mut SurfaceHit, wi: Vec3) {
         let mut m = &self.materials[hit.material as usize];
         loop {
-            match m {
-                Material::Mask { nested, .. } => m = nested,
+            let (n, nested) = match m {
+                Material::Mask { nested, .. } => {
+                    m = nested;
+                    continue;
+                }
                 Material::BumpMap { height, scale, nested } => {
                     let g = material::bump::luminance_gradient(height, &self.images, hit.uv) * *scale;
-                    if let Some(n) = material::bump::bump_normal(g, hit.frame.n, hit.ng, hit.dp_du, hit.dp_dv) {
-                        hit.frame = material::bump::frame_along(n, hit.dp_du);
-                    }
-                    m = nested;
-                }
-                Material::NormalMap { normals, nested } => {
                     let base = material::bump::frame_along(hit.frame.n, hit.dp_du);
-                    if let Some(n) = material::bump::normal_map_normal(normals.eval(&self.images, hit.uv), &base) {
-                        hit.frame = material::bump::frame_along(n, hit.dp_du);
-                    }
-                    m = nested;
+                    (material::bump::bump_normal(g, &base, hit.ng, hit.dp_du, hit.dp_dv), nested)
                 }
+                Material::NormalMap { normals, nested } => (material::bump::normal_map_normal(normals.eval(&self.images, hit.uv)), nested),
                 _ => return,
-            }
+            };
+            let base = material::bump::frame_along(hit.frame.n, hit.dp_du);
+            let (frame, alpha2) = material::bump::perturbed_frame(n, base.to_local(wi), &base);
+            hit.frame = frame;
+            hit.terminator_alpha2 = alpha2;
+            m = nested;
         }
     }
 
@@ -372,6 +380,7 @@ impl Scene {
             ng,
             frame: Frame::from_normal(n),
             base_n: n,
+            terminator_alpha2: 0.0,
             uv,
             dp_du,
             dp_dv,
@@ -379,7 +388,7 @@ impl Scene {
             material: info.material,
             light: self.lights.shape_light(shape),
         };
-        self.perturb_frame(&mut hit);
+        self.perturb_frame(&mut hit, -ray.d);
         hit
     }
 
@@ -407,6 +416,7 @@ impl Scene {
             ng: n,
             frame: Frame::from_normal(n),
             base_n: n,
+            terminator_alpha2: 0.0,
             uv,
             dp_du,
             dp_dv,
@@ -414,7 +424,7 @@ impl Scene {
             material: info.material,
             light: self.lights.shape_light(s.shape),
         };
-        self.perturb_frame(&mut hit);
+        self.perturb_frame(&mut hit, -ray.d);
         hit
     }
 

@@ -145,7 +145,8 @@ fn flat_bump_and_normal_maps_leave_the_nested_bsdf_unchanged() {
         let m = &scene.materials[hit.material as usize];
         assert!(close(m.eval(&scene.images, hit.uv, wo, wi), plastic().eval(&scene.images, hit.uv, wo, wi)));
         assert_eq!(m.pdf(&scene.images, hit.uv, wo, wi), plastic().pdf(&scene.images, hit.uv, wo, wi));
-        assert!(hit.same_side(Vec3::new(0.3, 0.2, 0.5)) && !hit.same_side(Vec3::new(0.3, 0.2, -0.5)));
+        let (up, down) = (Vec3::new(0.3, 0.2, 0.5).normalize(), Vec3::new(0.3, 0.2, -0.5).normalize());
+        assert_eq!((hit.shading_factor(up), hit.shading_factor(down), hit.terminator_alpha2), (1.0, 0.0, 0.0));
     }
 }
 
@@ -160,9 +161,14 @@ fn bump_and_normal_maps_tilt_the_frame_as_mitsuba_does() {
     assert!(near(hit.frame.n, Vec3::new(-1.0, 0.0, 1.0).normalize()), "bump normal {}", hit.frame.n);
     assert!(near(hit.base_n, Vec3::Z));
     assert!(hit.frame.s.dot(hit.frame.n).abs() < 1e-5 && hit.frame.s.x > 0.0, "tangent follows dp/du: {:?}", hit.frame);
-    // Mitsuba's side check: between the two planes a direction has no BSDF value.
-    assert!(!hit.same_side(Vec3::new(-1.0, 0.0, -0.3).normalize()));
-    assert!(hit.same_side(Vec3::new(-1.0, 0.0, 0.3).normalize()) && hit.same_side(Vec3::Z));
+    // Mitsuba's side check: between the two planes a direction has no BSDF value; above both
+    // the terminator shadowing (α² = tan²45° / 8) dims grazing directions only.
+    assert_eq!(hit.terminator_alpha2, 0.125);
+    assert_eq!(hit.shading_factor(Vec3::new(-1.0, 0.0, -0.3).normalize()), 0.0);
+    assert_eq!(hit.shading_factor(Vec3::Z), 1.0);
+    let grazing = Vec3::new(-1.0, 0.0, 0.3).normalize();
+    let g = 2.0 / (1.0 + (1.0 + 0.125 * (1.0 / 0.3f32).powi(2)).sqrt());
+    assert!((hit.shading_factor(grazing) - g).abs() < 1e-5, "{} vs {g}", hit.shading_factor(grazing));
 
     // Normal map: red is +u (dp/du = +x), green +v (+y): (1, 0.5, 0.5) → +x, i.e. a normal in
     // the surface plane; (0.5, 0.5 + 0.5 sin 30°, 0.5 + 0.5 cos 30°) → tilted 30° towards +y.
