@@ -146,7 +146,9 @@ fn flat_bump_and_normal_maps_leave_the_nested_bsdf_unchanged() {
         assert!(close(m.eval(&scene.images, hit.uv, wo, wi), plastic().eval(&scene.images, hit.uv, wo, wi)));
         assert_eq!(m.pdf(&scene.images, hit.uv, wo, wi), plastic().pdf(&scene.images, hit.uv, wo, wi));
         let (up, down) = (Vec3::new(0.3, 0.2, 0.5).normalize(), Vec3::new(0.3, 0.2, -0.5).normalize());
-        assert_eq!((hit.shading_factor(up), hit.shading_factor(down), hit.terminator_alpha2), (1.0, 0.0, 0.0));
+        // No perturbation: nothing to check or shadow (below the surface, the nested one-sided
+        // bsdf is what gives zero).
+        assert_eq!((hit.shading_factor(up), hit.shading_factor(down), hit.terminator_alpha2), (1.0, 1.0, 0.0));
     }
 }
 
@@ -163,7 +165,7 @@ fn bump_and_normal_maps_tilt_the_frame_as_mitsuba_does() {
     assert!(hit.frame.s.dot(hit.frame.n).abs() < 1e-5 && hit.frame.s.x > 0.0, "tangent follows dp/du: {:?}", hit.frame);
     // Mitsuba's side check: between the two planes a direction has no BSDF value; above both
     // the terminator shadowing (α² = tan²45° / 8) dims grazing directions only.
-    assert_eq!(hit.terminator_alpha2, 0.125);
+    assert!((hit.terminator_alpha2 - 0.125).abs() < 1e-6, "{}", hit.terminator_alpha2);
     assert_eq!(hit.shading_factor(Vec3::new(-1.0, 0.0, -0.3).normalize()), 0.0);
     assert_eq!(hit.shading_factor(Vec3::Z), 1.0);
     let grazing = Vec3::new(-1.0, 0.0, 0.3).normalize();
