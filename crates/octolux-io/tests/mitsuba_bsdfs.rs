@@ -217,6 +217,12 @@ fn mask_bumpmap_and_normalmap_wrap_their_nested_bsdf() {
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     assert!(matches!(&s.desc.materials[0], Material::Mask { opacity: Texture::Const(o), .. } if *o == Color::splat(0.25)));
     assert!(matches!(&s.desc.materials[1], Material::BumpMap { scale, .. } if *scale == 2.0));
+    // A bump map under twosided is evaluated unperturbed, and says so.
+    let s = load(
+        r#"<bsdf type="twosided"><bsdf type="normalmap"><rgb name="normalmap" value="0.5 0.5 1"/><bsdf type="diffuse"/></bsdf></bsdf>"#,
+        "3.0.0",
+    );
+    assert!(s.warnings.len() == 1 && s.warnings[0].contains("unperturbed"), "{:?}", s.warnings);
     // Wrong structure: an error naming the file and line.
     for (body, what) in [
         (r#"<bsdf type="mask"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#, "one nested bsdf"),

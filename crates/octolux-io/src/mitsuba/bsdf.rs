@@ -8,6 +8,20 @@ use crate::IoError;
 use octolux::math::Color;
 use octolux::scene::material::{Material, Microfacet, MicrofacetKind, Texture, WardVariant};
 
+/// Whether `m` holds a bump or normal map below a `twosided` or `blendbsdf` (the prepared scene
+/// perturbs shading frames only for a chain of mask, bumpmap and normalmap at the top of a
+/// shape's material; deeper, the nested bsdf is evaluated unperturbed).
+fn holds_frame_wrapper(m: &Material) -> bool {
+    match m {
+        Material::BumpMap { .. } | Material::NormalMap { .. } => true,
+        Material::Mask { nested, .. } => holds_frame_wrapper(nested),
+        Material::TwoSided { front: a, back: b } | Material::Blend { first: a, second: b, .. } => {
+            holds_frame_wrapper(a) || holds_frame_wrapper(b)
+        }
+        _ => false,
+    }
+}
+
 impl<'t> Builder<'t> {
     pub(super) fn default_material(&mut self) -> u32 {
         if let Some(i) = self.default_material {
@@ -150,6 +164,16 @@ impl<'t> Builder<'t> {
         v
     }
 
+    fn warn_nested_frame_wrapper(&mut self, e: &'t Elem, m: &Material) {
+        if holds_frame_wrapper(m) {
+            self.warn(
+                e,
+                "a bumpmap or normalmap inside this bsdf is not supported: its nested bsdf is used unperturbed \
+                 (put the bumpmap or normalmap outside, around it)",
+            );
+        }
+    }
+
     pub(super) fn material(&mut self, e: &'t Elem) -> Result<Material, IoError> {
         let ty = e.req_attr("type")?;
         let p = self.props(e)?;
@@ -253,14 +277,16 @@ impl<'t> Builder<'t> {
             }
             "twosided" => {
                 let nested = self.nested_bsdfs(&p);
-                match nested.as_slice() {
+                let m = match nested.as_slice() {
                     [one] => {
                         let m = self.material(one)?;
                         Material::TwoSided { front: Box::new(m.clone()), back: Box::new(m) }
                     }
                     [front, back] => Material::TwoSided { front: Box::new(self.material(front)?), back: Box::new(self.material(back)?) },
                     _ => return Err(e.loc.error(format!("{} needs one or two nested bsdfs, found {}", e.describe(), nested.len()))),
-                }
+                };
+                self.warn_nested_frame_wrapper(e, &m);
+                m
             }
             "blendbsdf" => {
                 if !p.has("weight") {
@@ -271,7 +297,9 @@ impl<'t> Builder<'t> {
                 let [first, second] = nested.as_slice() else {
                     return Err(e.loc.error(format!("{} needs exactly two nested bsdfs, found {}", e.describe(), nested.len())));
                 };
-                Material::Blend { weight, first: Box::new(self.material(first)?), second: Box::new(self.material(second)?) }
+                let m = Material::Blend { weight, first: Box::new(self.material(first)?), second: Box::new(self.material(second)?) };
+                self.warn_nested_frame_wrapper(e, &m);
+                m
             }
             "mask" | "bumpmap" | "normalmap" => {
                 let nested = self.nested_bsdfs(&p);
