@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Write the generated test scenes of tests/scenes/ (plain Python 3, no dependencies).
 
-    python3 tools/make_testdata.py            # (re)writes tests/scenes/{envmap,mirrored}/
+    python3 tools/make_testdata.py            # (re)writes tests/scenes/{envmap,mirrored,wrappers}/
     python3 tools/make_testdata.py --check    # exits 1 if the committed files differ
 
 * tests/scenes/envmap/sky.hdr: a 64x32 lat-long Radiance RGBE map (flat scanlines): a sky
@@ -13,9 +13,15 @@
   determinant): emitting rectangle, disk, sphere and cube, plus a diffuse mirrored sphere and cube
   standing on a floor, so that the side an emitter lights and the side a one-sided BSDF shows
   both follow Mitsuba 3's orientation rule.
+* tests/scenes/wrappers/: Mitsuba 3's BSDF wrappers under one area light: a `mask` cut-out
+  (leaf.png: a 32x32 grey 8-bit PNG, an ellipse with round holes, binary 0/255) on a tilted
+  quad whose shadow falls on the floor, a `bumpmap` plane (height.hdr: 32x32 Radiance map of
+  crossed sines in [0,1], `scale` 0.2) over a rough plastic, and a `normalmap` plane
+  (normals.hdr: 32x32 map of 4x4 domes, `2 rgb - 1` in the tangent frame) over a diffuse.
+  The data maps are float (.hdr) files, which no renderer sRGB-decodes.
 
-The Mitsuba 3 references of both are made by
-    .venv-mitsuba/bin/python tools/mitsuba/make_refs.py --collection --only envmap --only mirrored
+The Mitsuba 3 references are made by
+    .venv-mitsuba/bin/python tools/mitsuba/make_refs.py --collection --only envmap --only mirrored --only wrappers
 and checked by crates/octolux-cli/tests/agreement_collection.rs.
 """
 from __future__ import annotations
@@ -64,6 +70,54 @@ def hdr_bytes() -> bytes:
     head = f"#?RADIANCE\n# tools/make_testdata.py\nFORMAT=32-bit_rle_rgbe\n\n-Y {ENV_H} +X {ENV_W}\n".encode()
     body = b"".join(rgbe(*sky_pixel(x, y)) for y in range(ENV_H) for x in range(ENV_W))
     return head + body
+
+
+def png_gray_bytes(w: int, h: int, pixel) -> bytes:
+    """An 8-bit greyscale PNG (no filter, zlib) of pixel(x, y) in 0..255."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    raw = b"".join(b"\x00" + bytes(pixel(x, y) for x in range(w)) for y in range(h))
+    ihdr = struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
+
+
+def hdr_map_bytes(w: int, h: int, pixel) -> bytes:
+    head = f"#?RADIANCE\n# tools/make_testdata.py\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n".encode()
+    return head + b"".join(rgbe(*pixel(x, y)) for y in range(h) for x in range(w))
+
+
+MAP_N = 32
+
+
+def leaf_pixel(x: int, y: int) -> int:
+    """Opaque (255) inside an ellipse, except for three round holes; transparent (0) elsewhere."""
+    u, v = (x + 0.5) / MAP_N - 0.5, (y + 0.5) / MAP_N - 0.5
+    inside = (u / 0.46) ** 2 + (v / 0.3) ** 2 <= 1.0
+    holes = [(-0.2, 0.0, 0.08), (0.05, -0.08, 0.06), (0.22, 0.07, 0.07)]
+    hole = any((u - hu) ** 2 + (v - hv) ** 2 <= r * r for hu, hv, r in holes)
+    return 255 if inside and not hole else 0
+
+
+def height_pixel(x: int, y: int) -> tuple[float, float, float]:
+    u, v = (x + 0.5) / MAP_N, (y + 0.5) / MAP_N
+    h = 0.5 + 0.25 * math.sin(2 * math.pi * 3 * u) + 0.25 * math.sin(2 * math.pi * 2 * v + 0.7)
+    return (h, h, h)
+
+
+def normal_pixel(x: int, y: int) -> tuple[float, float, float]:
+    """4x4 spherical domes of radius 0.45 tile: the dome's normal, encoded as (n + 1) / 2."""
+    fu, fv = ((x + 0.5) / MAP_N * 4) % 1.0 - 0.5, ((y + 0.5) / MAP_N * 4) % 1.0 - 0.5
+    r2 = fu * fu + fv * fv
+    if r2 < 0.45 ** 2:
+        nx, ny = fu / 0.45 * 0.8, fv / 0.45 * 0.8
+        nz = math.sqrt(max(0.0, 1.0 - nx * nx - ny * ny))
+    else:
+        nx, ny, nz = 0.0, 0.0, 1.0
+    return ((nx + 1) / 2, (ny + 1) / 2, (nz + 1) / 2)
 
 
 ENVMAP_XML = """<?xml version="1.0" encoding="utf-8"?>
@@ -227,11 +281,131 @@ MIRRORED_XML = """<?xml version="1.0" encoding="utf-8"?>
 """
 
 
+WRAPPERS_XML = """<?xml version="1.0" encoding="utf-8"?>
+<!-- Written by tools/make_testdata.py: Mitsuba 3's mask, bumpmap and normalmap (see its docstring). -->
+<scene version="3.0.0">
+    <integrator type="path">
+        <integer name="max_depth" value="6"/>
+    </integrator>
+
+    <sensor type="perspective">
+        <float name="fov" value="50"/>
+        <string name="fov_axis" value="x"/>
+        <transform name="to_world">
+            <lookat origin="0, 2.2, 4.0" target="0, 0.4, 0" up="0, 1, 0"/>
+        </transform>
+        <sampler type="independent">
+            <integer name="sample_count" value="64"/>
+        </sampler>
+        <film type="hdrfilm">
+            <integer name="width" value="160"/>
+            <integer name="height" value="120"/>
+            <rfilter type="box"/>
+        </film>
+    </sensor>
+
+    <bsdf type="diffuse" id="white">
+        <rgb name="reflectance" value="0.6, 0.6, 0.6"/>
+    </bsdf>
+
+    <!-- Floor (y = 0, facing +y) and back wall (z = -1.5). -->
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale value="3"/>
+            <rotate x="1" angle="-90"/>
+        </transform>
+        <ref id="white"/>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale x="3" y="2" z="1"/>
+            <translate x="0" y="2" z="-1.5"/>
+        </transform>
+        <ref id="white"/>
+    </shape>
+
+    <!-- The light, facing down. -->
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale x="1.3" y="0.9" z="1"/>
+            <rotate x="1" angle="90"/>
+            <translate x="-0.3" y="2.6" z="0.6"/>
+        </transform>
+        <emitter type="area">
+            <rgb name="radiance" value="2.6, 2.45, 2.3"/>
+        </emitter>
+    </shape>
+
+    <!-- A leaf cut-out between the light and the floor: its shadow shows the holes. -->
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale x="0.6" y="0.4" z="1"/>
+            <rotate x="1" angle="-60"/>
+            <rotate y="1" angle="20"/>
+            <translate x="-1.1" y="1.5" z="0.3"/>
+        </transform>
+        <bsdf type="mask">
+            <texture name="opacity" type="bitmap">
+                <string name="filename" value="leaf.png"/>
+            </texture>
+            <bsdf type="twosided">
+                <bsdf type="diffuse">
+                    <rgb name="reflectance" value="0.25, 0.6, 0.15"/>
+                </bsdf>
+            </bsdf>
+        </bsdf>
+    </shape>
+
+    <!-- A bump-mapped rough plastic plane, tilted towards the camera. -->
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale x="0.7" y="0.6" z="1"/>
+            <rotate x="1" angle="-60"/>
+            <translate x="0.2" y="0.45" z="0.2"/>
+        </transform>
+        <bsdf type="bumpmap">
+            <texture name="height" type="bitmap">
+                <string name="filename" value="height.hdr"/>
+            </texture>
+            <float name="scale" value="0.2"/>
+            <bsdf type="roughplastic">
+                <string name="distribution" value="ggx"/>
+                <float name="alpha" value="0.15"/>
+                <rgb name="diffuse_reflectance" value="0.7, 0.35, 0.2"/>
+            </bsdf>
+        </bsdf>
+    </shape>
+
+    <!-- A normal-mapped diffuse plane. -->
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale x="0.6" y="0.6" z="1"/>
+            <rotate x="1" angle="-50"/>
+            <rotate y="1" angle="-25"/>
+            <translate x="1.5" y="0.5" z="0.0"/>
+        </transform>
+        <bsdf type="normalmap">
+            <texture name="normalmap" type="bitmap">
+                <string name="filename" value="normals.hdr"/>
+            </texture>
+            <bsdf type="diffuse">
+                <rgb name="reflectance" value="0.3, 0.45, 0.75"/>
+            </bsdf>
+        </bsdf>
+    </shape>
+</scene>
+"""
+
+
 def files() -> dict[str, bytes]:
     return {
         os.path.join(OUT, "envmap", "sky.hdr"): hdr_bytes(),
         os.path.join(OUT, "envmap", "scene.xml"): ENVMAP_XML.encode(),
         os.path.join(OUT, "mirrored", "scene.xml"): MIRRORED_XML.encode(),
+        os.path.join(OUT, "wrappers", "leaf.png"): png_gray_bytes(MAP_N, MAP_N, leaf_pixel),
+        os.path.join(OUT, "wrappers", "height.hdr"): hdr_map_bytes(MAP_N, MAP_N, height_pixel),
+        os.path.join(OUT, "wrappers", "normals.hdr"): hdr_map_bytes(MAP_N, MAP_N, normal_pixel),
+        os.path.join(OUT, "wrappers", "scene.xml"): WRAPPERS_XML.encode(),
     }
 
 

@@ -22,7 +22,8 @@ Built-in octolux scenes are first exported to Mitsuba XML with
 
 --collection makes tests/refs/collection/*.exr and its manifest.json instead: the scenes of
 ../shared/scenes/bitterli-collection (Mitsuba 0.6 files, translated for Mitsuba 3 by translate.py)
-and the generated test scenes of tests/scenes/ (tools/make_testdata.py), each 320 pixels wide with
+and the generated test scenes of tests/scenes/ (tools/make_testdata.py), each 320 pixels wide
+(COLLECTION_WIDTHS: `wrappers` 160) with
 the file's aspect ratio and max depth, independent sampler, the file's rfilter:
     .venv-mitsuba/bin/python tools/mitsuba/make_refs.py --collection [--only box] [--spp 1024]
 Each reference is the mean of two half-spp renders (seeds 1 and 2), stored as half-float EXR; the
@@ -230,7 +231,10 @@ COLLECTION = {
     "veach-lamp": "shared:bitterli-collection/veach-lamp/scene.xml",
     "envmap": "repo:tests/scenes/envmap/scene.xml",
     "mirrored": "repo:tests/scenes/mirrored/scene.xml",
+    "wrappers": "repo:tests/scenes/wrappers/scene.xml",
 }
+# Widths other than COLLECTION_WIDTH (small generated scenes, to keep their tests fast).
+COLLECTION_WIDTHS = {"wrappers": 160}
 
 
 def collection_scene(src: str) -> str:
@@ -257,7 +261,8 @@ def make_collection_one(name: str, spp: int, variant: str, threads: int | None, 
     scene = collection_scene(COLLECTION[name])
     _, info = patch_scene(scene)
     w0, h0 = info["width"], info["height"]
-    res = (COLLECTION_WIDTH, max(1, round(COLLECTION_WIDTH * h0 / w0)))
+    width = COLLECTION_WIDTHS.get(name, COLLECTION_WIDTH)
+    res = (width, max(1, round(width * h0 / w0)))
     depth = info["max_depth"] if info["max_depth"] is not None else -1
     half = spp // 2
     t0 = time.time()
@@ -348,7 +353,7 @@ def main_collection(args) -> int:
         "noise": ("each reference is the mean of two independent half-spp renders; their relMSE / 4 is "
                   "the reference's own noise (self_noise.ref_rel_mse), used by "
                   "crates/octolux-cli/tests/agreement_collection.rs in its bound"),
-        "size": f"{COLLECTION_WIDTH} pixels wide, the scene file's aspect ratio",
+        "size": f"{COLLECTION_WIDTH} pixels wide (except {COLLECTION_WIDTHS}), the scene file's aspect ratio",
         "scenes": "shared: scenes read from ../shared/scenes (never copied); tests/scenes: made by tools/make_testdata.py",
     }
     refs = manifest.setdefault("references", {})

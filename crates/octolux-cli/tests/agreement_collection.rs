@@ -1,6 +1,6 @@
 //! Agreement of the `path` integrator with Mitsuba 3 on the research-scene collection
 //! (`../shared/scenes/bitterli-collection`, Mitsuba 0.6 files) and on the generated test scenes
-//! (`tests/scenes/{envmap,mirrored}`, written by `tools/make_testdata.py`).
+//! (`tests/scenes/{envmap,mirrored,wrappers}`, written by `tools/make_testdata.py`).
 //!
 //! The references are `tests/refs/collection/*.exr`, made by
 //! `tools/mitsuba/make_refs.py --collection` (320 pixels wide, the file's aspect ratio and max
@@ -250,4 +250,11 @@ fn path_agrees_with_mitsuba_on_generated_envmap_scene() {
 #[test]
 fn path_agrees_with_mitsuba_on_generated_mirrored_scene() {
     check("mirrored");
+}
+
+/// Mitsuba 3's `mask` (a cut-out leaf whose shadow rays stop at the quad), `bumpmap` and
+/// `normalmap` (160 pixels wide).
+#[test]
+fn path_agrees_with_mitsuba_on_generated_wrappers_scene() {
+    check("wrappers");
 }

@@ -238,6 +238,24 @@ impl Writer<'_> {
                 self.bsdf(indent + 1, first, None, written)?;
                 self.bsdf(indent + 1, second, None, written)?;
             }
+            Material::Mask { opacity, nested } => {
+                self.line(indent, &open("mask"));
+                self.texture(indent + 1, "opacity", opacity, written)?;
+                self.bsdf(indent + 1, nested, None, written)?;
+            }
+            // A constant height has no gradient: the nested bsdf alone is the same material.
+            Material::BumpMap { height: Texture::Const(_), nested, .. } => return self.bsdf(indent, nested, id, written),
+            Material::BumpMap { height, scale, nested } => {
+                self.line(indent, &open("bumpmap"));
+                self.texture(indent + 1, "height", height, written)?;
+                self.line(indent + 1, &format!("<float name=\"scale\" value=\"{scale}\"/>"));
+                self.bsdf(indent + 1, nested, None, written)?;
+            }
+            Material::NormalMap { normals, nested } => {
+                self.line(indent, &open("normalmap"));
+                self.texture(indent + 1, "normalmap", normals, written)?;
+                self.bsdf(indent + 1, nested, None, written)?;
+            }
             Material::TwoSided { front, back } => {
                 self.line(indent, &open("twosided"));
                 self.bsdf(indent + 1, front, None, written)?;

@@ -169,3 +169,85 @@ fn blendbsdf_blends_its_two_nested_bsdfs() {
     let err = load_str(xml, Path::new("/virtual/bad.xml"), &[]).unwrap_err().to_string();
     assert!(err.starts_with("/virtual/bad.xml:2") && err.contains("weight"), "{err}");
 }
+
+#[test]
+fn mask_bumpmap_and_normalmap_wrap_their_nested_bsdf() {
+    let maps = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/scenes/wrappers");
+    let (height, normals) = (maps.join("height.hdr"), maps.join("normals.hdr"));
+    // Mitsuba 3: a float opacity, a bump map texture of any name, a normal map.
+    let s = load(
+        &format!(
+            r#"<bsdf type="mask"><float name="opacity" value="0.3"/><bsdf type="diffuse"/></bsdf>
+<bsdf type="bumpmap"><texture type="bitmap" name="arbitrary"><string name="filename" value="{}"/><boolean name="raw" value="true"/></texture>
+    <float name="scale" value="0.5"/><bsdf type="roughplastic"/></bsdf>
+<bsdf type="normalmap"><texture type="bitmap" name="normalmap"><string name="filename" value="{}"/></texture><bsdf type="diffuse"/></bsdf>
+<bsdf type="mask"><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf>"#,
+            height.display(),
+            normals.display()
+        ),
+        "3.0.0",
+    );
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let m = &s.desc.materials;
+    assert!(
+        matches!(&m[0], Material::Mask { opacity: Texture::Const(o), nested } if *o == Color::splat(0.3) && matches!(**nested, Material::Diffuse { .. })),
+        "{:?}",
+        m[0]
+    );
+    assert!(
+        matches!(&m[1], Material::BumpMap { height: Texture::Bitmap { .. }, scale, nested } if *scale == 0.5 && matches!(**nested, Material::RoughPlastic { .. })),
+        "{:?}",
+        m[1]
+    );
+    assert!(matches!(&m[2], Material::NormalMap { normals: Texture::Bitmap { .. }, .. }), "{:?}", m[2]);
+    assert!(
+        matches!(&m[3], Material::Mask { opacity: Texture::Const(o), nested } if *o == Color::splat(0.5) && matches!(**nested, Material::TwoSided { .. })),
+        "Mitsuba's default opacity is 0.5: {:?}",
+        m[3]
+    );
+    // Mitsuba 0.6: an opacity spectrum, a nested texture and `scale` for the bump map.
+    let s = load(
+        &format!(
+            r#"<bsdf type="mask"><spectrum name="opacity" value="0.25"/><bsdf type="diffuse"/></bsdf>
+<bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="{}"/></texture><float name="scale" value="2"/><bsdf type="diffuse"/></bsdf>"#,
+            height.display()
+        ),
+        "0.6.0",
+    );
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert!(matches!(&s.desc.materials[0], Material::Mask { opacity: Texture::Const(o), .. } if *o == Color::splat(0.25)));
+    assert!(matches!(&s.desc.materials[1], Material::BumpMap { scale, .. } if *scale == 2.0));
+    // A bump map under twosided is evaluated unperturbed, and says so.
+    let s = load(
+        r#"<bsdf type="twosided"><bsdf type="normalmap"><rgb name="normalmap" value="0.5 0.5 1"/><bsdf type="diffuse"/></bsdf></bsdf>"#,
+        "3.0.0",
+    );
+    assert!(s.warnings.len() == 1 && s.warnings[0].contains("unperturbed"), "{:?}", s.warnings);
+    // Wrong structure: an error naming the file and line.
+    for (body, what) in [
+        (r#"<bsdf type="mask"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#, "one nested bsdf"),
+        (r#"<bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf>"#, "nested texture"),
+        (r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#, "normalmap"),
+    ] {
+        let xml = format!("<scene version=\"3.0.0\">\n{body}\n</scene>");
+        let err = load_str(&xml, Path::new("/virtual/bad.xml"), &[]).unwrap_err().to_string();
+        assert!(err.starts_with("/virtual/bad.xml:2") && err.contains(what), "{err}");
+    }
+}
+
+#[test]
+fn bump_map_gradient_matches_mitsuba_on_the_test_map() {
+    // Mitsuba 3.9.1 (llvm_ad_rgb), bitmap texture of tests/scenes/wrappers/height.hdr:
+    // eval_1 and eval_1_grad at two uvs, printed by its Python bindings.
+    let maps = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/scenes/wrappers");
+    let img = octolux_io::image_io::read_image(&maps.join("height.hdr")).unwrap();
+    let images = vec![img];
+    let t = Texture::Bitmap { image: 0, uv_scale: glam::Vec2::ONE };
+    for (uv, value, grad) in [((0.3, 0.4), 0.223994, (4.27187, 2.77813)), ((0.71, 0.2), 0.656719, (2.625, -3.125))] {
+        let uv = glam::Vec2::new(uv.0, uv.1);
+        let v = octolux::math::luminance(t.eval(&images, uv));
+        let g = octolux::scene::material::bump::luminance_gradient(&t, &images, uv);
+        assert!((v - value).abs() < 1e-4, "value at {uv}: {v} vs Mitsuba {value}");
+        assert!((g.x - grad.0).abs() < 1e-3 && (g.y - grad.1).abs() < 1e-3, "gradient at {uv}: {g} vs Mitsuba {grad:?}");
+    }
+}

@@ -76,6 +76,19 @@ fn scene() -> SceneDesc {
             front: Box::new(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.6)) }),
             back: Box::new(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.6)) }),
         },
+        Material::Mask {
+            opacity: Texture::Const(Color::splat(0.4)),
+            nested: Box::new(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.5)) }),
+        },
+        Material::BumpMap {
+            height: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE },
+            scale: 0.25,
+            nested: Box::new(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.5)) }),
+        },
+        Material::NormalMap {
+            normals: Texture::Const(Color::new(0.6, 0.5, 0.9)),
+            nested: Box::new(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.5)) }),
+        },
     ];
     let mut smooth = TriMesh::cube(&Mat4::from_scale_rotation_translation(
         Vec3::new(0.5, 1.0, 2.0),
@@ -177,6 +190,13 @@ fn mat_eq(a: &Material, ai: &[Image], b: &Material, bi: &[Image]) -> bool {
         (TwoSided { front: f1, back: b1 }, TwoSided { front: f2, back: b2 }) => mat_eq(f1, ai, f2, bi) && mat_eq(b1, ai, b2, bi),
         (Blend { weight: w1, first: f1, second: s1 }, Blend { weight: w2, first: f2, second: s2 }) => {
             tex_eq(w1, ai, w2, bi) && mat_eq(f1, ai, f2, bi) && mat_eq(s1, ai, s2, bi)
+        }
+        (Mask { opacity: o1, nested: n1 }, Mask { opacity: o2, nested: n2 })
+        | (NormalMap { normals: o1, nested: n1 }, NormalMap { normals: o2, nested: n2 }) => {
+            tex_eq(o1, ai, o2, bi) && mat_eq(n1, ai, n2, bi)
+        }
+        (BumpMap { height: h1, scale: s1, nested: n1 }, BumpMap { height: h2, scale: s2, nested: n2 }) => {
+            tex_eq(h1, ai, h2, bi) && s1 == s2 && mat_eq(n1, ai, n2, bi)
         }
         _ => false,
     }

@@ -24,7 +24,7 @@
 use crate::image::Image;
 use crate::math::Color;
 use crate::sampling::Sampler;
-use crate::scene::material::{Lobe, Material};
+use crate::scene::material::Material;
 use glam::{Vec2, Vec3};
 
 /// Settings of one chi-square test.
@@ -353,7 +353,7 @@ pub fn check_bsdf(cfg: &Chi2Config, material: &Material, images: &[Image], uv: V
             let u_lobe = s.next_1d();
             let u = s.next_2d();
             let bs = material.sample(images, uv, wo, u_lobe, u)?;
-            if bs.lobe == Lobe::Specular {
+            if bs.lobe.is_delta() {
                 return None;
             }
             if inconsistency.is_none() {

@@ -8,6 +8,20 @@ use crate::IoError;
 use octolux::math::Color;
 use octolux::scene::material::{Material, Microfacet, MicrofacetKind, Texture, WardVariant};
 
+/// Whether `m` holds a bump or normal map below a `twosided` or `blendbsdf` (the prepared scene
+/// perturbs shading frames only for a chain of mask, bumpmap and normalmap at the top of a
+/// shape's material; deeper, the nested bsdf is evaluated unperturbed).
+fn holds_frame_wrapper(m: &Material) -> bool {
+    match m {
+        Material::BumpMap { .. } | Material::NormalMap { .. } => true,
+        Material::Mask { nested, .. } => holds_frame_wrapper(nested),
+        Material::TwoSided { front: a, back: b } | Material::Blend { first: a, second: b, .. } => {
+            holds_frame_wrapper(a) || holds_frame_wrapper(b)
+        }
+        _ => false,
+    }
+}
+
 impl<'t> Builder<'t> {
     pub(super) fn default_material(&mut self) -> u32 {
         if let Some(i) = self.default_material {
@@ -16,6 +30,18 @@ impl<'t> Builder<'t> {
         self.desc.materials.push(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.5)) });
         let i = (self.desc.materials.len() - 1) as u32;
         self.default_material = Some(i);
+        i
+    }
+
+    /// The material of an emitting shape without a bsdf: Mitsuba 3's `Shape` (and 0.6's)
+    /// gives it a `diffuse` of reflectance 0, so that a light source reflects nothing.
+    pub(super) fn default_emitter_material(&mut self) -> u32 {
+        if let Some(i) = self.default_emitter_material {
+            return i;
+        }
+        self.desc.materials.push(Material::Diffuse { reflectance: Texture::Const(Color::ZERO) });
+        let i = (self.desc.materials.len() - 1) as u32;
+        self.default_emitter_material = Some(i);
         i
     }
 
@@ -138,6 +164,16 @@ impl<'t> Builder<'t> {
         v
     }
 
+    fn warn_nested_frame_wrapper(&mut self, e: &'t Elem, m: &Material) {
+        if holds_frame_wrapper(m) {
+            self.warn(
+                e,
+                "a bumpmap or normalmap inside this bsdf is not supported: its nested bsdf is used unperturbed \
+                 (put the bumpmap or normalmap outside, around it)",
+            );
+        }
+    }
+
     pub(super) fn material(&mut self, e: &'t Elem) -> Result<Material, IoError> {
         let ty = e.req_attr("type")?;
         let p = self.props(e)?;
@@ -241,14 +277,16 @@ impl<'t> Builder<'t> {
             }
             "twosided" => {
                 let nested = self.nested_bsdfs(&p);
-                match nested.as_slice() {
+                let m = match nested.as_slice() {
                     [one] => {
                         let m = self.material(one)?;
                         Material::TwoSided { front: Box::new(m.clone()), back: Box::new(m) }
                     }
                     [front, back] => Material::TwoSided { front: Box::new(self.material(front)?), back: Box::new(self.material(back)?) },
                     _ => return Err(e.loc.error(format!("{} needs one or two nested bsdfs, found {}", e.describe(), nested.len()))),
-                }
+                };
+                self.warn_nested_frame_wrapper(e, &m);
+                m
             }
             "blendbsdf" => {
                 if !p.has("weight") {
@@ -259,16 +297,42 @@ impl<'t> Builder<'t> {
                 let [first, second] = nested.as_slice() else {
                     return Err(e.loc.error(format!("{} needs exactly two nested bsdfs, found {}", e.describe(), nested.len())));
                 };
-                Material::Blend { weight, first: Box::new(self.material(first)?), second: Box::new(self.material(second)?) }
+                let m = Material::Blend { weight, first: Box::new(self.material(first)?), second: Box::new(self.material(second)?) };
+                self.warn_nested_frame_wrapper(e, &m);
+                m
             }
             "mask" | "bumpmap" | "normalmap" => {
                 let nested = self.nested_bsdfs(&p);
                 let [inner] = nested.as_slice() else {
                     return Err(e.loc.error(format!("{} needs exactly one nested bsdf, found {}", e.describe(), nested.len())));
                 };
-                self.warn(e, format!("\"{ty}\" is not supported; using its nested bsdf alone"));
-                p.accept_all();
-                self.material(inner)?
+                let inner = Box::new(self.material(inner)?);
+                match ty {
+                    // Mitsuba 3 (and 0.6): `opacity`, a float or a texture, default 0.5.
+                    "mask" => Material::Mask { opacity: self.texture_param(&p, "opacity", ColorKind::Bounded, 0.5)?, nested: inner },
+                    // Mitsuba 3 and 0.6: one nested texture of any name, `scale` (default 1).
+                    "bumpmap" => {
+                        let textures: Vec<(usize, &'t Elem)> =
+                            p.objects().filter(|(_, o)| o.target.tag == "texture").map(|(i, o)| (i, o.target)).collect();
+                        let [(i, tex)] = textures.as_slice() else {
+                            return Err(e.loc.error(format!(
+                                "{} needs exactly one nested texture, found {}",
+                                e.describe(),
+                                textures.len()
+                            )));
+                        };
+                        p.mark(*i);
+                        let height = self.texture(tex)?;
+                        Material::BumpMap { height, scale: p.float_or("scale", 1.0)?, nested: inner }
+                    }
+                    // Mitsuba 3 only: the texture `normalmap` (0.6 has no such plugin).
+                    _ => {
+                        if !p.has("normalmap") {
+                            return Err(e.loc.error(format!("{} needs a \"normalmap\" texture", e.describe())));
+                        }
+                        Material::NormalMap { normals: self.texture_param(&p, "normalmap", ColorKind::Bounded, 0.5)?, nested: inner }
+                    }
+                }
             }
             "null" => {
                 self.warn(e, "the null bsdf (invisible surface) is not supported; the surface is black diffuse");

@@ -85,6 +85,7 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
         images: HashMap::new(),
         default_material: None,
         sensors: Vec::new(),
+        default_emitter_material: None,
     };
     b.scene(&tree.root)?;
     Ok(LoadedScene { desc: b.desc, warnings: b.warnings, sensors: b.sensors })
@@ -122,6 +123,8 @@ struct Builder<'t> {
     default_material: Option<u32>,
     /// The camera of every usable sensor, in file order.
     sensors: Vec<octolux::scene::camera::CameraDesc>,
+    /// Black diffuse: the bsdf Mitsuba (3 and 0.6) gives an emitting shape that names none.
+    default_emitter_material: Option<u32>,
 }
 
 /// Mitsuba 3's film when a scene gives none.

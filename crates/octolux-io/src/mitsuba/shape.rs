@@ -136,6 +136,7 @@ impl<'t> Builder<'t> {
         }
         let material = match material {
             Some(m) => m,
+            None if emission.is_some() => self.default_emitter_material(),
             None => self.default_material(),
         };
         p.finish(&mut self.warnings);

@@ -78,7 +78,7 @@ pub fn direct_light(
     if !(ls.pdf > 0.0) || ls.li == Color::ZERO {
         return Color::ZERO;
     }
-    let f = material.eval(&scene.images, hit.uv, wo, hit.frame.to_local(ls.wi));
+    let f = material.eval(&scene.images, hit.uv, wo, hit.frame.to_local(ls.wi)) * hit.shading_factor(ls.wi);
     if f == Color::ZERO {
         return Color::ZERO;
     }
@@ -147,7 +147,7 @@ pub fn walk_specular(
     let mut bounces = 0u32;
     loop {
         counters.rays += 1;
-        let Some(hit) = scene.intersect(&ray) else {
+        let Some(mut hit) = scene.intersect(&ray) else {
             if emission {
                 walk.emitted += throughput * scene.lights.env_le(ray.d);
             }
@@ -158,6 +158,16 @@ pub fn walk_specular(
         }
         if let (Some(light), true) = (hit.light, emission) {
             walk.emitted += throughput * scene.lights.area_le(light, hit.ng, -ray.d);
+        }
+        // A mask passes the ray with probability 1 - opacity (a delta vertex, as in the path
+        // tracer), else the vertex is its nested material.
+        if matches!(scene.materials[hit.material as usize], Material::Mask { .. }) && scene.resolve_mask(&mut hit, sampler.next_1d()) {
+            if bounces + 1 >= max_vertices {
+                return walk;
+            }
+            ray = hit.spawn(ray.d);
+            bounces += 1;
+            continue;
         }
         let material = &scene.materials[hit.material as usize];
         let wo = hit.frame.to_local(-ray.d);
@@ -172,14 +182,16 @@ pub fn walk_specular(
         let u_lobe = sampler.next_1d();
         let u = sampler.next_2d();
         let Some(bs) = material.sample(&scene.images, hit.uv, wo, u_lobe, u) else { return walk };
-        if bs.lobe != Lobe::Specular || !bs.weight.is_finite() {
+        if !bs.lobe.is_delta() || !bs.weight.is_finite() {
             return walk;
         }
-        throughput *= bs.weight;
+        let d = hit.frame.to_world(bs.wi);
+        let k = if bs.lobe == Lobe::Null { 1.0 } else { hit.shading_factor(d) };
+        throughput *= bs.weight * k;
         if throughput == Color::ZERO {
             return walk;
         }
-        ray = hit.spawn(hit.frame.to_world(bs.wi));
+        ray = hit.spawn(d);
         bounces += 1;
     }
 }

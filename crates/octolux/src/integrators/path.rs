@@ -5,6 +5,12 @@
 //! `max_depth` counts path vertices as Mitsuba 3 does: 1 = only emitters seen directly,
 //! 2 = direct illumination, -1 = unbounded. Russian roulette starts at depth `rr_depth`
 //! (Mitsuba: 5) with continuation probability `min(max(throughput) · η², 0.95)`.
+//!
+//! As in Mitsuba 3's `path.cpp`: a `mask`'s pass-through ([`Lobe::Null`]) is a delta vertex
+//! (it counts towards `max_depth`, and the emitter it reaches gets no MIS weight); shadow rays
+//! stop at masks whatever their opacity; bump- and normal-mapped hits scale BSDF values and
+//! sample weights by [`crate::scene::SurfaceHit::shading_factor`] (side check, terminator
+//! shadowing).
 
 use super::common::{mis_power, RayCounters};
 use crate::math::{max_component, Color, Ray};
@@ -74,7 +80,7 @@ pub fn li(settings: &PathSettings, scene: &Scene, mut ray: Ray, sampler: &mut Sa
             if let Some(ls) = scene.lights.sample_li(hit.p, u_sel, u) {
                 if ls.pdf > 0.0 && ls.li != Color::ZERO {
                     let wi = hit.frame.to_local(ls.wi);
-                    let f = material.eval(&scene.images, hit.uv, wo, wi);
+                    let f = material.eval(&scene.images, hit.uv, wo, wi) * hit.shading_factor(ls.wi);
                     if f != Color::ZERO {
                         counters.shadow_rays += 1;
                         if !scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
@@ -98,10 +104,14 @@ pub fn li(settings: &PathSettings, scene: &Scene, mut ray: Ray, sampler: &mut Sa
             break;
         }
         let wi = hit.frame.to_world(bs.wi);
-        throughput *= bs.weight;
+        let k = if bs.lobe == Lobe::Null { 1.0 } else { hit.shading_factor(wi) };
+        if k == 0.0 {
+            break;
+        }
+        throughput *= bs.weight * k;
         eta *= bs.eta;
         prev_pdf = bs.pdf;
-        prev_delta = bs.lobe == Lobe::Specular;
+        prev_delta = bs.lobe.is_delta();
         prev_p = hit.p;
         ray = hit.spawn(wi);
         depth += 1;

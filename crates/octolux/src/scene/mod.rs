@@ -53,9 +53,20 @@ pub struct SurfaceHit {
     pub t: f32,
     /// Geometric normal (triangle winding / sphere outward, flipped by `flip_normals`).
     pub ng: Vec3,
-    /// Shading frame; `frame.n` is the shading normal (interpolated vertex normals when present).
+    /// Shading frame; `frame.n` is the shading normal (interpolated vertex normals when present),
+    /// perturbed by a `bumpmap` or `normalmap` material ([`material::bump`]).
     pub frame: Frame,
+    /// The shading normal before any bump or normal map (`frame.n` when there is none), for
+    /// [`SurfaceHit::shading_factor`].
+    pub base_n: Vec3,
+    /// Terminator-shadowing parameter `α²` of a bump or normal map (0 without one).
+    pub terminator_alpha2: f32,
     pub uv: Vec2,
+    /// Position derivatives with respect to uv (world units per unit of uv, not normalised),
+    /// as Mitsuba 3 defines them: from the triangle's uvs (its edges `p1 - p0`, `p2 - p0` when
+    /// the mesh has none, its uvs then being the barycentrics), analytic on spheres.
+    pub dp_du: Vec3,
+    pub dp_dv: Vec3,
     pub shape: u32,
     pub material: u32,
     /// Area light on this shape, if it emits.
@@ -74,6 +85,19 @@ impl SurfaceHit {
     pub fn spawn_to(&self, d: Vec3, dist: f32) -> Ray {
         let o = offset_origin(self.p, self.ng, d);
         Ray::segment(o, d, dist * (1.0 - 1e-3))
+    }
+    /// The factor Mitsuba 3's `bumpmap` and `normalmap` apply to the nested BSDF's value and
+    /// sample weight for the unit world direction `w` (module [`material::bump`]): 0 when `w`
+    /// lies on different sides of the perturbed and the unperturbed shading planes, else the
+    /// terminator shadowing (1 without a perturbation). Integrators multiply `eval` and
+    /// `sample` weights by it (not pdfs).
+    #[inline]
+    pub fn shading_factor(&self, w: Vec3) -> f32 {
+        let c0 = w.dot(self.base_n);
+        if !(c0 * w.dot(self.frame.n) > 0.0) {
+            return 0.0;
+        }
+        material::bump::terminator_shadowing(self.terminator_alpha2, c0)
     }
 }
 
@@ -103,6 +127,9 @@ pub struct Scene {
     tri_shape: Vec<u32>,
     spheres: Vec<SphereShape>,
     shapes: Vec<ShapeInfo>,
+    /// For each material that is a `mask`, the index (in `materials`) of a copy of its nested
+    /// material, for [`Scene::resolve_mask`].
+    mask_nested: Vec<Option<u32>>,
 }
 
 impl Scene {
@@ -149,8 +176,18 @@ impl Scene {
         let accel = Accel::build(&positions, &triangles, backend).map_err(|e| SceneError::Accel(e.to_string()))?;
         let lights = LightSet::with_images(&desc.lights, &desc.shapes, &desc.images, bounds);
         let camera = Camera::new(&desc.camera, desc.film.width, desc.film.height);
+        let mut materials = desc.materials;
+        let mut mask_nested = vec![None; materials.len()];
+        for i in 0..materials.len() {
+            if let Material::Mask { nested, .. } = &materials[i] {
+                let copy = (**nested).clone();
+                mask_nested[i] = Some(materials.len() as u32);
+                materials.push(copy);
+            }
+        }
+        mask_nested.resize(materials.len(), None);
         Ok(Scene {
-            materials: desc.materials,
+            materials,
             images: desc.images,
             lights,
             camera,
@@ -164,7 +201,52 @@ impl Scene {
             tri_shape,
             spheres,
             shapes,
+            mask_nested,
         })
+    }
+
+    /// Resolve a `mask` at `hit` stochastically, as the cache integrators' camera walk does:
+    /// with probability `1 - opacity` (`u ≥ opacity`) the ray passes (returns true, `hit`
+    /// unchanged); otherwise `hit.material` becomes the mask's nested material. Other
+    /// materials are left alone (false).
+    pub fn resolve_mask(&self, hit: &mut SurfaceHit, u: f32) -> bool {
+        let i = hit.material as usize;
+        let (Some(Material::Mask { opacity, .. }), Some(Some(nested))) = (self.materials.get(i), self.mask_nested.get(i)) else {
+            return false;
+        };
+        if u < material::mask::opacity(opacity, &self.images, hit.uv) {
+            hit.material = *nested;
+            false
+        } else {
+            true
+        }
+    }
+
+    /// Apply the shading-frame wrappers (`bumpmap`, `normalmap`, also under a `mask`) of the
+    /// hit's material to `hit.frame`, for the unit direction `wi` towards the viewer (module
+    /// [`material::bump`]).
+    fn perturb_frame(&self, hit: &mut SurfaceHit, wi: Vec3) {
+        let mut m = &self.materials[hit.material as usize];
+        loop {
+            let (n, nested) = match m {
+                Material::Mask { nested, .. } => {
+                    m = nested;
+                    continue;
+                }
+                Material::BumpMap { height, scale, nested } => {
+                    let g = material::bump::luminance_gradient(height, &self.images, hit.uv) * *scale;
+                    let base = material::bump::frame_along(hit.frame.n, hit.dp_du);
+                    (material::bump::bump_normal(g, &base, hit.ng, hit.dp_du, hit.dp_dv), nested)
+                }
+                Material::NormalMap { normals, nested } => (material::bump::normal_map_normal(normals.eval(&self.images, hit.uv)), nested),
+                _ => return,
+            };
+            let base = material::bump::frame_along(hit.frame.n, hit.dp_du);
+            let (frame, alpha2) = material::bump::perturbed_frame(n, base.to_local(wi), &base);
+            hit.frame = frame;
+            hit.terminator_alpha2 = alpha2;
+            m = nested;
+        }
     }
 
     /// Name of the intersection backend in use.
@@ -282,16 +364,35 @@ impl Scene {
             n = -n;
         }
         let uv = if info.has_uvs { bary(self.uvs[i0], self.uvs[i1], self.uvs[i2], b) } else { b };
-        SurfaceHit {
+        // Mitsuba 3's mesh differentials (mesh.cpp): from the uvs when they are not degenerate.
+        let (mut dp_du, mut dp_dv) = (p1 - p0, p2 - p0);
+        if info.has_uvs {
+            let (duv0, duv1) = (self.uvs[i1] - self.uvs[i0], self.uvs[i2] - self.uvs[i0]);
+            let det = duv0.x * duv1.y - duv0.y * duv1.x;
+            if det != 0.0 && det.is_finite() {
+                let inv = 1.0 / det;
+                (dp_du, dp_dv) = ((dp_du * duv1.y - dp_dv * duv0.y) * inv, (dp_dv * duv0.x - dp_du * duv1.x) * inv);
+            } else {
+                let f = Frame::from_normal(n);
+                (dp_du, dp_dv) = (f.s, f.t);
+            }
+        }
+        let mut hit = SurfaceHit {
             p: ray.at(t),
             t,
             ng,
             frame: Frame::from_normal(n),
+            base_n: n,
+            terminator_alpha2: 0.0,
             uv,
+            dp_du,
+            dp_dv,
             shape,
             material: info.material,
             light: self.lights.shape_light(shape),
-        }
+        };
+        self.perturb_frame(&mut hit, -ray.d);
+        hit
     }
 
     fn sphere_hit(&self, ray: &Ray, s: &SphereShape, t: f32) -> SurfaceHit {
@@ -304,19 +405,30 @@ impl Scene {
         let phi = local.y.atan2(local.x);
         let phi = if phi < 0.0 { phi + 2.0 * PI } else { phi };
         let uv = Vec2::new(phi / (2.0 * PI), local.z.clamp(-1.0, 1.0).acos() / PI);
+        // Mitsuba 3's sphere.cpp differentials of (φ / 2π, θ / π).
+        let dp_du = Vec3::new(-local.y, local.x, 0.0) * (2.0 * PI * s.radius);
+        let rxy = (local.x * local.x + local.y * local.y).sqrt();
+        let (cos_phi, sin_phi) = if rxy > 0.0 { (local.x / rxy, local.y / rxy) } else { (1.0, 0.0) };
+        let dp_dv = Vec3::new(local.z * cos_phi, local.z * sin_phi, -rxy) * (PI * s.radius);
         if info.flip {
             n = -n;
         }
-        SurfaceHit {
+        let mut hit = SurfaceHit {
             p,
             t,
             ng: n,
             frame: Frame::from_normal(n),
+            base_n: n,
+            terminator_alpha2: 0.0,
             uv,
+            dp_du,
+            dp_dv,
             shape: s.shape,
             material: info.material,
             light: self.lights.shape_light(s.shape),
-        }
+        };
+        self.perturb_frame(&mut hit, -ray.d);
+        hit
     }
 
     /// Name of a shape (for messages).

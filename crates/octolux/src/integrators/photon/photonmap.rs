@@ -34,7 +34,6 @@ use crate::integrators::common::{direct_light, walk_specular, RayCounters};
 use crate::math::{Color, Ray};
 use crate::photon::trace::{trace_photons, PhotonSettings};
 use crate::sampling::Sampler;
-use crate::scene::material::Lobe;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 
@@ -127,7 +126,7 @@ impl PhotonMapIntegrator {
                     let u_lobe = sampler.next_1d();
                     let u = sampler.next_2d();
                     let Some(bs) = material.sample(&scene.images, v.hit.uv, v.wo, u_lobe, u) else { continue };
-                    if bs.lobe == Lobe::Specular || !bs.weight.is_finite() || bs.weight == Color::ZERO {
+                    if bs.lobe.is_delta() || !bs.weight.is_finite() || bs.weight == Color::ZERO {
                         continue;
                     }
                     let ray = v.hit.spawn(v.hit.frame.to_world(bs.wi));

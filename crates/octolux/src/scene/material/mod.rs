@@ -20,12 +20,16 @@
 //! in its room: [`fresnel`] (dielectric, conductor, thin-sheet and diffuse Fresnel),
 //! [`microfacet`] (Beckmann and GGX, visible-normal sampling), [`conductor`], [`dielectric`]
 //! (rough dielectric), [`plastic`] (smooth and rough, linear and nonlinear), [`ward`],
-//! [`phong`], [`blend`], [`texture`]. Smooth conductors and dielectrics are a few lines and stay here.
+//! [`phong`], [`blend`], [`texture`], and the wrappers [`mask`] (opacity, null lobe) and
+//! [`bump`] (`bumpmap`, `normalmap`: perturbed shading frames, applied by the prepared scene).
+//! Smooth conductors and dielectrics are a few lines and stay here.
 
 pub mod blend;
+pub mod bump;
 pub mod conductor;
 pub mod dielectric;
 pub mod fresnel;
+pub mod mask;
 pub mod microfacet;
 pub mod phong;
 pub mod plastic;
@@ -33,6 +37,8 @@ pub mod plastic;
 mod tests;
 #[cfg(test)]
 mod tests_models;
+#[cfg(test)]
+mod tests_wrappers;
 pub mod texture;
 pub mod ward;
 
@@ -58,6 +64,17 @@ pub enum Lobe {
     Glossy,
     /// A Dirac lobe (mirror, smooth refraction): `eval`/`pdf` never see it, MIS skips it.
     Specular,
+    /// The pass-through of a `mask` (Mitsuba's `BSDFFlags::Null`): `wi = -wo`, weight 1. A
+    /// delta lobe too (see [`Lobe::is_delta`]), but no scattering: not a caustic's specular.
+    Null,
+}
+
+impl Lobe {
+    /// Dirac lobes (specular or null), which `eval`/`pdf` never see (Mitsuba's `Delta`).
+    #[inline]
+    pub fn is_delta(self) -> bool {
+        matches!(self, Lobe::Specular | Lobe::Null)
+    }
 }
 
 /// Result of `Material::sample`.
@@ -106,6 +123,15 @@ pub enum Material {
     TwoSided { front: Box<Material>, back: Box<Material> },
     /// Linear blend (Mitsuba `blendbsdf`): `(1 - weight) first + weight second`.
     Blend { weight: Texture, first: Box<Material>, second: Box<Material> },
+    /// Opacity mask (Mitsuba `mask`): `opacity` (luminance, clamped to [0,1]) of the nested
+    /// BSDF, the rest a null pass-through lobe ([`mask`]).
+    Mask { opacity: Texture, nested: Box<Material> },
+    /// Bump map (Mitsuba `bumpmap`): `height` (luminance, uv units) times `scale` perturbs the
+    /// shading frame ([`bump`]; applied when the scene builds the hit).
+    BumpMap { height: Texture, scale: f32, nested: Box<Material> },
+    /// Tangent-space normal map (Mitsuba `normalmap`): `normals` in [0,1]³ → `2 rgb - 1`
+    /// ([`bump`]; applied when the scene builds the hit).
+    NormalMap { normals: Texture, nested: Box<Material> },
 }
 
 pub(crate) fn check_color(c: Color, what: &str) -> Result<(), String> {
@@ -189,6 +215,8 @@ impl Material {
                 let w = blend::weight(weight, images, uv);
                 Some(first.lambertian_albedo(images, uv, wo)? * (1.0 - w) + second.lambertian_albedo(images, uv, wo)? * w)
             }
+            Material::Mask { opacity, nested } => Some(nested.lambertian_albedo(images, uv, wo)? * mask::opacity(opacity, images, uv)),
+            Material::BumpMap { nested, .. } | Material::NormalMap { nested, .. } => nested.lambertian_albedo(images, uv, wo),
             _ => None,
         }
     }
@@ -239,6 +267,9 @@ impl Material {
                 }
             }
             Material::Blend { weight, first, second } => blend::eval(blend::weight(weight, images, uv), first, second, images, uv, wo, wi),
+            Material::Mask { opacity, nested } => mask::eval(mask::opacity(opacity, images, uv), nested, images, uv, wo, wi),
+            // The hit's frame is already the perturbed one (module `bump`).
+            Material::BumpMap { nested, .. } | Material::NormalMap { nested, .. } => nested.eval(images, uv, wo, wi),
         }
     }
 
@@ -279,6 +310,8 @@ impl Material {
                 }
             }
             Material::Blend { weight, first, second } => blend::pdf(blend::weight(weight, images, uv), first, second, images, uv, wo, wi),
+            Material::Mask { opacity, nested } => mask::pdf(mask::opacity(opacity, images, uv), nested, images, uv, wo, wi),
+            Material::BumpMap { nested, .. } | Material::NormalMap { nested, .. } => nested.pdf(images, uv, wo, wi),
         }
     }
 
@@ -371,6 +404,16 @@ impl Material {
             Material::Blend { weight, first, second } => {
                 blend::sample(blend::weight(weight, images, uv), first, second, images, uv, wo, u_lobe, u)
             }
+            Material::Mask { opacity, nested } => mask::sample(mask::opacity(opacity, images, uv), nested, images, uv, wo, u_lobe, u),
+            Material::BumpMap { nested, .. } | Material::NormalMap { nested, .. } => nested.sample(images, uv, wo, u_lobe, u),
+        }
+    }
+
+    /// The opacity at `uv` of a `mask` (1 for any other material, whose surface is all there).
+    pub fn opacity(&self, images: &[Image], uv: Vec2) -> f32 {
+        match self {
+            Material::Mask { opacity, .. } => mask::opacity(opacity, images, uv),
+            _ => 1.0,
         }
     }
 
@@ -387,6 +430,9 @@ impl Material {
             Material::Conductor { .. } | Material::Dielectric { .. } | Material::ThinDielectric { .. } => false,
             Material::TwoSided { front: a, back: b } | Material::Blend { first: a, second: b, .. } => {
                 a.has_smooth_lobe() || b.has_smooth_lobe()
+            }
+            Material::Mask { nested, .. } | Material::BumpMap { nested, .. } | Material::NormalMap { nested, .. } => {
+                nested.has_smooth_lobe()
             }
         }
     }
@@ -463,6 +509,21 @@ impl Material {
                 first.validate(n_images)?;
                 second.validate(n_images)
             }
+            Material::Mask { opacity, nested } => {
+                opacity.validate(n_images, "mask opacity")?;
+                nested.validate(n_images)
+            }
+            Material::BumpMap { height, scale, nested } => {
+                if !scale.is_finite() {
+                    return Err(format!("bump map scale {scale} must be finite"));
+                }
+                height.validate(n_images, "bump map height")?;
+                nested.validate(n_images)
+            }
+            Material::NormalMap { normals, nested } => {
+                normals.validate(n_images, "normal map")?;
+                nested.validate(n_images)
+            }
         }
     }
 
@@ -490,6 +551,9 @@ impl Material {
                 let mut v = a.ensure_energy_conservation(images);
                 v.extend(b.ensure_energy_conservation(images));
                 v
+            }
+            Material::Mask { nested, .. } | Material::BumpMap { nested, .. } | Material::NormalMap { nested, .. } => {
+                nested.ensure_energy_conservation(images)
             }
             _ => Vec::new(),
         }
