@@ -23,7 +23,7 @@ use crate::IoError;
 use glam::{Mat4, Vec2, Vec3};
 use octolux::math::Color;
 use octolux::scene::camera::FovAxis;
-use octolux::scene::material::{Material, Microfacet, Texture};
+use octolux::scene::material::{Material, Microfacet, TexFilter, Texture};
 use octolux::scene::Light;
 use octolux::scene::{Geometry, PixelFilter, SceneDesc, TriMesh};
 use std::fmt::Write as _;
@@ -122,7 +122,7 @@ impl Writer<'_> {
     fn texture(&mut self, indent: usize, name: &str, t: &Texture, written: &mut [bool]) -> Result<(), IoError> {
         match t {
             Texture::Const(c) => self.line(indent, &format!("<rgb name=\"{name}\" value=\"{}\"/>", rgb(*c))),
-            Texture::Bitmap { image, uv_scale } => {
+            Texture::Bitmap { image, uv_scale, filter } => {
                 let img = self.desc.images.get(*image as usize).ok_or_else(|| {
                     IoError::invalid(
                         self.mesh_dir,
@@ -136,6 +136,10 @@ impl Writer<'_> {
                 }
                 self.line(indent, &format!("<texture type=\"bitmap\" name=\"{name}\">"));
                 self.line(indent + 1, &format!("<string name=\"filename\" value=\"{}\"/>", esc(&format!("{}{file}", self.mesh_prefix))));
+                // Mitsuba 3 has no trilinear filter: its bitmap is bilinear (the default) there.
+                if *filter == TexFilter::Nearest {
+                    self.line(indent + 1, "<string name=\"filter_type\" value=\"nearest\"/>");
+                }
                 if *uv_scale != Vec2::ONE {
                     self.line(indent + 1, "<transform name=\"to_uv\">");
                     self.line(indent + 2, &format!("<scale x=\"{}\" y=\"{}\"/>", uv_scale.x, uv_scale.y));

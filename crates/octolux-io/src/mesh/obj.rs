@@ -293,7 +293,7 @@ fn convert_mtl(m: &tobj::Material, mtl_dir: &Path, images: &mut Vec<Image>, warn
         match read_image(file) {
             Ok(img) => {
                 images.push(img);
-                diffuse = Texture::Bitmap { image: (images.len() - 1) as u32, uv_scale: Vec2::ONE };
+                diffuse = Texture::bitmap((images.len() - 1) as u32, Vec2::ONE);
             }
             Err(e) => warnings.push(format!("material '{name}': texture not loaded, using Kd instead: {e}")),
         }

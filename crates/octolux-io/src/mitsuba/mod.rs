@@ -43,6 +43,7 @@ mod texture;
 mod tree;
 
 use crate::{IoError, LoadedScene};
+use octolux::scene::material::TexFilter;
 use octolux::scene::{FilmDesc, PixelFilter, SceneDesc};
 use props::Props;
 use std::collections::HashMap;
@@ -83,6 +84,7 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
         warnings,
         materials: HashMap::new(),
         images: HashMap::new(),
+        mipmaps: HashMap::new(),
         default_material: None,
     };
     b.scene(&tree.root)?;
@@ -118,6 +120,8 @@ struct Builder<'t> {
     materials: HashMap<*const Elem, u32>,
     /// Image index of each texture file already read.
     images: HashMap<PathBuf, u32>,
+    /// The trilinear filter (MIP pyramid) of each image index that has one.
+    mipmaps: HashMap<u32, TexFilter>,
     default_material: Option<u32>,
 }
 

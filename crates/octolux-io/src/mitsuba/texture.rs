@@ -7,7 +7,7 @@ use super::Builder;
 use crate::IoError;
 use glam::Vec2;
 use octolux::math::Color;
-use octolux::scene::material::Texture;
+use octolux::scene::material::{TexFilter, Texture};
 
 impl<'t> Builder<'t> {
     /// A colour parameter as a texture (default when absent).
@@ -30,6 +30,19 @@ impl<'t> Builder<'t> {
                 Ok(avg)
             }
         }
+    }
+
+    /// The trilinear filter of image `image`, its MIP pyramid built once per image.
+    fn mipmapped(&mut self, image: u32) -> TexFilter {
+        if let Some(f) = self.mipmaps.get(&image) {
+            return *f;
+        }
+        let filter = match Texture::bitmap(image, Vec2::ONE).with_mipmaps(&mut self.desc.images) {
+            Texture::Bitmap { filter, .. } => filter,
+            Texture::Const(_) => TexFilter::Bilinear,
+        };
+        self.mipmaps.insert(image, filter);
+        filter
     }
 
     pub(super) fn texture(&mut self, e: &'t Elem) -> Result<Texture, IoError> {
@@ -68,14 +81,24 @@ impl<'t> Builder<'t> {
                 {
                     self.warn(e, "raw = true is not supported: 8-bit images are always decoded from sRGB");
                 }
-                for (param, default) in [("filter_type", "bilinear"), ("wrap_mode", "repeat")] {
-                    if let Some(v) = p.string(param)? {
-                        if !v.eq_ignore_ascii_case(default) {
-                            self.warn(e, format!("{param} \"{v}\" is not supported; using {default}"));
-                        }
+                if let Some(v) = p.string("wrap_mode")? {
+                    if !v.eq_ignore_ascii_case("repeat") {
+                        self.warn(e, format!("wrap_mode \"{v}\" is not supported; using repeat"));
                     }
                 }
-                Texture::Bitmap { image, uv_scale }
+                let filter = match p.string("filter_type")?.map(str::to_ascii_lowercase).as_deref() {
+                    None | Some("bilinear") => TexFilter::Bilinear,
+                    Some("nearest") => TexFilter::Nearest,
+                    Some("trilinear") => self.mipmapped(image),
+                    Some(v) => {
+                        // Mitsuba 0.6's `ewa` (its default) is the nearest to trilinear MIP-mapping.
+                        let (filter, name) =
+                            if v == "ewa" { (self.mipmapped(image), "trilinear") } else { (TexFilter::Bilinear, "bilinear") };
+                        self.warn(e, format!("filter_type \"{v}\" is not supported; using {name}"));
+                        filter
+                    }
+                };
+                Texture::Bitmap { image, uv_scale, filter }
             }
             "checkerboard" => {
                 let c0 = self.color_param(&p, "color0", ColorKind::Bounded, 0.4)?;

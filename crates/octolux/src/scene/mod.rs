@@ -28,11 +28,11 @@ pub use desc::{FilmDesc, Geometry, Light, PixelFilter, SceneDesc, SceneError, Sc
 
 use crate::accel::{Accel, BackendKind};
 use crate::image::Image;
-use crate::math::{bary, offset_origin, Bounds3, Frame, Ray};
+use crate::math::{bary, offset_origin, Bounds3, Frame, Ray, RayDifferential};
 use camera::Camera;
 use glam::{Vec2, Vec3};
 use lights::LightSet;
-use material::Material;
+use material::{Material, TexCoord};
 use std::f32::consts::PI;
 
 /// An analytic sphere of the prepared scene.
@@ -52,7 +52,12 @@ pub struct SurfaceHit {
     pub ng: Vec3,
     /// Shading frame; `frame.n` is the shading normal (interpolated vertex normals when present).
     pub frame: Frame,
-    pub uv: Vec2,
+    /// Texture coordinates, with their screen-space partials at camera hits (zero elsewhere;
+    /// see [`SurfaceHit::set_ray_differential`]).
+    pub uv: TexCoord,
+    /// `∂p/∂u`, `∂p/∂v` (world units per unit of uv; zero where the uvs are degenerate).
+    pub dpdu: Vec3,
+    pub dpdv: Vec3,
     pub shape: u32,
     pub material: u32,
     /// Area light on this shape, if it emits.
@@ -65,6 +70,48 @@ impl SurfaceHit {
     pub fn spawn(&self, d: Vec3) -> Ray {
         Ray::new(offset_origin(self.p, self.ng, d), d)
     }
+    /// Give `uv` the partials `∂uv/∂x`, `∂uv/∂y` implied by the camera ray's differential:
+    /// Mitsuba 0.6's `Intersection::computePartials` — the offset rays meet the tangent plane
+    /// (geometric normal), and the offsets of those points solve `dp = dpdu du + dpdv dv` on
+    /// the two axes where the normal is smallest. Zero partials when the plane is parallel to
+    /// an offset ray or the uv parametrisation is degenerate.
+    pub fn set_ray_differential(&mut self, rd: &RayDifferential) {
+        self.uv.duv_dx = Vec2::ZERO;
+        self.uv.duv_dy = Vec2::ZERO;
+        if self.dpdu == Vec3::ZERO && self.dpdv == Vec3::ZERO {
+            return;
+        }
+        let n = self.ng;
+        let pp = n.dot(self.p);
+        let (prx, pry) = (n.dot(rd.d_x), n.dot(rd.d_y));
+        if prx == 0.0 || pry == 0.0 {
+            return;
+        }
+        let tx = (pp - n.dot(rd.o_x)) / prx;
+        let ty = (pp - n.dot(rd.o_y)) / pry;
+        let (px, py) = (rd.o_x + rd.d_x * tx, rd.o_y + rd.d_y * ty);
+        let a = n.abs();
+        let (i, j) = if a.x > a.y && a.x > a.z {
+            (1, 2)
+        } else if a.y > a.z {
+            (0, 2)
+        } else {
+            (0, 1)
+        };
+        let (a00, a01, a10, a11) = (self.dpdu[i], self.dpdv[i], self.dpdu[j], self.dpdv[j]);
+        let det = a00 * a11 - a01 * a10;
+        if det == 0.0 || !det.is_finite() {
+            return;
+        }
+        let solve = |b0: f32, b1: f32| Vec2::new((a11 * b0 - a01 * b1) / det, (a00 * b1 - a10 * b0) / det);
+        let (dx, dy) = (px - self.p, py - self.p);
+        let (ddx, ddy) = (solve(dx[i], dx[j]), solve(dy[i], dy[j]));
+        if ddx.is_finite() && ddy.is_finite() {
+            self.uv.duv_dx = ddx;
+            self.uv.duv_dy = ddy;
+        }
+    }
+
     /// A segment from this surface towards a point at distance `dist` along unit `d`,
     /// stopping short of the end point (for shadow rays).
     #[inline]
@@ -278,13 +325,30 @@ impl Scene {
             ng = -ng;
             n = -n;
         }
-        let uv = if info.has_uvs { bary(self.uvs[i0], self.uvs[i1], self.uvs[i2], b) } else { b };
+        let (uv, dpdu, dpdv) = if info.has_uvs {
+            let (uv0, uv1, uv2) = (self.uvs[i0], self.uvs[i1], self.uvs[i2]);
+            let (duv1, duv2) = (uv1 - uv0, uv2 - uv0);
+            let (dp1, dp2) = (p1 - p0, p2 - p0);
+            let det = duv1.x * duv2.y - duv1.y * duv2.x;
+            let (dpdu, dpdv) = if det != 0.0 && det.is_finite() {
+                let inv = 1.0 / det;
+                ((dp1 * duv2.y - dp2 * duv1.y) * inv, (dp2 * duv1.x - dp1 * duv2.x) * inv)
+            } else {
+                (Vec3::ZERO, Vec3::ZERO)
+            };
+            (bary(uv0, uv1, uv2, b), dpdu, dpdv)
+        } else {
+            // The barycentrics stand in for uv: p = p0 + u (p1 - p0) + v (p2 - p0).
+            (b, p1 - p0, p2 - p0)
+        };
         SurfaceHit {
             p: ray.at(t),
             t,
             ng,
             frame: Frame::from_normal(n),
-            uv,
+            uv: TexCoord::at(uv),
+            dpdu,
+            dpdv,
             shape,
             material: info.material,
             light: self.lights.shape_light(shape),
@@ -300,7 +364,13 @@ impl Scene {
         let mut n = local;
         let phi = local.y.atan2(local.x);
         let phi = if phi < 0.0 { phi + 2.0 * PI } else { phi };
-        let uv = Vec2::new(phi / (2.0 * PI), local.z.clamp(-1.0, 1.0).acos() / PI);
+        let theta = local.z.clamp(-1.0, 1.0).acos();
+        let uv = Vec2::new(phi / (2.0 * PI), theta / PI);
+        // u = φ/2π, v = θ/π on the sphere of radius r.
+        let (sin_t, cos_t) = theta.sin_cos();
+        let (sin_p, cos_p) = phi.sin_cos();
+        let dpdu = Vec3::new(-sin_p, cos_p, 0.0) * (2.0 * PI * s.radius * sin_t);
+        let dpdv = Vec3::new(cos_t * cos_p, cos_t * sin_p, -sin_t) * (PI * s.radius);
         if info.flip {
             n = -n;
         }
@@ -309,7 +379,9 @@ impl Scene {
             t,
             ng: n,
             frame: Frame::from_normal(n),
-            uv,
+            uv: TexCoord::at(uv),
+            dpdu,
+            dpdv,
             shape: s.shape,
             material: info.material,
             light: self.lights.shape_light(s.shape),

@@ -39,7 +39,7 @@ pub mod ward;
 // The pieces stay reachable at their old paths (`material::fresnel_dielectric`, ...).
 pub use fresnel::{fresnel_conductor, fresnel_conductor_1, fresnel_dielectric, refract, thin_dielectric_reflectance};
 pub use microfacet::{Microfacet, MicrofacetKind};
-pub use texture::Texture;
+pub use texture::{TexCoord, TexFilter, Texture};
 pub use ward::WardVariant;
 
 use crate::image::Image;
@@ -173,7 +173,8 @@ fn sample_from(wi: Vec3, lobe: Lobe, pdf: f32, f: Color) -> Option<BsdfSample> {
 impl Material {
     /// The albedo `ρ` when the side of the surface that `wo` sees is purely Lambertian
     /// (`f = ρ/π`; zero from behind a one-sided diffuse), `None` for any other BSDF.
-    pub fn lambertian_albedo(&self, images: &[Image], uv: Vec2, wo: Vec3) -> Option<Color> {
+    pub fn lambertian_albedo(&self, images: &[Image], uv: impl Into<TexCoord>, wo: Vec3) -> Option<Color> {
+        let uv: TexCoord = uv.into();
         match self {
             Material::Diffuse { reflectance } => Some(if wo.z > 0.0 { reflectance.eval(images, uv) } else { Color::ZERO }),
             Material::TwoSided { front, back } => {
@@ -194,7 +195,8 @@ impl Material {
     }
 
     /// `f(wo, wi) |cos θ_i|` of the non-delta lobes (local frame).
-    pub fn eval(&self, images: &[Image], uv: Vec2, wo: Vec3, wi: Vec3) -> Color {
+    pub fn eval(&self, images: &[Image], uv: impl Into<TexCoord>, wo: Vec3, wi: Vec3) -> Color {
+        let uv: TexCoord = uv.into();
         match self {
             Material::Diffuse { reflectance } => {
                 if wo.z <= 0.0 || wi.z <= 0.0 {
@@ -243,7 +245,8 @@ impl Material {
     }
 
     /// Solid-angle pdf of `sample` producing `wi` through a non-delta lobe.
-    pub fn pdf(&self, images: &[Image], uv: Vec2, wo: Vec3, wi: Vec3) -> f32 {
+    pub fn pdf(&self, images: &[Image], uv: impl Into<TexCoord>, wo: Vec3, wi: Vec3) -> f32 {
+        let uv: TexCoord = uv.into();
         match self {
             Material::Diffuse { .. } => {
                 if wo.z <= 0.0 {
@@ -283,7 +286,8 @@ impl Material {
     }
 
     /// Sample an incident direction. `u_lobe` picks the lobe, `u` the direction.
-    pub fn sample(&self, images: &[Image], uv: Vec2, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+    pub fn sample(&self, images: &[Image], uv: impl Into<TexCoord>, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        let uv: TexCoord = uv.into();
         match self {
             Material::Diffuse { reflectance } => {
                 if wo.z <= 0.0 {

@@ -469,8 +469,8 @@ fn plastic_tables_approach_smooth_fresnel() {
 fn validation_rejects_bad_parameters() {
     assert!(Material::Diffuse { reflectance: Texture::Const(white(0.5)) }.validate(0).is_ok());
     assert!(Material::Diffuse { reflectance: Texture::Const(Color::new(-0.1, 0.0, 0.0)) }.validate(0).is_err());
-    assert!(Material::Diffuse { reflectance: Texture::Bitmap { image: 1, uv_scale: Vec2::ONE } }.validate(1).is_err());
-    assert!(Material::Diffuse { reflectance: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE } }.validate(1).is_ok());
+    assert!(Material::Diffuse { reflectance: Texture::bitmap(1, Vec2::ONE) }.validate(1).is_err());
+    assert!(Material::Diffuse { reflectance: Texture::bitmap(0, Vec2::ONE) }.validate(1).is_ok());
     assert!(Material::Dielectric { eta: f32::NAN, specular_reflectance: white(1.0), specular_transmittance: white(1.0) }
         .validate(0)
         .is_err());

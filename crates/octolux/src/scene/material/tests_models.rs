@@ -380,7 +380,7 @@ fn energy_conservation_scales_ward_and_phong_like_mitsuba() {
     let mut images = vec![Image { width: 1, height: 2, data: vec![Color::new(0.2, 0.7, 0.1), Color::new(0.1, 0.1, 0.1)] }];
     let mut m = Material::Phong {
         exponent: 10.0,
-        diffuse_reflectance: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE },
+        diffuse_reflectance: Texture::bitmap(0, Vec2::ONE),
         specular_reflectance: Texture::Const(Color::new(0.3, 0.5, 0.2)),
     };
     let msgs = m.ensure_energy_conservation(&mut images);
