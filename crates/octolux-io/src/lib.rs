@@ -52,6 +52,9 @@ impl IoError {
 pub struct LoadedScene {
     pub desc: SceneDesc,
     pub warnings: Vec<String>,
+    /// Milder lines than warnings: what the file says that Mitsuba ignores too (a parameter the
+    /// plugin does not have), so octolux renders what Mitsuba renders. Each names file and line.
+    pub notes: Vec<String>,
 }
 
 /// Load a scene from a built-in name (`cornell-box`, `cornell-spheres`) or a path (`.xml` is
@@ -61,7 +64,7 @@ pub fn load_scene(spec: &str, defines: &[(String, String)]) -> Result<LoadedScen
     let path = Path::new(spec);
     if !path.exists() {
         if let Some(desc) = builtin::scene(spec) {
-            return Ok(LoadedScene { desc, warnings: Vec::new() });
+            return Ok(LoadedScene { desc, ..Default::default() });
         }
         if path.extension().is_none() {
             return Err(IoError::UnknownScene { name: spec.to_string(), known: builtin::NAMES.join(", ") });

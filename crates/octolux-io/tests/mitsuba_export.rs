@@ -37,7 +37,7 @@ fn scene() -> SceneDesc {
         },
         Material::Conductor { eta: Color::ZERO, k: Color::ZERO, specular_reflectance: Color::splat(0.8) },
         Material::RoughConductor {
-            distribution: Microfacet { kind: MicrofacetKind::Beckmann, alpha_u: 0.2, alpha_v: 0.35 },
+            distribution: Microfacet { kind: MicrofacetKind::Beckmann, alpha_u: 0.2, alpha_v: 0.35 }.into(),
             eta: Color::new(0.2, 0.9, 1.1),
             k: Color::new(3.9, 2.4, 2.1),
             specular_reflectance: Color::new(1.0, 0.9, 0.8),
@@ -52,7 +52,7 @@ fn scene() -> SceneDesc {
             nonlinear: true,
         },
         Material::RoughDielectric {
-            distribution: Microfacet::isotropic(MicrofacetKind::Beckmann, 0.3),
+            distribution: Microfacet::isotropic(MicrofacetKind::Beckmann, 0.3).into(),
             eta: 1.33,
             specular_reflectance: Color::ONE,
             specular_transmittance: Color::splat(0.9),

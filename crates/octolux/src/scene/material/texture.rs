@@ -102,6 +102,18 @@ impl Texture {
         }
     }
 
+    /// The texture read as a scalar (Mitsuba's `eval_1`): a grey value as it is, a colour
+    /// through its luminance.
+    #[inline]
+    pub fn eval_1(&self, images: &[Image], uv: impl Into<TexCoord>) -> f32 {
+        let c = self.eval(images, uv);
+        if c.x == c.y && c.y == c.z {
+            c.x
+        } else {
+            super::luminance(c)
+        }
+    }
+
     pub(crate) fn validate(&self, n_images: usize, what: &str) -> Result<(), String> {
         match self {
             Texture::Const(c) => check_color(*c, what),
