@@ -5,7 +5,7 @@
 
 use octolux::image::Image;
 use octolux::math::Color;
-use octolux::scene::material::{Material, TexFilter, Texture};
+use octolux::scene::material::{Material, Microfacet, MicrofacetKind, TexFilter, Texture};
 use octolux_io::image_io::write_exr;
 use octolux_io::mitsuba::load_str;
 use std::path::{Path, PathBuf};
@@ -136,4 +136,60 @@ fn what_mitsuba_ignores_too_is_a_note_and_what_octolux_lacks_a_warning() {
     let xml = "<scene version=\"0.6.0\">\n<sensor type=\"perspective\"><film type=\"ldrfilm\"><float name=\"gamma\" value=\"2.2\"/></film></sensor>\n</scene>";
     let s = load_str(xml, &file, &[]).unwrap();
     assert!(s.notes.is_empty(), "{:?}", s.notes);
+}
+
+#[test]
+fn roughness_textures_load_for_roughconductor_and_roughdielectric() {
+    let dir = tmp_dir("roughness");
+    let data = vec![Color::splat(0.1), Color::splat(0.3), Color::splat(0.5), Color::splat(0.7)];
+    write_exr(&dir.join("alpha.exr"), &Image { width: 2, height: 2, data }).unwrap();
+    let bitmap = |name: &str| format!(r#"<texture type="bitmap" name="{name}"><string name="filename" value="alpha.exr"/></texture>"#);
+    let body = format!(
+        r#"<bsdf type="roughconductor"><string name="distribution" value="ggx"/>{}</bsdf>
+<bsdf type="roughdielectric">{}<float name="alpha_v" value="0.2"/></bsdf>
+<bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf>
+<bsdf type="roughdielectric"><texture type="bitmap" name="alpha"><string name="filename" value="alpha.exr"/><string name="filter_type" value="trilinear"/></texture></bsdf>"#,
+        bitmap("alpha"),
+        bitmap("alpha_u"),
+    );
+    let s = load(&dir, &body, "3.0.0");
+    assert!(s.warnings.is_empty() && s.notes.is_empty(), "{:?} {:?}", s.warnings, s.notes);
+    let m = &s.desc.materials;
+    let Material::RoughConductor { distribution: r, .. } = &m[0] else { panic!("{:?}", m[0]) };
+    assert_eq!(r.kind, MicrofacetKind::Ggx);
+    assert!(matches!(r.alpha_u, Texture::Bitmap { image: 0, .. }) && r.alpha_u == r.alpha_v, "{r:?}");
+    assert!(r.constant().is_none());
+    // The alpha at a texel centre is that texel's value (EXR: linear, no decoding).
+    let at = r.at(&s.desc.images, glam::Vec2::new(0.75, 0.25).into());
+    assert!((at.alpha_u - 0.3).abs() < 1e-6, "{at:?}");
+    let Material::RoughDielectric { distribution: r, .. } = &m[1] else { panic!("{:?}", m[1]) };
+    assert_eq!(r.kind, MicrofacetKind::Beckmann, "Mitsuba's default distribution");
+    assert!(matches!(r.alpha_u, Texture::Bitmap { .. }) && r.alpha_v == Texture::Const(Color::splat(0.2)), "{r:?}");
+    let Material::RoughConductor { distribution: r, .. } = &m[2] else { panic!("{:?}", m[2]) };
+    assert_eq!(*r, Microfacet::isotropic(MicrofacetKind::Beckmann, 0.2), "a number stays a constant distribution");
+    let Material::RoughDielectric { distribution: r, .. } = &m[3] else { panic!("{:?}", m[3]) };
+    assert!(matches!(r.alpha_u, Texture::Bitmap { filter: TexFilter::Trilinear { .. }, .. }), "{r:?}");
+    // alpha together with alpha_u is refused, naming the file.
+    let xml = format!("<scene version=\"3.0.0\">\n<bsdf type=\"roughconductor\">{}<float name=\"alpha_u\" value=\"0.1\"/></bsdf>\n</scene>", bitmap("alpha"));
+    let e = load_str(&xml, &dir.join("bad.xml"), &[]).unwrap_err().to_string();
+    assert!(e.contains("bad.xml:2") && e.contains("give either alpha or both alpha_u and alpha_v"), "{e}");
+}
+
+#[test]
+fn raw_bitmaps_keep_their_stored_values() {
+    let dir = tmp_dir("raw");
+    // One 8-bit texel: sRGB code 128 (linear 0.2158).
+    let linear = octolux_io::image_io::srgb_to_linear(128.0 / 255.0);
+    octolux_io::image_io::write_png(&dir.join("grey.png"), &Image { width: 1, height: 1, data: vec![Color::splat(linear)] }).unwrap();
+    let tex = |raw: &str| {
+        format!(r#"<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="grey.png"/>{raw}</texture></bsdf>"#)
+    };
+    let body = [tex(""), tex(r#"<boolean name="raw" value="true"/>"#), tex(r#"<boolean name="raw" value="false"/>"#)].join("\n");
+    let s = load(&dir, &body, "3.0.0");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let value = |i: usize| reflectance(&s.desc.materials[i]).eval(&s.desc.images, glam::Vec2::splat(0.5)).x;
+    assert!((value(0) - linear).abs() < 1e-6, "decoded from sRGB: {}", value(0));
+    assert!((value(1) - 128.0 / 255.0).abs() < 1e-6, "raw: the stored value, {}", value(1));
+    assert_eq!(value(2), value(0));
+    assert_eq!(s.desc.images.len(), 2, "one image per (file, raw)");
 }

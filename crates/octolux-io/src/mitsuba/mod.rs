@@ -121,8 +121,8 @@ struct Builder<'t> {
     notes: Vec<String>,
     /// Material index of each bsdf element already instantiated (by address).
     materials: HashMap<*const Elem, u32>,
-    /// Image index of each texture file already read.
-    images: HashMap<PathBuf, u32>,
+    /// Image index of each texture file already read (and whether read `raw`).
+    images: HashMap<(PathBuf, bool), u32>,
     /// The trilinear filter (MIP pyramid) of each image index that has one.
     mipmaps: HashMap<u32, TexFilter>,
     default_material: Option<u32>,

@@ -4,6 +4,7 @@
 use super::props::{ColorKind, Props, Spec};
 use super::tree::{resolve_file, Elem};
 use super::Builder;
+use crate::image_io::linear_to_srgb;
 use crate::IoError;
 use glam::Vec2;
 use octolux::math::Color;
@@ -53,13 +54,23 @@ impl<'t> Builder<'t> {
                 let name = p.string("filename")?.ok_or_else(|| e.loc.error(format!("{} needs a \"filename\"", e.describe())))?;
                 let path = resolve_file(&e.loc, name, &self.main_dir, self.search_dirs)
                     .ok_or_else(|| e.loc.error(format!("{}: image file \"{name}\" not found", e.describe())))?;
-                let image = match self.images.get(&path) {
+                // Mitsuba 3 decodes 8-bit files from sRGB unless `raw` (EXR and HDR are linear).
+                let eight_bit = !path.extension().is_some_and(|x| x.eq_ignore_ascii_case("exr") || x.eq_ignore_ascii_case("hdr"));
+                let raw = p.bool_or("raw", false)? && eight_bit;
+                let key = (path.clone(), raw);
+                let image = match self.images.get(&key) {
                     Some(&i) => i,
                     None => {
-                        let img = crate::image_io::read_image(&path)?;
+                        let mut img = crate::image_io::read_image(&path)?;
+                        if raw {
+                            // The stored values themselves (the decoding undone, exact to float rounding).
+                            for c in &mut img.data {
+                                *c = Color::new(linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z));
+                            }
+                        }
                         self.desc.images.push(img);
                         let i = (self.desc.images.len() - 1) as u32;
-                        self.images.insert(path.clone(), i);
+                        self.images.insert(key, i);
                         i
                     }
                 };
@@ -75,11 +86,6 @@ impl<'t> Builder<'t> {
                 uv_scale *= Vec2::new(p.float_or("uscale", 1.0)?, p.float_or("vscale", 1.0)?);
                 if p.float_or("uoffset", 0.0)? != 0.0 || p.float_or("voffset", 0.0)? != 0.0 {
                     self.warn(e, "texture offsets (uoffset/voffset) are not supported; ignored");
-                }
-                if p.bool_or("raw", false)?
-                    && !path.extension().is_some_and(|x| x.eq_ignore_ascii_case("exr") || x.eq_ignore_ascii_case("hdr"))
-                {
-                    self.warn(e, "raw = true is not supported: 8-bit images are always decoded from sRGB");
                 }
                 if let Some(v) = p.string("wrap_mode")? {
                     if !v.eq_ignore_ascii_case("repeat") {
