@@ -96,10 +96,10 @@ fn what_mitsuba_ignores_too_is_a_note_and_what_octolux_lacks_a_warning() {
     let file = dir.join("scene.xml");
     assert_eq!(
         s.notes[0],
-        format!("{}:4: `alpha` is not a parameter of Mitsuba's smooth conductor (Mitsuba ignores it too); ignored", file.display())
+        format!("{}:3: `alpha` is not a parameter of Mitsuba's smooth conductor (Mitsuba ignores it too); ignored", file.display())
     );
     assert!(
-        s.notes[1].starts_with(&format!("{}:5: `alpha`", file.display())) && s.notes[1].contains("smooth dielectric"),
+        s.notes[1].starts_with(&format!("{}:4: `alpha`", file.display())) && s.notes[1].contains("smooth dielectric"),
         "{}",
         s.notes[1]
     );
@@ -170,7 +170,10 @@ fn roughness_textures_load_for_roughconductor_and_roughdielectric() {
     let Material::RoughDielectric { distribution: r, .. } = &m[3] else { panic!("{:?}", m[3]) };
     assert!(matches!(r.alpha_u, Texture::Bitmap { filter: TexFilter::Trilinear { .. }, .. }), "{r:?}");
     // alpha together with alpha_u is refused, naming the file.
-    let xml = format!("<scene version=\"3.0.0\">\n<bsdf type=\"roughconductor\">{}<float name=\"alpha_u\" value=\"0.1\"/></bsdf>\n</scene>", bitmap("alpha"));
+    let xml = format!(
+        "<scene version=\"3.0.0\">\n<bsdf type=\"roughconductor\">{}<float name=\"alpha_u\" value=\"0.1\"/></bsdf>\n</scene>",
+        bitmap("alpha")
+    );
     let e = load_str(&xml, &dir.join("bad.xml"), &[]).unwrap_err().to_string();
     assert!(e.contains("bad.xml:2") && e.contains("give either alpha or both alpha_u and alpha_v"), "{e}");
 }
@@ -182,7 +185,9 @@ fn raw_bitmaps_keep_their_stored_values() {
     let linear = octolux_io::image_io::srgb_to_linear(128.0 / 255.0);
     octolux_io::image_io::write_png(&dir.join("grey.png"), &Image { width: 1, height: 1, data: vec![Color::splat(linear)] }).unwrap();
     let tex = |raw: &str| {
-        format!(r#"<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="grey.png"/>{raw}</texture></bsdf>"#)
+        format!(
+            r#"<bsdf type="diffuse"><texture type="bitmap" name="reflectance"><string name="filename" value="grey.png"/>{raw}</texture></bsdf>"#
+        )
     };
     let body = [tex(""), tex(r#"<boolean name="raw" value="true"/>"#), tex(r#"<boolean name="raw" value="false"/>"#)].join("\n");
     let s = load(&dir, &body, "3.0.0");
