@@ -280,6 +280,7 @@ pub fn shade_irradiance(scene: &Scene, hit: &SurfaceHit, material: &Material, wo
 
 /// The common camera path of the irradiance-cache baselines: emission on the way, then at the
 /// first non-delta vertex direct (NEE) + `f(wo, n) E` + caustics, or the irradiance views.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn render_vertex(
     sh: &Shading,
     view: CacheView,
