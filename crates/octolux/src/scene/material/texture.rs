@@ -242,7 +242,7 @@ mod tests {
 
     /// An `n`x`n` checkerboard of single black and white texels.
     fn checker(n: u32) -> Image {
-        let data = (0..n * n).map(|i| if (i % n + i / n) % 2 == 0 { Color::ONE } else { Color::ZERO }).collect();
+        let data = (0..n * n).map(|i| if (i % n + i / n).is_multiple_of(2) { Color::ONE } else { Color::ZERO }).collect();
         Image { width: n, height: n, data }
     }
 
