@@ -24,7 +24,7 @@ fn load(dir: &Path, body: &str, version: &str) -> octolux_io::LoadedScene {
 }
 
 fn checker_file(dir: &Path) {
-    let data = (0..16).map(|i| if (i % 4 + i / 4).is_multiple_of(2) { Color::ONE } else { Color::ZERO }).collect();
+    let data = (0..16).map(|i| if (i % 4 + i / 4) % 2 == 0 { Color::ONE } else { Color::ZERO }).collect();
     write_exr(&dir.join("checker.exr"), &Image { width: 4, height: 4, data }).unwrap();
 }
 
