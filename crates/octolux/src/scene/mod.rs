@@ -56,8 +56,8 @@ pub struct SurfaceHit {
     /// see [`SurfaceHit::set_ray_differential`]).
     pub uv: TexCoord,
     /// `∂p/∂u`, `∂p/∂v` (world units per unit of uv; zero where the uvs are degenerate).
-    pub dpdu: Vec3,
-    pub dpdv: Vec3,
+    pub dp_du: Vec3,
+    pub dp_dv: Vec3,
     pub shape: u32,
     pub material: u32,
     /// Area light on this shape, if it emits.
@@ -72,13 +72,13 @@ impl SurfaceHit {
     }
     /// Give `uv` the partials `∂uv/∂x`, `∂uv/∂y` implied by the camera ray's differential:
     /// Mitsuba 0.6's `Intersection::computePartials` — the offset rays meet the tangent plane
-    /// (geometric normal), and the offsets of those points solve `dp = dpdu du + dpdv dv` on
+    /// (geometric normal), and the offsets of those points solve `dp = dp_du du + dp_dv dv` on
     /// the two axes where the normal is smallest. Zero partials when the plane is parallel to
     /// an offset ray or the uv parametrisation is degenerate.
     pub fn set_ray_differential(&mut self, rd: &RayDifferential) {
         self.uv.duv_dx = Vec2::ZERO;
         self.uv.duv_dy = Vec2::ZERO;
-        if self.dpdu == Vec3::ZERO && self.dpdv == Vec3::ZERO {
+        if self.dp_du == Vec3::ZERO && self.dp_dv == Vec3::ZERO {
             return;
         }
         let n = self.ng;
@@ -98,7 +98,7 @@ impl SurfaceHit {
         } else {
             (0, 1)
         };
-        let (a00, a01, a10, a11) = (self.dpdu[i], self.dpdv[i], self.dpdu[j], self.dpdv[j]);
+        let (a00, a01, a10, a11) = (self.dp_du[i], self.dp_dv[i], self.dp_du[j], self.dp_dv[j]);
         let det = a00 * a11 - a01 * a10;
         if det == 0.0 || !det.is_finite() {
             return;
@@ -325,18 +325,18 @@ impl Scene {
             ng = -ng;
             n = -n;
         }
-        let (uv, dpdu, dpdv) = if info.has_uvs {
+        let (uv, dp_du, dp_dv) = if info.has_uvs {
             let (uv0, uv1, uv2) = (self.uvs[i0], self.uvs[i1], self.uvs[i2]);
             let (duv1, duv2) = (uv1 - uv0, uv2 - uv0);
             let (dp1, dp2) = (p1 - p0, p2 - p0);
             let det = duv1.x * duv2.y - duv1.y * duv2.x;
-            let (dpdu, dpdv) = if det != 0.0 && det.is_finite() {
+            let (dp_du, dp_dv) = if det != 0.0 && det.is_finite() {
                 let inv = 1.0 / det;
                 ((dp1 * duv2.y - dp2 * duv1.y) * inv, (dp2 * duv1.x - dp1 * duv2.x) * inv)
             } else {
                 (Vec3::ZERO, Vec3::ZERO)
             };
-            (bary(uv0, uv1, uv2, b), dpdu, dpdv)
+            (bary(uv0, uv1, uv2, b), dp_du, dp_dv)
         } else {
             // The barycentrics stand in for uv: p = p0 + u (p1 - p0) + v (p2 - p0).
             (b, p1 - p0, p2 - p0)
@@ -347,8 +347,8 @@ impl Scene {
             ng,
             frame: Frame::from_normal(n),
             uv: TexCoord::at(uv),
-            dpdu,
-            dpdv,
+            dp_du,
+            dp_dv,
             shape,
             material: info.material,
             light: self.lights.shape_light(shape),
@@ -369,8 +369,8 @@ impl Scene {
         // u = φ/2π, v = θ/π on the sphere of radius r.
         let (sin_t, cos_t) = theta.sin_cos();
         let (sin_p, cos_p) = phi.sin_cos();
-        let dpdu = Vec3::new(-sin_p, cos_p, 0.0) * (2.0 * PI * s.radius * sin_t);
-        let dpdv = Vec3::new(cos_t * cos_p, cos_t * sin_p, -sin_t) * (PI * s.radius);
+        let dp_du = Vec3::new(-sin_p, cos_p, 0.0) * (2.0 * PI * s.radius * sin_t);
+        let dp_dv = Vec3::new(cos_t * cos_p, cos_t * sin_p, -sin_t) * (PI * s.radius);
         if info.flip {
             n = -n;
         }
@@ -380,8 +380,8 @@ impl Scene {
             ng: n,
             frame: Frame::from_normal(n),
             uv: TexCoord::at(uv),
-            dpdu,
-            dpdv,
+            dp_du,
+            dp_dv,
             shape: s.shape,
             material: info.material,
             light: self.lights.shape_light(s.shape),
