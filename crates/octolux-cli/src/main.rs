@@ -59,6 +59,9 @@ pub(crate) fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
         // Only Mitsuba XML has parameters; a built-in scene or a mesh would drop them silently.
         loaded.warnings.push(format!("-D is ignored: '{}' is not a Mitsuba XML scene (it has no parameters)", args.scene));
     }
+    for n in &loaded.notes {
+        eprintln!("note: {n}");
+    }
     for w in &loaded.warnings {
         eprintln!("warning: {w}");
     }

@@ -23,7 +23,7 @@ use crate::IoError;
 use glam::{Mat4, Vec2, Vec3};
 use octolux::math::Color;
 use octolux::scene::camera::FovAxis;
-use octolux::scene::material::{Material, Microfacet, Texture};
+use octolux::scene::material::{Material, Microfacet, Roughness, TexFilter, Texture};
 use octolux::scene::Light;
 use octolux::scene::{Geometry, PixelFilter, SceneDesc, TriMesh};
 use std::fmt::Write as _;
@@ -122,7 +122,7 @@ impl Writer<'_> {
     fn texture(&mut self, indent: usize, name: &str, t: &Texture, written: &mut [bool]) -> Result<(), IoError> {
         match t {
             Texture::Const(c) => self.line(indent, &format!("<rgb name=\"{name}\" value=\"{}\"/>", rgb(*c))),
-            Texture::Bitmap { image, uv_scale } => {
+            Texture::Bitmap { image, uv_scale, filter } => {
                 let img = self.desc.images.get(*image as usize).ok_or_else(|| {
                     IoError::invalid(
                         self.mesh_dir,
@@ -136,6 +136,10 @@ impl Writer<'_> {
                 }
                 self.line(indent, &format!("<texture type=\"bitmap\" name=\"{name}\">"));
                 self.line(indent + 1, &format!("<string name=\"filename\" value=\"{}\"/>", esc(&format!("{}{file}", self.mesh_prefix))));
+                // Mitsuba 3 has no trilinear filter: its bitmap is bilinear (the default) there.
+                if *filter == TexFilter::Nearest {
+                    self.line(indent + 1, "<string name=\"filter_type\" value=\"nearest\"/>");
+                }
                 if *uv_scale != Vec2::ONE {
                     self.line(indent + 1, "<transform name=\"to_uv\">");
                     self.line(indent + 2, &format!("<scale x=\"{}\" y=\"{}\"/>", uv_scale.x, uv_scale.y));
@@ -167,6 +171,22 @@ impl Writer<'_> {
         }
     }
 
+    /// A possibly textured roughness: as [`Self::distribution`] when constant, else the
+    /// distribution's name and the alpha textures.
+    fn roughness(&mut self, indent: usize, r: &Roughness, written: &mut [bool]) -> Result<(), IoError> {
+        if let Some(d) = r.constant() {
+            self.distribution(indent, &d);
+            return Ok(());
+        }
+        self.line(indent, &format!("<string name=\"distribution\" value=\"{}\"/>", r.kind.name()));
+        if r.is_isotropic() {
+            self.texture(indent, "alpha", &r.alpha_u, written)
+        } else {
+            self.texture(indent, "alpha_u", &r.alpha_u, written)?;
+            self.texture(indent, "alpha_v", &r.alpha_v, written)
+        }
+    }
+
     fn bsdf(&mut self, indent: usize, m: &Material, id: Option<&str>, written: &mut [bool]) -> Result<(), IoError> {
         let id_attr = id.map(|i| format!(" id=\"{}\"", esc(i))).unwrap_or_default();
         let open = |ty: &str| format!("<bsdf type=\"{ty}\"{id_attr}>");
@@ -182,13 +202,13 @@ impl Writer<'_> {
             }
             Material::RoughConductor { distribution, eta, k, specular_reflectance } => {
                 self.line(indent, &open("roughconductor"));
-                self.distribution(indent + 1, distribution);
+                self.roughness(indent + 1, distribution, written)?;
                 self.conductor_ior(indent + 1, *eta, *k);
                 self.line(indent + 1, &format!("<rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(*specular_reflectance)));
             }
             Material::RoughDielectric { distribution, eta, specular_reflectance, specular_transmittance } => {
                 self.line(indent, &open("roughdielectric"));
-                self.distribution(indent + 1, distribution);
+                self.roughness(indent + 1, distribution, written)?;
                 self.line(indent + 1, &format!("<float name=\"int_ior\" value=\"{eta}\"/>"));
                 self.line(indent + 1, "<float name=\"ext_ior\" value=\"1\"/>");
                 self.line(indent + 1, &format!("<rgb name=\"specular_reflectance\" value=\"{}\"/>", rgb(*specular_reflectance)));

@@ -57,6 +57,9 @@ pub struct LoadedScene {
     /// `desc.camera`); empty for scenes without sensors (built-in scenes, meshes). Rendered as
     /// frames by `octolux render --sensors`.
     pub sensors: Vec<octolux::scene::camera::CameraDesc>,
+    /// Milder lines than warnings: what the file says that Mitsuba ignores too (a parameter the
+    /// plugin does not have), so octolux renders what Mitsuba renders. Each names file and line.
+    pub notes: Vec<String>,
 }
 
 /// Load a scene from a built-in name (`cornell-box`, `cornell-spheres`) or a path (`.xml` is

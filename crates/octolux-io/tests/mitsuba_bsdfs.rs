@@ -242,7 +242,7 @@ fn bump_map_gradient_matches_mitsuba_on_the_test_map() {
     let maps = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/scenes/wrappers");
     let img = octolux_io::image_io::read_image(&maps.join("height.hdr")).unwrap();
     let images = vec![img];
-    let t = Texture::Bitmap { image: 0, uv_scale: glam::Vec2::ONE };
+    let t = Texture::bitmap(0, glam::Vec2::ONE);
     for (uv, value, grad) in [((0.3, 0.4), 0.223994, (4.27187, 2.77813)), ((0.71, 0.2), 0.656719, (2.625, -3.125))] {
         let uv = glam::Vec2::new(uv.0, uv.1);
         let v = octolux::math::luminance(t.eval(&images, uv));

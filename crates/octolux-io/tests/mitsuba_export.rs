@@ -29,7 +29,7 @@ fn scene() -> SceneDesc {
     let images = vec![image(3, 2, 0.0), image(2, 2, 0.3)];
     let materials = vec![
         Material::Diffuse { reflectance: Texture::Const(Color::new(0.7, 0.2, 0.1)) },
-        Material::Diffuse { reflectance: Texture::Bitmap { image: 1, uv_scale: Vec2::new(2.0, 3.5) } },
+        Material::Diffuse { reflectance: Texture::bitmap(1, Vec2::new(2.0, 3.5)) },
         Material::Conductor {
             eta: Color::new(0.143036, 0.375307, 1.442045),
             k: Color::new(3.982997, 2.385556, 1.603359),
@@ -37,7 +37,7 @@ fn scene() -> SceneDesc {
         },
         Material::Conductor { eta: Color::ZERO, k: Color::ZERO, specular_reflectance: Color::splat(0.8) },
         Material::RoughConductor {
-            distribution: Microfacet { kind: MicrofacetKind::Beckmann, alpha_u: 0.2, alpha_v: 0.35 },
+            distribution: Microfacet { kind: MicrofacetKind::Beckmann, alpha_u: 0.2, alpha_v: 0.35 }.into(),
             eta: Color::new(0.2, 0.9, 1.1),
             k: Color::new(3.9, 2.4, 2.1),
             specular_reflectance: Color::new(1.0, 0.9, 0.8),
@@ -45,14 +45,14 @@ fn scene() -> SceneDesc {
         Material::Dielectric { eta: 1.5046, specular_reflectance: Color::ONE, specular_transmittance: Color::new(0.9, 1.0, 0.95) },
         Material::ThinDielectric { eta: 1.333, specular_reflectance: Color::splat(0.5), specular_transmittance: Color::ONE },
         Material::RoughPlastic {
-            diffuse_reflectance: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE },
+            diffuse_reflectance: Texture::bitmap(0, Vec2::ONE),
             specular_reflectance: Color::ONE,
             distribution: Microfacet::isotropic(MicrofacetKind::Ggx, 0.15),
             eta: 1.49,
             nonlinear: true,
         },
         Material::RoughDielectric {
-            distribution: Microfacet::isotropic(MicrofacetKind::Beckmann, 0.3),
+            distribution: Microfacet::isotropic(MicrofacetKind::Beckmann, 0.3).into(),
             eta: 1.33,
             specular_reflectance: Color::ONE,
             specular_transmittance: Color::splat(0.9),
@@ -81,7 +81,7 @@ fn scene() -> SceneDesc {
             nested: Box::new(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.5)) }),
         },
         Material::BumpMap {
-            height: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE },
+            height: Texture::bitmap(0, Vec2::ONE),
             scale: 0.25,
             nested: Box::new(Material::Diffuse { reflectance: Texture::Const(Color::splat(0.5)) }),
         },
@@ -147,7 +147,7 @@ fn scene() -> SceneDesc {
 fn tex_eq(a: &Texture, ai: &[Image], b: &Texture, bi: &[Image]) -> bool {
     match (a, b) {
         (Texture::Const(x), Texture::Const(y)) => x.abs_diff_eq(*y, 1e-6),
-        (Texture::Bitmap { image: i, uv_scale: s }, Texture::Bitmap { image: j, uv_scale: t }) => {
+        (Texture::Bitmap { image: i, uv_scale: s, .. }, Texture::Bitmap { image: j, uv_scale: t, .. }) => {
             let (p, q) = (&ai[*i as usize], &bi[*j as usize]);
             s == t && p.width == q.width && p.height == q.height && p.data == q.data
         }

@@ -38,6 +38,91 @@ impl Image {
         let bottom = at(ix0, iy1) * (1.0 - fx) + at(ix1, iy1) * fx;
         top * (1.0 - fy) + bottom * fy
     }
+
+    /// The texel containing `uv` (Mitsuba's `nearest` filter: `⌊u·W⌋, ⌊v·H⌋`, repeat wrap).
+    /// An empty or inconsistent image, or a non-finite `uv`, reads as black.
+    pub fn nearest(&self, uv: Vec2) -> Color {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if w == 0 || h == 0 || self.data.len() < w * h || !uv.is_finite() {
+            return Color::ZERO;
+        }
+        let ix = ((uv.x * w as f32).floor() as i64).rem_euclid(w as i64) as usize;
+        let iy = ((uv.y * h as f32).floor() as i64).rem_euclid(h as i64) as usize;
+        self.data[iy * w + ix]
+    }
+
+    /// The next MIP level: `max(1, ⌈n/2⌉)` texels along each axis (Mitsuba 0.6's level
+    /// sizes), each the area-weighted mean of the texels it covers (a box filter; for odd
+    /// sizes a texel is shared by two with fractional weights). The mean of the image is kept.
+    pub fn downsampled(&self) -> Image {
+        let (w, h) = (self.width as usize, self.height as usize);
+        if w == 0 || h == 0 || self.data.len() < w * h {
+            return Image::default();
+        }
+        let (nw, nh) = (w.div_ceil(2).max(1), h.div_ceil(2).max(1));
+        let wx = box_weights(w, nw);
+        let wy = box_weights(h, nh);
+        // Rows first (w → nw), then columns (h → nh); f64 sums.
+        let mut rows = vec![[0.0f64; 3]; nw * h];
+        for y in 0..h {
+            for (j, taps) in wx.iter().enumerate() {
+                let mut acc = [0.0f64; 3];
+                for &(i, wt) in taps {
+                    let c = self.data[y * w + i];
+                    acc[0] += wt * c.x as f64;
+                    acc[1] += wt * c.y as f64;
+                    acc[2] += wt * c.z as f64;
+                }
+                rows[y * nw + j] = acc;
+            }
+        }
+        let mut data = vec![Color::ZERO; nw * nh];
+        for (k, taps) in wy.iter().enumerate() {
+            for x in 0..nw {
+                let mut acc = [0.0f64; 3];
+                for &(i, wt) in taps {
+                    let c = rows[i * nw + x];
+                    acc[0] += wt * c[0];
+                    acc[1] += wt * c[1];
+                    acc[2] += wt * c[2];
+                }
+                data[k * nw + x] = Color::new(acc[0] as f32, acc[1] as f32, acc[2] as f32);
+            }
+        }
+        Image { width: nw as u32, height: nh as u32, data }
+    }
+
+    /// The MIP levels below this image, finest first, down to 1x1 (empty for a 1x1 or empty
+    /// image).
+    pub fn mip_pyramid(&self) -> Vec<Image> {
+        let mut levels: Vec<Image> = Vec::new();
+        loop {
+            let last = levels.last().unwrap_or(self);
+            if last.width <= 1 && last.height <= 1 || last.data.is_empty() {
+                return levels;
+            }
+            let next = last.downsampled();
+            levels.push(next);
+        }
+    }
+}
+
+/// For each of `m` output texels covering `n` input texels, the input texels it overlaps and
+/// the weights (overlap / output width, summing to 1).
+fn box_weights(n: usize, m: usize) -> Vec<Vec<(usize, f64)>> {
+    let s = n as f64 / m as f64;
+    (0..m)
+        .map(|j| {
+            let (a, b) = (j as f64 * s, (j + 1) as f64 * s);
+            let (lo, hi) = (a.floor() as usize, (b.ceil() as usize).min(n));
+            (lo..hi)
+                .filter_map(|i| {
+                    let overlap = (b.min(i as f64 + 1.0) - a.max(i as f64)).max(0.0);
+                    (overlap > 0.0).then_some((i, overlap / s))
+                })
+                .collect()
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -69,7 +154,7 @@ mod tests {
         let wide = Image { width: 4, height: 1, data: vec![Color::ZERO, Color::X, Color::Y, Color::Z] };
         assert!(near(wide.lookup(Vec2::new(0.375, 0.5)), Color::X) && near(wide.lookup(Vec2::new(0.875, 0.9)), Color::Z));
         // textures go through the uv scale
-        let tex = Texture::Bitmap { image: 0, uv_scale: Vec2::splat(2.0) };
+        let tex = Texture::bitmap(0, Vec2::splat(2.0));
         assert!(near(tex.eval(std::slice::from_ref(&im), Vec2::new(0.125, 0.125)), Color::X));
     }
 }

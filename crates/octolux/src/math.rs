@@ -47,6 +47,16 @@ impl Ray {
     }
 }
 
+/// The two offset rays of a camera ray one (scaled) pixel step away along the film's x and y
+/// (Mitsuba's `RayDifferential`): origins and unit directions, world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayDifferential {
+    pub o_x: Vec3,
+    pub d_x: Vec3,
+    pub o_y: Vec3,
+    pub d_y: Vec3,
+}
+
 /// Offset a point leaving a surface with geometric normal `ng` towards direction `w`, so that
 /// the new ray does not re-hit the surface it starts on. The offset scales with the magnitude
 /// of the coordinates (floating-point error grows with them): `1e-4 * (1 + max |p_i|)`.

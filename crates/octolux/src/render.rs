@@ -308,10 +308,14 @@ pub fn render_cancellable(
     cancel: Option<&AtomicBool>,
 ) -> (Image, RenderStats) {
     let f = &scene.film;
+    // Mitsuba 0.6 (`SamplingIntegrator::renderBlock`) scales the camera ray's differentials by
+    // 1/sqrt(samples per pixel): a texture footprint of about one sample's share of the pixel.
+    let diff_scale = 1.0 / (settings.spp.max(1) as f32).sqrt();
     render_film_cancellable(f.width, f.height, f.filter, settings, progress, cancel, |film, sampler, c| {
         let (o, d, tmin) = scene.camera.generate_ray(film);
         let ray = Ray { o, d, tmin, tmax: f32::INFINITY };
-        integrator.li(scene, ray, sampler, c)
+        let diff = scene.camera.ray_differential(film, diff_scale);
+        integrator.li(scene, ray, Some(&diff), sampler, c)
     })
 }
 

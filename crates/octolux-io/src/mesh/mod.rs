@@ -181,5 +181,5 @@ pub fn load_mesh_scene(path: &Path) -> Result<LoadedScene, IoError> {
     if desc.shapes.iter().all(|s| s.emission.is_none()) {
         desc.lights.push(Light::Constant { radiance: Color::splat(DEFAULT_ENVIRONMENT_RADIANCE) });
     }
-    Ok(LoadedScene { desc, warnings, sensors: Vec::new() })
+    Ok(LoadedScene { desc, warnings, sensors: Vec::new(), notes: Vec::new() })
 }

@@ -293,7 +293,7 @@ fn convert_mtl(m: &tobj::Material, mtl_dir: &Path, images: &mut Vec<Image>, warn
         match read_image(file) {
             Ok(img) => {
                 images.push(img);
-                diffuse = Texture::Bitmap { image: (images.len() - 1) as u32, uv_scale: Vec2::ONE };
+                diffuse = Texture::bitmap((images.len() - 1) as u32, Vec2::ONE);
             }
             Err(e) => warnings.push(format!("material '{name}': texture not loaded, using Kd instead: {e}")),
         }
@@ -326,7 +326,12 @@ fn convert_mtl(m: &tobj::Material, mtl_dir: &Path, images: &mut Vec<Image>, warn
             let alpha = phong_exponent_to_alpha(m.shininess.unwrap_or(0.0));
             let black_base = matches!(diffuse, Texture::Const(c) if c.max_element() <= 1e-4);
             if black_base {
-                two_sided(Material::RoughConductor { distribution: ggx(alpha), eta: Color::ZERO, k: Color::ZERO, specular_reflectance: ks })
+                two_sided(Material::RoughConductor {
+                    distribution: ggx(alpha).into(),
+                    eta: Color::ZERO,
+                    k: Color::ZERO,
+                    specular_reflectance: ks,
+                })
             } else {
                 let eta = ni.filter(|n| *n > 1.0).unwrap_or(1.5);
                 two_sided(Material::RoughPlastic {

@@ -6,7 +6,7 @@ use super::tree::Elem;
 use super::{spectra, Builder};
 use crate::IoError;
 use octolux::math::Color;
-use octolux::scene::material::{Material, Microfacet, MicrofacetKind, Texture, WardVariant};
+use octolux::scene::material::{Material, Microfacet, MicrofacetKind, Roughness, Texture, WardVariant};
 
 /// Whether `m` holds a bump or normal map below a `twosided` or `blendbsdf` (the prepared scene
 /// perturbs shading frames only for a chain of mask, bumpmap and normalmap at the top of a
@@ -102,10 +102,9 @@ impl<'t> Builder<'t> {
         Ok(int / ext)
     }
 
-    /// The microfacet distribution of a rough bsdf, as Mitsuba 3 reads it: `distribution`
-    /// (`beckmann`, the default, or `ggx`), `alpha` or both `alpha_u` and `alpha_v` (default
-    /// 0.1). `isotropic_only`: anisotropy is an error (Mitsuba's `roughplastic` throws too).
-    pub(super) fn microfacet(&mut self, p: &Props<'t>, isotropic_only: bool) -> Result<Microfacet, IoError> {
+    /// The `distribution` of a rough bsdf (`beckmann`, Mitsuba's default, or `ggx`) and its
+    /// `sample_visible`.
+    fn microfacet_kind(&mut self, p: &Props<'t>) -> Result<MicrofacetKind, IoError> {
         let e = p.owner;
         let dist = p.string("distribution")?.unwrap_or("beckmann").to_ascii_lowercase();
         let kind = match dist.as_str() {
@@ -122,6 +121,15 @@ impl<'t> Builder<'t> {
         if !p.bool_or("sample_visible", true)? {
             self.warn(e, "sample_visible = false: octolux always samples visible normals (the same image in expectation, less noise)");
         }
+        Ok(kind)
+    }
+
+    /// The microfacet distribution of a rough bsdf, as Mitsuba 3 reads it: `distribution`
+    /// (`beckmann`, the default, or `ggx`), `alpha` or both `alpha_u` and `alpha_v` (default
+    /// 0.1). `isotropic_only`: anisotropy is an error (Mitsuba's `roughplastic` throws too).
+    pub(super) fn microfacet(&mut self, p: &Props<'t>, isotropic_only: bool) -> Result<Microfacet, IoError> {
+        let e = p.owner;
+        let kind = self.microfacet_kind(p)?;
         let (alpha_u, alpha_v) = match (p.float("alpha")?, p.float("alpha_u")?, p.float("alpha_v")?) {
             (Some(a), None, None) => (a, a),
             (None, Some(u), Some(v)) => (u, v),
@@ -140,6 +148,29 @@ impl<'t> Builder<'t> {
             return Err(e.loc.error(format!("{}: anisotropic roughness is not supported by this bsdf (nor by Mitsuba)", e.describe())));
         }
         Ok(Microfacet { kind, alpha_u, alpha_v })
+    }
+
+    /// The roughness of `roughconductor` and `roughdielectric`, whose alphas Mitsuba 3 accepts as
+    /// textures: as [`Builder::microfacet`] reads it when the alphas are numbers, else the
+    /// textures (a bitmap decoded as for colours, read through its luminance).
+    pub(super) fn roughness(&mut self, p: &Props<'t>) -> Result<Roughness, IoError> {
+        let e = p.owner;
+        let is_texture = |n: &str| p.get(n).is_some_and(|x| x.target.tag == "texture");
+        if !["alpha", "alpha_u", "alpha_v"].into_iter().any(is_texture) {
+            return Ok(self.microfacet(p, false)?.into());
+        }
+        let kind = self.microfacet_kind(p)?;
+        let (alpha_u, alpha_v) = match (p.has("alpha"), p.has("alpha_u"), p.has("alpha_v")) {
+            (true, false, false) => {
+                let a = self.texture_param(p, "alpha", ColorKind::Unbounded, 0.1)?;
+                (a.clone(), a)
+            }
+            (false, true, true) => {
+                (self.texture_param(p, "alpha_u", ColorKind::Unbounded, 0.1)?, self.texture_param(p, "alpha_v", ColorKind::Unbounded, 0.1)?)
+            }
+            _ => return Err(e.loc.error(format!("{}: give either alpha or both alpha_u and alpha_v", e.describe()))),
+        };
+        Ok(Roughness { kind, alpha_u, alpha_v })
     }
 
     /// Mitsuba 0.6's `ensureEnergyConservation` (default on) for `ward` and `phong`.
@@ -177,6 +208,10 @@ impl<'t> Builder<'t> {
     pub(super) fn material(&mut self, e: &'t Elem) -> Result<Material, IoError> {
         let ty = e.req_attr("type")?;
         let p = self.props(e)?;
+        if matches!(ty, "conductor" | "dielectric" | "thindielectric" | "plastic") {
+            // A roughness on a smooth model: Mitsuba 0.6's smooth plugins never read it.
+            self.not_mitsuba_params(&p, &["alpha", "alpha_u", "alpha_v", "distribution"], &format!("smooth {ty}"));
+        }
         let m = match ty {
             "diffuse" => Material::Diffuse { reflectance: self.texture_param(&p, "reflectance", ColorKind::Bounded, 0.5)? },
             "dielectric" | "thindielectric" => {
@@ -190,7 +225,7 @@ impl<'t> Builder<'t> {
                 }
             }
             "roughdielectric" => {
-                let distribution = self.microfacet(&p, false)?;
+                let distribution = self.roughness(&p)?;
                 let eta = self.eta(&p, "bk7")?;
                 let specular_reflectance = self.color_param(&p, "specular_reflectance", ColorKind::Bounded, 1.0)?;
                 let specular_transmittance = self.color_param(&p, "specular_transmittance", ColorKind::Bounded, 1.0)?;
@@ -231,7 +266,7 @@ impl<'t> Builder<'t> {
                 };
                 let specular_reflectance = self.color_param(&p, "specular_reflectance", ColorKind::Bounded, 1.0)?;
                 if ty == "roughconductor" {
-                    let distribution = self.microfacet(&p, false)?;
+                    let distribution = self.roughness(&p)?;
                     Material::RoughConductor { distribution, eta, k, specular_reflectance }
                 } else {
                     Material::Conductor { eta, k, specular_reflectance }

@@ -43,6 +43,7 @@ mod texture;
 mod tree;
 
 use crate::{IoError, LoadedScene};
+use octolux::scene::material::TexFilter;
 use octolux::scene::{FilmDesc, PixelFilter, SceneDesc};
 use props::Props;
 use std::collections::HashMap;
@@ -81,14 +82,16 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
         search_dirs: &tree.search_dirs,
         desc: SceneDesc::default(),
         warnings,
+        notes: Vec::new(),
         materials: HashMap::new(),
         images: HashMap::new(),
+        mipmaps: HashMap::new(),
         default_material: None,
         sensors: Vec::new(),
         default_emitter_material: None,
     };
     b.scene(&tree.root)?;
-    Ok(LoadedScene { desc: b.desc, warnings: b.warnings, sensors: b.sensors })
+    Ok(LoadedScene { desc: b.desc, warnings: b.warnings, sensors: b.sensors, notes: b.notes })
 }
 
 /// Map every object `id` to its element; duplicate ids are an error.
@@ -116,10 +119,14 @@ struct Builder<'t> {
     search_dirs: &'t [PathBuf],
     desc: SceneDesc,
     warnings: Vec<String>,
+    /// See [`LoadedScene::notes`].
+    notes: Vec<String>,
     /// Material index of each bsdf element already instantiated (by address).
     materials: HashMap<*const Elem, u32>,
-    /// Image index of each texture file already read.
-    images: HashMap<PathBuf, u32>,
+    /// Image index of each texture file already read (and whether read `raw`).
+    images: HashMap<(PathBuf, bool), u32>,
+    /// The trilinear filter (MIP pyramid) of each image index that has one.
+    mipmaps: HashMap<u32, TexFilter>,
     default_material: Option<u32>,
     /// The camera of every usable sensor, in file order.
     sensors: Vec<octolux::scene::camera::CameraDesc>,
@@ -133,6 +140,17 @@ const DEFAULT_FILM: FilmDesc = FilmDesc { width: 768, height: 576, filter: Pixel
 impl<'t> Builder<'t> {
     fn warn(&mut self, e: &Elem, msg: impl std::fmt::Display) {
         self.warnings.push(e.warning(msg));
+    }
+
+    /// Parameters `names` of `p` that Mitsuba's `plugin` does not have either (Mitsuba ignores
+    /// them too): used up with a note each, not a warning.
+    fn not_mitsuba_params(&mut self, p: &props::Props<'t>, names: &[&str], plugin: &str) {
+        for n in names {
+            if let Some(entry) = p.get(n) {
+                self.notes
+                    .push(format!("{}: `{n}` is not a parameter of Mitsuba's {plugin} (Mitsuba ignores it too); ignored", entry.elem.loc));
+            }
+        }
     }
 
     fn props(&self, e: &'t Elem) -> Result<Props<'t>, IoError> {

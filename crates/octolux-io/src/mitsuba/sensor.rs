@@ -127,6 +127,17 @@ impl<'t> Builder<'t> {
             seen = true;
             filter = self.rfilter(o.target)?;
         }
+        // Mitsuba 0.6's `highQualityEdges` (Mitsuba 3's `sample_border`) also samples a band
+        // outside the film, for its edge pixels; false, the default, is what octolux does.
+        for name in ["high_quality_edges", "sample_border"] {
+            if p.bool_or(name, false)? {
+                self.warn(e, format!("{name} = true (samples from outside the film for its edge pixels) is not supported; ignored"));
+            }
+        }
+        // 0.6's hdrfilm has no `gamma` (its ldrfilm does): 0.6 ignores it.
+        if ty == "hdrfilm" {
+            self.not_mitsuba_params(&p, &["gamma"], "hdrfilm");
+        }
         // Output format only (Mitsuba 0.6's `banner` and `attach_log` change the file's metadata).
         p.accept(&["pixel_format", "component_format", "file_format", "banner", "attach_log"]);
         p.finish(&mut self.warnings);

@@ -4,10 +4,11 @@
 use super::props::{ColorKind, Props, Spec};
 use super::tree::{resolve_file, Elem};
 use super::Builder;
+use crate::image_io::linear_to_srgb;
 use crate::IoError;
 use glam::Vec2;
 use octolux::math::Color;
-use octolux::scene::material::Texture;
+use octolux::scene::material::{TexFilter, Texture};
 
 impl<'t> Builder<'t> {
     /// A colour parameter as a texture (default when absent).
@@ -32,6 +33,19 @@ impl<'t> Builder<'t> {
         }
     }
 
+    /// The trilinear filter of image `image`, its MIP pyramid built once per image.
+    fn mipmapped(&mut self, image: u32) -> TexFilter {
+        if let Some(f) = self.mipmaps.get(&image) {
+            return *f;
+        }
+        let filter = match Texture::bitmap(image, Vec2::ONE).with_mipmaps(&mut self.desc.images) {
+            Texture::Bitmap { filter, .. } => filter,
+            Texture::Const(_) => TexFilter::Bilinear,
+        };
+        self.mipmaps.insert(image, filter);
+        filter
+    }
+
     pub(super) fn texture(&mut self, e: &'t Elem) -> Result<Texture, IoError> {
         let ty = e.req_attr("type")?;
         let p = self.props(e)?;
@@ -40,13 +54,23 @@ impl<'t> Builder<'t> {
                 let name = p.string("filename")?.ok_or_else(|| e.loc.error(format!("{} needs a \"filename\"", e.describe())))?;
                 let path = resolve_file(&e.loc, name, &self.main_dir, self.search_dirs)
                     .ok_or_else(|| e.loc.error(format!("{}: image file \"{name}\" not found", e.describe())))?;
-                let image = match self.images.get(&path) {
+                // Mitsuba 3 decodes 8-bit files from sRGB unless `raw` (EXR and HDR are linear).
+                let eight_bit = !path.extension().is_some_and(|x| x.eq_ignore_ascii_case("exr") || x.eq_ignore_ascii_case("hdr"));
+                let raw = p.bool_or("raw", false)? && eight_bit;
+                let key = (path.clone(), raw);
+                let image = match self.images.get(&key) {
                     Some(&i) => i,
                     None => {
-                        let img = crate::image_io::read_image(&path)?;
+                        let mut img = crate::image_io::read_image(&path)?;
+                        if raw {
+                            // The stored values themselves (the decoding undone, exact to float rounding).
+                            for c in &mut img.data {
+                                *c = Color::new(linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z));
+                            }
+                        }
                         self.desc.images.push(img);
                         let i = (self.desc.images.len() - 1) as u32;
-                        self.images.insert(path.clone(), i);
+                        self.images.insert(key, i);
                         i
                     }
                 };
@@ -63,19 +87,24 @@ impl<'t> Builder<'t> {
                 if p.float_or("uoffset", 0.0)? != 0.0 || p.float_or("voffset", 0.0)? != 0.0 {
                     self.warn(e, "texture offsets (uoffset/voffset) are not supported; ignored");
                 }
-                if p.bool_or("raw", false)?
-                    && !path.extension().is_some_and(|x| x.eq_ignore_ascii_case("exr") || x.eq_ignore_ascii_case("hdr"))
-                {
-                    self.warn(e, "raw = true is not supported: 8-bit images are always decoded from sRGB");
-                }
-                for (param, default) in [("filter_type", "bilinear"), ("wrap_mode", "repeat")] {
-                    if let Some(v) = p.string(param)? {
-                        if !v.eq_ignore_ascii_case(default) {
-                            self.warn(e, format!("{param} \"{v}\" is not supported; using {default}"));
-                        }
+                if let Some(v) = p.string("wrap_mode")? {
+                    if !v.eq_ignore_ascii_case("repeat") {
+                        self.warn(e, format!("wrap_mode \"{v}\" is not supported; using repeat"));
                     }
                 }
-                Texture::Bitmap { image, uv_scale }
+                let filter = match p.string("filter_type")?.map(str::to_ascii_lowercase).as_deref() {
+                    None | Some("bilinear") => TexFilter::Bilinear,
+                    Some("nearest") => TexFilter::Nearest,
+                    Some("trilinear") => self.mipmapped(image),
+                    Some(v) => {
+                        // Mitsuba 0.6's `ewa` (its default) is the nearest to trilinear MIP-mapping.
+                        let (filter, name) =
+                            if v == "ewa" { (self.mipmapped(image), "trilinear") } else { (TexFilter::Bilinear, "bilinear") };
+                        self.warn(e, format!("filter_type \"{v}\" is not supported; using {name}"));
+                        filter
+                    }
+                };
+                Texture::Bitmap { image, uv_scale, filter }
             }
             "checkerboard" => {
                 let c0 = self.color_param(&p, "color0", ColorKind::Bounded, 0.4)?;

@@ -8,7 +8,7 @@
 
 pub use crate::math::facing;
 
-use crate::math::{Color, Ray};
+use crate::math::{Color, Ray, RayDifferential};
 use crate::sampling::Sampler;
 use crate::scene::material::{Lobe, Material};
 use crate::scene::{Scene, SurfaceHit};
@@ -133,10 +133,12 @@ pub struct SpecularWalk {
 /// taking at most `max_vertices - 1` specular bounces (a chain of `max_vertices` surface
 /// vertices; `u32::MAX`: unbounded). The chain ends without a vertex when the ray escapes,
 /// the bound is reached, or the sampled lobe is not a delta (or has a zero or non-finite
-/// weight). Each bounce draws `next_1d`, `next_2d` from `sampler`; each ray is counted.
+/// weight). `diff`, the camera ray's differential when `ray` is one, gives the first hit's
+/// texture lookups their footprint (later hits have none, as in Mitsuba 0.6). Each bounce draws `next_1d`, `next_2d` from `sampler`; each ray is counted.
 pub fn walk_specular(
     scene: &Scene,
     mut ray: Ray,
+    diff: Option<&RayDifferential>,
     max_vertices: u32,
     emission: bool,
     sampler: &mut Sampler,
@@ -155,6 +157,9 @@ pub fn walk_specular(
         };
         if bounces == 0 {
             walk.first_t = hit.t;
+            if let Some(d) = diff {
+                hit.set_ray_differential(d);
+            }
         }
         if let (Some(light), true) = (hit.light, emission) {
             walk.emitted += throughput * scene.lights.area_le(light, hit.ng, -ray.d);

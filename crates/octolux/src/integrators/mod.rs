@@ -22,7 +22,7 @@ pub(crate) mod test_scenes;
 
 pub use common::RayCounters;
 
-use crate::math::{Color, Ray};
+use crate::math::{Color, Ray, RayDifferential};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
 use octree::{OctreeIntegrator, OctreeIntegratorParts, OctreeIntegratorSettings};
@@ -170,15 +170,16 @@ impl Integrator {
         }
     }
 
-    /// Radiance along a primary ray.
+    /// Radiance along a primary ray; `diff`, its differential, gives texture lookups at the
+    /// first hit their footprint (see `scene::material::texture`).
     #[inline]
-    pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+    pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<&RayDifferential>, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
         match self {
-            Integrator::Path(s) => path::li(s, scene, ray, sampler, counters),
-            Integrator::Octree(o) => o.li(scene, ray, sampler, counters),
-            Integrator::PhotonMap(o) => o.li(scene, ray, sampler, counters),
-            Integrator::Ward(o) => o.li(scene, ray, sampler, counters),
-            Integrator::Christensen(o) => o.li(scene, ray, sampler, counters),
+            Integrator::Path(s) => path::li(s, scene, ray, diff, sampler, counters),
+            Integrator::Octree(o) => o.li(scene, ray, diff, sampler, counters),
+            Integrator::PhotonMap(o) => o.li(scene, ray, diff, sampler, counters),
+            Integrator::Ward(o) => o.li(scene, ray, diff, sampler, counters),
+            Integrator::Christensen(o) => o.li(scene, ray, diff, sampler, counters),
         }
     }
 }

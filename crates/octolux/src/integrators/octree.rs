@@ -21,7 +21,7 @@
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
 use crate::caches::octree::{AnalyticSphere, OctreeParts, PartsError, Surfaces};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
-use crate::math::{Color, Frame, Ray};
+use crate::math::{Color, Frame, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonError, PhotonSettings};
 use crate::sampling::Sampler;
 use crate::scene::material::Material;
@@ -235,14 +235,14 @@ impl OctreeIntegrator {
     }
 
     /// Radiance along a primary ray.
-    pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+    pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<&RayDifferential>, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
         let max_depth = if self.settings.max_depth < 0 { MAX_SPECULAR_CHAIN } else { self.settings.max_depth as u32 };
         let view = self.settings.view;
         if view == OctreeView::Leaves {
             counters.rays += 1;
             return scene.intersect(&ray).map_or(Color::ZERO, |hit| self.leaf_colour(&hit, ray.d));
         }
-        let walk = walk_specular(scene, ray, max_depth, view == OctreeView::Render, sampler, counters);
+        let walk = walk_specular(scene, ray, diff, max_depth, view == OctreeView::Render, sampler, counters);
         let mut result = walk.emitted;
         let Some(v) = walk.vertex else { return result };
         let material = &scene.materials[v.hit.material as usize];
@@ -345,7 +345,7 @@ impl OctreeIntegrator {
         let ray = v.hit.spawn(v.hit.frame.to_world(bs.wi));
         // `z` is vertex `vertex + 1 + bounces`: the chain may hold max_depth - vertex - 1 of them.
         let first = vertex + 1;
-        let walk = walk_specular(scene, ray, max_depth - first, false, sampler, counters);
+        let walk = walk_specular(scene, ray, None, max_depth - first, false, sampler, counters);
         let Some(z) = walk.vertex else { return Color::ZERO };
         let mz = &scene.materials[z.hit.material as usize];
         let mut l = self.indirect_from(scene, &z, mz, counters, true, true);

@@ -13,7 +13,7 @@
 //! shadowing).
 
 use super::common::{mis_power, RayCounters};
-use crate::math::{max_component, Color, Ray};
+use crate::math::{max_component, Color, Ray, RayDifferential};
 use crate::sampling::Sampler;
 use crate::scene::material::Lobe;
 use crate::scene::Scene;
@@ -36,7 +36,16 @@ impl Default for PathSettings {
 }
 
 /// Radiance along `ray`.
-pub fn li(settings: &PathSettings, scene: &Scene, mut ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+pub fn li(
+    settings: &PathSettings,
+    scene: &Scene,
+    mut ray: Ray,
+    diff: Option<&RayDifferential>,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    // Only the camera ray carries a differential (Mitsuba 0.6): the first hit's lookups.
+    let mut diff = diff;
     let max_depth = if settings.max_depth < 0 { u32::MAX } else { settings.max_depth as u32 };
     let mut result = Color::ZERO;
     let mut throughput = Color::ONE;
@@ -50,7 +59,7 @@ pub fn li(settings: &PathSettings, scene: &Scene, mut ray: Ray, sampler: &mut Sa
     }
     loop {
         counters.rays += 1;
-        let Some(hit) = scene.intersect(&ray) else {
+        let Some(mut hit) = scene.intersect(&ray) else {
             // Escaped: environment emission.
             let le = scene.lights.env_le(ray.d);
             if le != Color::ZERO {
@@ -59,6 +68,9 @@ pub fn li(settings: &PathSettings, scene: &Scene, mut ray: Ray, sampler: &mut Sa
             }
             break;
         };
+        if let Some(d) = diff.take() {
+            hit.set_ray_differential(d);
+        }
         // Emission from an area light hit by the ray.
         if let Some(light) = hit.light {
             let le = scene.lights.area_le(light, hit.ng, -ray.d);

@@ -1,6 +1,7 @@
 //! Perspective pinhole camera with Mitsuba 3's conventions: camera space looks along +z with
 //! +y up and +x to the *left* of the image; `fov` is measured along `fov_axis`.
 
+use crate::math::RayDifferential;
 use glam::{Mat4, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -122,6 +123,17 @@ impl Camera {
         let d = (self.left * x + self.up * y + self.forward).normalize();
         let tmin = self.near_clip / d.dot(self.forward);
         (self.origin, d, tmin)
+    }
+
+    /// The ray differential of the primary ray through `film`: the rays one pixel step to the
+    /// right and one down, their direction offsets scaled by `scale` (Mitsuba 0.6 scales them by
+    /// `1/sqrt(spp)`: `scaleDifferential`). The pinhole's offset rays share its origin.
+    #[inline]
+    pub fn ray_differential(&self, film: Vec2, scale: f32) -> RayDifferential {
+        let (o, d, _) = self.generate_ray(film);
+        let (_, dx, _) = self.generate_ray(film + Vec2::X);
+        let (_, dy, _) = self.generate_ray(film + Vec2::Y);
+        RayDifferential { o_x: o, d_x: d + (dx - d) * scale, o_y: o, d_y: d + (dy - d) * scale }
     }
 
     pub fn position(&self) -> Vec3 {

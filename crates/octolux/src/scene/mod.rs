@@ -31,11 +31,11 @@ pub use fingerprint::LightingFingerprint;
 
 use crate::accel::{Accel, BackendKind};
 use crate::image::Image;
-use crate::math::{bary, offset_origin, Bounds3, Frame, Ray};
+use crate::math::{bary, offset_origin, Bounds3, Frame, Ray, RayDifferential};
 use camera::Camera;
 use glam::{Vec2, Vec3};
 use lights::LightSet;
-use material::Material;
+use material::{Material, TexCoord};
 use std::f32::consts::PI;
 
 /// An analytic sphere of the prepared scene.
@@ -61,7 +61,9 @@ pub struct SurfaceHit {
     pub base_n: Vec3,
     /// Terminator-shadowing parameter `α²` of a bump or normal map (0 without one).
     pub terminator_alpha2: f32,
-    pub uv: Vec2,
+    /// Texture coordinates, with their screen-space partials at camera hits (zero elsewhere;
+    /// see [`SurfaceHit::set_ray_differential`]).
+    pub uv: TexCoord,
     /// Position derivatives with respect to uv (world units per unit of uv, not normalised),
     /// as Mitsuba 3 defines them: from the triangle's uvs (its edges `p1 - p0`, `p2 - p0` when
     /// the mesh has none, its uvs then being the barycentrics), analytic on spheres.
@@ -79,6 +81,48 @@ impl SurfaceHit {
     pub fn spawn(&self, d: Vec3) -> Ray {
         Ray::new(offset_origin(self.p, self.ng, d), d)
     }
+    /// Give `uv` the partials `∂uv/∂x`, `∂uv/∂y` implied by the camera ray's differential:
+    /// Mitsuba 0.6's `Intersection::computePartials` — the offset rays meet the tangent plane
+    /// (geometric normal), and the offsets of those points solve `dp = dp_du du + dp_dv dv` on
+    /// the two axes where the normal is smallest. Zero partials when the plane is parallel to
+    /// an offset ray or the uv parametrisation is degenerate.
+    pub fn set_ray_differential(&mut self, rd: &RayDifferential) {
+        self.uv.duv_dx = Vec2::ZERO;
+        self.uv.duv_dy = Vec2::ZERO;
+        if self.dp_du == Vec3::ZERO && self.dp_dv == Vec3::ZERO {
+            return;
+        }
+        let n = self.ng;
+        let pp = n.dot(self.p);
+        let (prx, pry) = (n.dot(rd.d_x), n.dot(rd.d_y));
+        if prx == 0.0 || pry == 0.0 {
+            return;
+        }
+        let tx = (pp - n.dot(rd.o_x)) / prx;
+        let ty = (pp - n.dot(rd.o_y)) / pry;
+        let (px, py) = (rd.o_x + rd.d_x * tx, rd.o_y + rd.d_y * ty);
+        let a = n.abs();
+        let (i, j) = if a.x > a.y && a.x > a.z {
+            (1, 2)
+        } else if a.y > a.z {
+            (0, 2)
+        } else {
+            (0, 1)
+        };
+        let (a00, a01, a10, a11) = (self.dp_du[i], self.dp_dv[i], self.dp_du[j], self.dp_dv[j]);
+        let det = a00 * a11 - a01 * a10;
+        if det == 0.0 || !det.is_finite() {
+            return;
+        }
+        let solve = |b0: f32, b1: f32| Vec2::new((a11 * b0 - a01 * b1) / det, (a00 * b1 - a10 * b0) / det);
+        let (dx, dy) = (px - self.p, py - self.p);
+        let (ddx, ddy) = (solve(dx[i], dx[j]), solve(dy[i], dy[j]));
+        if ddx.is_finite() && ddy.is_finite() {
+            self.uv.duv_dx = ddx;
+            self.uv.duv_dy = ddy;
+        }
+    }
+
     /// A segment from this surface towards a point at distance `dist` along unit `d`,
     /// stopping short of the end point (for shadow rays).
     #[inline]
@@ -234,7 +278,7 @@ impl Scene {
                     continue;
                 }
                 Material::BumpMap { height, scale, nested } => {
-                    let g = material::bump::luminance_gradient(height, &self.images, hit.uv) * *scale;
+                    let g = material::bump::luminance_gradient(height, &self.images, hit.uv.uv) * *scale;
                     let base = material::bump::frame_along(hit.frame.n, hit.dp_du);
                     (material::bump::bump_normal(g, &base, hit.ng, hit.dp_du, hit.dp_dv), nested)
                 }
@@ -384,7 +428,7 @@ impl Scene {
             frame: Frame::from_normal(n),
             base_n: n,
             terminator_alpha2: 0.0,
-            uv,
+            uv: TexCoord::at(uv),
             dp_du,
             dp_dv,
             shape,
@@ -420,7 +464,7 @@ impl Scene {
             frame: Frame::from_normal(n),
             base_n: n,
             terminator_alpha2: 0.0,
-            uv,
+            uv: TexCoord::at(uv),
             dp_du,
             dp_dv,
             shape: s.shape,

@@ -32,7 +32,7 @@ use crate::caches::christensen::{ChristensenCache, ChristensenStats};
 use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SceneLength, SettingsError};
 use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache, WardCacheStats};
 use crate::integrators::common::RayCounters;
-use crate::math::{Color, Ray};
+use crate::math::{Color, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonSettings};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
@@ -251,8 +251,10 @@ impl ChristensenIntegrator {
     }
 
     /// Radiance along a primary ray.
-    pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
-        render_vertex(&self.shading, self.settings.view, scene, ray, sampler, counters, |v, _, c, scratch| self.irradiance(v, c, scratch))
+    pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<&RayDifferential>, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+        render_vertex(&self.shading, self.settings.view, scene, ray, diff, sampler, counters, |v, _, c, scratch| {
+            self.irradiance(v, c, scratch)
+        })
     }
 }
 

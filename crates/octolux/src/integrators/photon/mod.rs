@@ -28,7 +28,7 @@ use super::common::{direct_light, walk_specular, RayCounters};
 use crate::caches::kdtree::{
     gather_photons, photon_irradiance, scene_size, Density, DensityEstimate, DensitySettings, Neighbor, PhotonTree, SettingsError,
 };
-use crate::math::{Color, Frame, Ray};
+use crate::math::{Color, Frame, Ray, RayDifferential};
 use crate::photon::trace::{PhotonError, PhotonMaps, PhotonSettings};
 use crate::sampling::{square_to_cosine_hemisphere, Sampler};
 use crate::scene::material::Material;
@@ -204,7 +204,7 @@ impl Shading {
         counters: &mut RayCounters,
         scratch: &mut Vec<Neighbor>,
     ) -> (Color, f32) {
-        let walk = walk_specular(scene, ray, self.max_depth, false, sampler, counters);
+        let walk = walk_specular(scene, ray, None, self.max_depth, false, sampler, counters);
         let Some(v) = walk.vertex else { return (Color::ZERO, walk.first_t) };
         let material = &scene.materials[v.hit.material as usize];
         let mut l = direct_light(scene, &v.hit, material, v.wo, sampler, counters);
@@ -280,16 +280,18 @@ pub fn shade_irradiance(scene: &Scene, hit: &SurfaceHit, material: &Material, wo
 
 /// The common camera path of the irradiance-cache baselines: emission on the way, then at the
 /// first non-delta vertex direct (NEE) + `f(wo, n) E` + caustics, or the irradiance views.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn render_vertex(
     sh: &Shading,
     view: CacheView,
     scene: &Scene,
     ray: Ray,
+    diff: Option<&RayDifferential>,
     sampler: &mut Sampler,
     counters: &mut RayCounters,
     irradiance: impl FnOnce(&Vertex, &mut Sampler, &mut RayCounters, &mut Vec<Neighbor>) -> Color,
 ) -> Color {
-    let walk = walk_specular(scene, ray, sh.max_depth, view == CacheView::Render, sampler, counters);
+    let walk = walk_specular(scene, ray, diff, sh.max_depth, view == CacheView::Render, sampler, counters);
     let mut result = walk.emitted;
     let Some(v) = walk.vertex else { return result };
     let mut scratch = sh.scratch();

@@ -31,7 +31,7 @@ use super::{check_max_depth, validate_common, BaselineError, PhotonMapStats, Sha
 use super::CacheView;
 use crate::caches::kdtree::{DensitySettings, SettingsError};
 use crate::integrators::common::{direct_light, walk_specular, RayCounters};
-use crate::math::{Color, Ray};
+use crate::math::{Color, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonSettings};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
@@ -108,10 +108,10 @@ impl PhotonMapIntegrator {
     }
 
     /// Radiance along a primary ray.
-    pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+    pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<&RayDifferential>, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
         let sh = &self.shading;
         let view = self.settings.view;
-        let walk = walk_specular(scene, ray, sh.max_depth, view == CacheView::Render, sampler, counters);
+        let walk = walk_specular(scene, ray, diff, sh.max_depth, view == CacheView::Render, sampler, counters);
         let mut result = walk.emitted;
         let Some(v) = walk.vertex else { return result };
         let mut scratch = sh.scratch();

@@ -237,7 +237,7 @@ impl<'a> Primer<'a> {
         };
         let (o, d, tmin) = self.scene.camera.generate_ray(film);
         let ray = Ray { o, d, tmin, tmax: f32::INFINITY };
-        walk_specular(self.scene, ray, self.shading.max_depth, false, &mut sampler, &mut RayCounters::default()).vertex
+        walk_specular(self.scene, ray, None, self.shading.max_depth, false, &mut sampler, &mut RayCounters::default()).vertex
     }
 
     /// Prime `cache` in batches of `batch` camera paths; `compute(i, vertex)` makes the

@@ -43,7 +43,7 @@ use super::{check_max_depth, render_vertex, validate_common, BaselineError, Cach
 use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SettingsError};
 use crate::caches::ward::{PrimeStats, WardCache, WardCacheStats};
 use crate::integrators::common::RayCounters;
-use crate::math::{Color, Ray};
+use crate::math::{Color, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonSettings};
 use crate::sampling::Sampler;
 use crate::scene::Scene;
@@ -199,8 +199,8 @@ impl WardIntegrator {
     }
 
     /// Radiance along a primary ray.
-    pub fn li(&self, scene: &Scene, ray: Ray, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
-        render_vertex(&self.shading, self.settings.view, scene, ray, sampler, counters, |v, s, c, scratch| {
+    pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<&RayDifferential>, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+        render_vertex(&self.shading, self.settings.view, scene, ray, diff, sampler, counters, |v, s, c, scratch| {
             self.irradiance(scene, v, s, c, scratch)
         })
     }

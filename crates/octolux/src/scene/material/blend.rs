@@ -6,14 +6,14 @@
 //! gets the blend's own `pdf` and `eval / pdf`, so that MIS sees one consistent density
 //! (Mitsuba returns the child's pdf instead — the same image in expectation).
 
-use super::{luminance, BsdfSample, Lobe, Material, Texture};
+use super::{luminance, BsdfSample, Lobe, Material, TexCoord, Texture};
 use crate::image::Image;
 use crate::math::Color;
 use glam::{Vec2, Vec3};
 
 /// The blend weight at `uv`.
 #[inline]
-pub(crate) fn weight(w: &Texture, images: &[Image], uv: Vec2) -> f32 {
+pub(crate) fn weight(w: &Texture, images: &[Image], uv: TexCoord) -> f32 {
     let v = luminance(w.eval(images, uv));
     if v.is_nan() {
         0.0
@@ -23,7 +23,7 @@ pub(crate) fn weight(w: &Texture, images: &[Image], uv: Vec2) -> f32 {
 }
 
 #[inline]
-pub(crate) fn eval(w: f32, a: &Material, b: &Material, images: &[Image], uv: Vec2, wo: Vec3, wi: Vec3) -> Color {
+pub(crate) fn eval(w: f32, a: &Material, b: &Material, images: &[Image], uv: TexCoord, wo: Vec3, wi: Vec3) -> Color {
     let mut f = Color::ZERO;
     if w < 1.0 {
         f += a.eval(images, uv, wo, wi) * (1.0 - w);
@@ -35,7 +35,7 @@ pub(crate) fn eval(w: f32, a: &Material, b: &Material, images: &[Image], uv: Vec
 }
 
 #[inline]
-pub(crate) fn pdf(w: f32, a: &Material, b: &Material, images: &[Image], uv: Vec2, wo: Vec3, wi: Vec3) -> f32 {
+pub(crate) fn pdf(w: f32, a: &Material, b: &Material, images: &[Image], uv: TexCoord, wo: Vec3, wi: Vec3) -> f32 {
     let mut p = 0.0;
     if w < 1.0 {
         p += a.pdf(images, uv, wo, wi) * (1.0 - w);
@@ -47,7 +47,16 @@ pub(crate) fn pdf(w: f32, a: &Material, b: &Material, images: &[Image], uv: Vec2
 }
 
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn sample(w: f32, a: &Material, b: &Material, images: &[Image], uv: Vec2, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+pub(crate) fn sample(
+    w: f32,
+    a: &Material,
+    b: &Material,
+    images: &[Image],
+    uv: TexCoord,
+    wo: Vec3,
+    u_lobe: f32,
+    u: Vec2,
+) -> Option<BsdfSample> {
     let (child, u_child, p_child) = if u_lobe < w { (b, u_lobe / w, w) } else { (a, (u_lobe - w) / (1.0 - w), 1.0 - w) };
     let bs = child.sample(images, uv, wo, u_child.clamp(0.0, 1.0 - f32::EPSILON), u)?;
     if bs.lobe == Lobe::Specular {

@@ -152,7 +152,7 @@ mod tests {
         // with the analytic gradient away from texel-centre lines.
         let data: Vec<Color> = (0..12).map(|i| Color::splat(((i * 37 % 11) as f32) / 10.0)).collect();
         let images = vec![Image { width: 4, height: 3, data }];
-        let t = Texture::Bitmap { image: 0, uv_scale: Vec2::new(1.0, 2.0) };
+        let t = Texture::bitmap(0, Vec2::new(1.0, 2.0));
         for uv in [Vec2::new(0.3, 0.4), Vec2::new(0.05, 0.9), Vec2::new(0.61, 0.1)] {
             let g = luminance_gradient(&t, &images, uv);
             let e = 1e-3;

@@ -17,14 +17,14 @@
 //! bounce and stores no photon where the opacity is 0; the cache integrators' camera walk
 //! resolves a mask stochastically (pass with probability `1 - opacity`, else the nested BSDF).
 
-use super::{luminance, BsdfSample, Lobe, Material, Texture};
+use super::{luminance, BsdfSample, Lobe, Material, TexCoord, Texture};
 use crate::image::Image;
 use crate::math::Color;
 use glam::{Vec2, Vec3};
 
 /// The opacity at `uv`, in [0, 1] (NaN reads as 0).
 #[inline]
-pub fn opacity(t: &Texture, images: &[Image], uv: Vec2) -> f32 {
+pub fn opacity(t: &Texture, images: &[Image], uv: impl Into<TexCoord>) -> f32 {
     let v = luminance(t.eval(images, uv));
     if v.is_nan() {
         0.0
@@ -34,7 +34,7 @@ pub fn opacity(t: &Texture, images: &[Image], uv: Vec2) -> f32 {
 }
 
 #[inline]
-pub(crate) fn eval(o: f32, nested: &Material, images: &[Image], uv: Vec2, wo: Vec3, wi: Vec3) -> Color {
+pub(crate) fn eval(o: f32, nested: &Material, images: &[Image], uv: TexCoord, wo: Vec3, wi: Vec3) -> Color {
     if o <= 0.0 {
         return Color::ZERO;
     }
@@ -42,7 +42,7 @@ pub(crate) fn eval(o: f32, nested: &Material, images: &[Image], uv: Vec2, wo: Ve
 }
 
 #[inline]
-pub(crate) fn pdf(o: f32, nested: &Material, images: &[Image], uv: Vec2, wo: Vec3, wi: Vec3) -> f32 {
+pub(crate) fn pdf(o: f32, nested: &Material, images: &[Image], uv: TexCoord, wo: Vec3, wi: Vec3) -> f32 {
     if o <= 0.0 {
         return 0.0;
     }
@@ -56,7 +56,7 @@ pub fn null_sample(wo: Vec3, prob: f32) -> BsdfSample {
 }
 
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn sample(o: f32, nested: &Material, images: &[Image], uv: Vec2, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+pub(crate) fn sample(o: f32, nested: &Material, images: &[Image], uv: TexCoord, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
     if !(u_lobe < o) {
         return Some(null_sample(wo, 1.0 - o));
     }

@@ -11,6 +11,9 @@
 //!
 //! Roughness below `1e-4` is clamped to `1e-4`, like Mitsuba.
 
+use super::texture::{TexCoord, Texture};
+use crate::image::Image;
+use crate::math::Color;
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -267,4 +270,54 @@ pub fn erfinv(y: f64) -> f64 {
         }
     }
     x
+}
+
+/// A microfacet distribution whose roughness may be textured: Mitsuba 3's `alpha` (or
+/// `alpha_u`, `alpha_v`) textures of `roughconductor` and `roughdielectric`, read as a scalar
+/// (a grey value as it is, a colour through its luminance, like Mitsuba's `eval_1`). A
+/// constant roughness gives exactly the [`Microfacet`] it was made from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Roughness {
+    pub kind: MicrofacetKind,
+    pub alpha_u: Texture,
+    pub alpha_v: Texture,
+}
+
+impl From<Microfacet> for Roughness {
+    fn from(m: Microfacet) -> Roughness {
+        Roughness { kind: m.kind, alpha_u: Texture::Const(Color::splat(m.alpha_u)), alpha_v: Texture::Const(Color::splat(m.alpha_v)) }
+    }
+}
+
+/// A constant roughness equals the distribution it is made of.
+impl PartialEq<Microfacet> for Roughness {
+    fn eq(&self, other: &Microfacet) -> bool {
+        self.constant().is_some_and(|d| d == *other)
+    }
+}
+
+impl Roughness {
+    /// The distribution at `uv`.
+    #[inline]
+    pub fn at(&self, images: &[Image], uv: TexCoord) -> Microfacet {
+        Microfacet { kind: self.kind, alpha_u: self.alpha_u.eval_1(images, uv), alpha_v: self.alpha_v.eval_1(images, uv) }
+    }
+
+    /// The distribution when neither alpha is a bitmap.
+    pub fn constant(&self) -> Option<Microfacet> {
+        match (&self.alpha_u, &self.alpha_v) {
+            (Texture::Const(u), Texture::Const(v)) => Some(self.at(&[], TexCoord::ZERO)).filter(|_| u.is_finite() && v.is_finite()),
+            _ => None,
+        }
+    }
+
+    /// Both alphas the same texture.
+    pub fn is_isotropic(&self) -> bool {
+        self.alpha_u == self.alpha_v
+    }
+
+    pub(crate) fn validate(&self, n_images: usize) -> Result<(), String> {
+        self.alpha_u.validate(n_images, "roughness alpha_u")?;
+        self.alpha_v.validate(n_images, "roughness alpha_v")
+    }
 }

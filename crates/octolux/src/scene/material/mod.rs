@@ -44,8 +44,8 @@ pub mod ward;
 
 // The pieces stay reachable at their old paths (`material::fresnel_dielectric`, ...).
 pub use fresnel::{fresnel_conductor, fresnel_conductor_1, fresnel_dielectric, refract, thin_dielectric_reflectance};
-pub use microfacet::{Microfacet, MicrofacetKind};
-pub use texture::Texture;
+pub use microfacet::{Microfacet, MicrofacetKind, Roughness};
+pub use texture::{TexCoord, TexFilter, Texture};
 pub use ward::WardVariant;
 
 use crate::image::Image;
@@ -101,14 +101,15 @@ pub enum Material {
     /// Smooth conductor, i.e. a mirror with Fresnel reflectance from complex IOR `eta + i k`
     /// (Mitsuba `conductor`; material "none" is `k = 0, eta = 0` meaning reflectance 1).
     Conductor { eta: Color, k: Color, specular_reflectance: Color },
-    /// Rough conductor (Mitsuba `roughconductor`), Beckmann or GGX, possibly anisotropic.
-    RoughConductor { distribution: Microfacet, eta: Color, k: Color, specular_reflectance: Color },
+    /// Rough conductor (Mitsuba `roughconductor`), Beckmann or GGX, possibly anisotropic,
+    /// the roughness possibly textured.
+    RoughConductor { distribution: Roughness, eta: Color, k: Color, specular_reflectance: Color },
     /// Smooth dielectric interface (Mitsuba `dielectric`).
     Dielectric { eta: f32, specular_reflectance: Color, specular_transmittance: Color },
     /// Thin dielectric sheet (Mitsuba `thindielectric`): reflection + straight transmission.
     ThinDielectric { eta: f32, specular_reflectance: Color, specular_transmittance: Color },
     /// Rough dielectric interface (Mitsuba `roughdielectric`), Beckmann or GGX.
-    RoughDielectric { distribution: Microfacet, eta: f32, specular_reflectance: Color, specular_transmittance: Color },
+    RoughDielectric { distribution: Roughness, eta: f32, specular_reflectance: Color, specular_transmittance: Color },
     /// Smooth plastic (Mitsuba `plastic`): a diffuse base under a smooth dielectric coating.
     Plastic { diffuse_reflectance: Texture, specular_reflectance: Color, eta: f32, nonlinear: bool },
     /// Rough plastic (Mitsuba `roughplastic`): a diffuse base under a rough dielectric coating
@@ -158,6 +159,15 @@ fn check_alpha(alpha: f32, what: &str) -> Result<(), String> {
     }
 }
 
+/// A textured roughness: its constants checked as numbers, its bitmaps as textures.
+fn check_roughness(r: &Roughness, n_images: usize) -> Result<(), String> {
+    r.validate(n_images)?;
+    if let Some(d) = r.constant() {
+        check_distribution(&d)?;
+    }
+    Ok(())
+}
+
 fn check_distribution(d: &Microfacet) -> Result<(), String> {
     check_alpha(d.alpha_u, "roughness alpha_u")?;
     check_alpha(d.alpha_v, "roughness alpha_v")
@@ -199,7 +209,8 @@ fn sample_from(wi: Vec3, lobe: Lobe, pdf: f32, f: Color) -> Option<BsdfSample> {
 impl Material {
     /// The albedo `ρ` when the side of the surface that `wo` sees is purely Lambertian
     /// (`f = ρ/π`; zero from behind a one-sided diffuse), `None` for any other BSDF.
-    pub fn lambertian_albedo(&self, images: &[Image], uv: Vec2, wo: Vec3) -> Option<Color> {
+    pub fn lambertian_albedo(&self, images: &[Image], uv: impl Into<TexCoord>, wo: Vec3) -> Option<Color> {
+        let uv: TexCoord = uv.into();
         match self {
             Material::Diffuse { reflectance } => Some(if wo.z > 0.0 { reflectance.eval(images, uv) } else { Color::ZERO }),
             Material::TwoSided { front, back } => {
@@ -222,7 +233,8 @@ impl Material {
     }
 
     /// `f(wo, wi) |cos θ_i|` of the non-delta lobes (local frame).
-    pub fn eval(&self, images: &[Image], uv: Vec2, wo: Vec3, wi: Vec3) -> Color {
+    pub fn eval(&self, images: &[Image], uv: impl Into<TexCoord>, wo: Vec3, wi: Vec3) -> Color {
+        let uv: TexCoord = uv.into();
         match self {
             Material::Diffuse { reflectance } => {
                 if wo.z <= 0.0 || wi.z <= 0.0 {
@@ -232,10 +244,10 @@ impl Material {
             }
             Material::Conductor { .. } | Material::Dielectric { .. } | Material::ThinDielectric { .. } => Color::ZERO,
             Material::RoughConductor { distribution, eta, k, specular_reflectance } => {
-                conductor::eval(distribution, *eta, *k, *specular_reflectance, wo, wi)
+                conductor::eval(&distribution.at(images, uv), *eta, *k, *specular_reflectance, wo, wi)
             }
             Material::RoughDielectric { distribution, eta, specular_reflectance, specular_transmittance } => {
-                dielectric::eval(distribution, *eta, *specular_reflectance, *specular_transmittance, wo, wi)
+                dielectric::eval(&distribution.at(images, uv), *eta, *specular_reflectance, *specular_transmittance, wo, wi)
             }
             Material::Plastic { diffuse_reflectance, eta, nonlinear, .. } => {
                 plastic::smooth_eval(diffuse_reflectance.eval(images, uv), *eta, *nonlinear, wo, wi)
@@ -274,7 +286,8 @@ impl Material {
     }
 
     /// Solid-angle pdf of `sample` producing `wi` through a non-delta lobe.
-    pub fn pdf(&self, images: &[Image], uv: Vec2, wo: Vec3, wi: Vec3) -> f32 {
+    pub fn pdf(&self, images: &[Image], uv: impl Into<TexCoord>, wo: Vec3, wi: Vec3) -> f32 {
+        let uv: TexCoord = uv.into();
         match self {
             Material::Diffuse { .. } => {
                 if wo.z <= 0.0 {
@@ -283,8 +296,8 @@ impl Material {
                 square_to_cosine_hemisphere_pdf(wi)
             }
             Material::Conductor { .. } | Material::Dielectric { .. } | Material::ThinDielectric { .. } => 0.0,
-            Material::RoughConductor { distribution, .. } => conductor::pdf(distribution, wo, wi),
-            Material::RoughDielectric { distribution, eta, .. } => dielectric::pdf(distribution, *eta, wo, wi),
+            Material::RoughConductor { distribution, .. } => conductor::pdf(&distribution.at(images, uv), wo, wi),
+            Material::RoughDielectric { distribution, eta, .. } => dielectric::pdf(&distribution.at(images, uv), *eta, wo, wi),
             Material::Plastic { diffuse_reflectance, specular_reflectance, eta, .. } => {
                 plastic::smooth_pdf(diffuse_reflectance.eval(images, uv), *specular_reflectance, *eta, wo, wi)
             }
@@ -316,7 +329,8 @@ impl Material {
     }
 
     /// Sample an incident direction. `u_lobe` picks the lobe, `u` the direction.
-    pub fn sample(&self, images: &[Image], uv: Vec2, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+    pub fn sample(&self, images: &[Image], uv: impl Into<TexCoord>, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        let uv: TexCoord = uv.into();
         match self {
             Material::Diffuse { reflectance } => {
                 if wo.z <= 0.0 {
@@ -337,7 +351,7 @@ impl Material {
                 Some(BsdfSample { wi: reflect_z(wo), weight, pdf: 1.0, lobe: Lobe::Specular, eta: 1.0 })
             }
             Material::RoughConductor { distribution, eta, k, specular_reflectance } => {
-                conductor::sample(distribution, *eta, *k, *specular_reflectance, wo, u)
+                conductor::sample(&distribution.at(images, uv), *eta, *k, *specular_reflectance, wo, u)
             }
             Material::Dielectric { eta, specular_reflectance, specular_transmittance } => {
                 let (r, cos_t, eta_it, eta_ti) = fresnel_dielectric(wo.z, *eta);
@@ -358,7 +372,7 @@ impl Material {
                 }
             }
             Material::RoughDielectric { distribution, eta, specular_reflectance, specular_transmittance } => {
-                dielectric::sample(distribution, *eta, *specular_reflectance, *specular_transmittance, wo, u_lobe, u)
+                dielectric::sample(&distribution.at(images, uv), *eta, *specular_reflectance, *specular_transmittance, wo, u_lobe, u)
             }
             Material::Plastic { diffuse_reflectance, specular_reflectance, eta, nonlinear } => {
                 plastic::smooth_sample(diffuse_reflectance.eval(images, uv), *specular_reflectance, *eta, *nonlinear, wo, u_lobe, u)
@@ -410,7 +424,7 @@ impl Material {
     }
 
     /// The opacity at `uv` of a `mask` (1 for any other material, whose surface is all there).
-    pub fn opacity(&self, images: &[Image], uv: Vec2) -> f32 {
+    pub fn opacity(&self, images: &[Image], uv: impl Into<TexCoord>) -> f32 {
         match self {
             Material::Mask { opacity, .. } => mask::opacity(opacity, images, uv),
             _ => 1.0,
@@ -447,7 +461,7 @@ impl Material {
                 check_color(*specular_reflectance, "specular reflectance")
             }
             Material::RoughConductor { distribution, eta, k, specular_reflectance } => {
-                check_distribution(distribution)?;
+                check_roughness(distribution, n_images)?;
                 check_color(*eta, "conductor eta")?;
                 check_color(*k, "conductor k")?;
                 check_color(*specular_reflectance, "specular reflectance")
@@ -459,7 +473,7 @@ impl Material {
                 check_color(*specular_transmittance, "specular transmittance")
             }
             Material::RoughDielectric { distribution, eta, specular_reflectance, specular_transmittance } => {
-                check_distribution(distribution)?;
+                check_roughness(distribution, n_images)?;
                 check_ior(*eta, "relative index of refraction")?;
                 if *eta == 1.0 {
                     return Err("rough dielectric: the interior and exterior indices of refraction must differ".into());

@@ -11,7 +11,7 @@
 //! Mitsuba's `ensureEnergyConservation` is applied at load time by
 //! [`super::Material::ensure_energy_conservation`].
 
-use super::{luminance, reflect_z, Texture};
+use super::{luminance, reflect_z, TexCoord, Texture};
 use crate::image::Image;
 use crate::math::{Color, Frame};
 use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
@@ -29,7 +29,7 @@ pub(crate) struct PhongLocal {
 
 impl PhongLocal {
     #[inline]
-    pub(crate) fn new(images: &[Image], uv: Vec2, exponent: f32, diffuse: &Texture, specular: &Texture) -> PhongLocal {
+    pub(crate) fn new(images: &[Image], uv: TexCoord, exponent: f32, diffuse: &Texture, specular: &Texture) -> PhongLocal {
         let kd = diffuse.eval(images, uv);
         let ks = specular.eval(images, uv);
         let (d, s) = (luminance(kd), luminance(ks));

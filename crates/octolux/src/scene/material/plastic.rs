@@ -23,7 +23,7 @@
 
 use super::fresnel::{fresnel_dielectric, fresnel_diffuse_reflectance, refract};
 use super::microfacet::{Microfacet, MicrofacetKind};
-use super::{channel_mean, reflect_z, BsdfSample, Lobe, Texture};
+use super::{channel_mean, reflect_z, BsdfSample, Lobe, TexCoord, Texture};
 use crate::image::Image;
 use crate::math::{gauss_legendre, reflect, Color};
 use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
@@ -171,7 +171,7 @@ impl PlasticLocal {
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         images: &[Image],
-        uv: Vec2,
+        uv: TexCoord,
         kd: &Texture,
         ks: Color,
         distribution: &Microfacet,

@@ -29,7 +29,7 @@ fn ggx(alpha: f32) -> Microfacet {
 fn rough_conductor(alpha: f32) -> Material {
     // gold-like complex IOR
     Material::RoughConductor {
-        distribution: ggx(alpha),
+        distribution: ggx(alpha).into(),
         eta: Color::new(0.143, 0.374, 1.442),
         k: Color::new(3.983, 2.385, 1.603),
         specular_reflectance: white(1.0),
@@ -401,7 +401,12 @@ fn white_furnace_albedo_bounds() {
     // mean weight equals the hemispherical integral of eval (checked by quadrature)
     let mut prev = 1.0f32;
     for &alpha in &[0.2f32, 0.5, 0.8] {
-        let m = Material::RoughConductor { distribution: ggx(alpha), eta: Color::ZERO, k: Color::ZERO, specular_reflectance: white(1.0) };
+        let m = Material::RoughConductor {
+            distribution: ggx(alpha).into(),
+            eta: Color::ZERO,
+            k: Color::ZERO,
+            specular_reflectance: white(1.0),
+        };
         let a = albedo(&m, wo, n).x;
         let q = hemisphere_integral(&m, wo);
         assert!(a <= 1.0 + 1e-3 && a < prev, "alpha {alpha}: {a}");
@@ -469,8 +474,8 @@ fn plastic_tables_approach_smooth_fresnel() {
 fn validation_rejects_bad_parameters() {
     assert!(Material::Diffuse { reflectance: Texture::Const(white(0.5)) }.validate(0).is_ok());
     assert!(Material::Diffuse { reflectance: Texture::Const(Color::new(-0.1, 0.0, 0.0)) }.validate(0).is_err());
-    assert!(Material::Diffuse { reflectance: Texture::Bitmap { image: 1, uv_scale: Vec2::ONE } }.validate(1).is_err());
-    assert!(Material::Diffuse { reflectance: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE } }.validate(1).is_ok());
+    assert!(Material::Diffuse { reflectance: Texture::bitmap(1, Vec2::ONE) }.validate(1).is_err());
+    assert!(Material::Diffuse { reflectance: Texture::bitmap(0, Vec2::ONE) }.validate(1).is_ok());
     assert!(Material::Dielectric { eta: f32::NAN, specular_reflectance: white(1.0), specular_transmittance: white(1.0) }
         .validate(0)
         .is_err());

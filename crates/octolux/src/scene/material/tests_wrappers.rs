@@ -80,7 +80,7 @@ fn mask_sampling_matches_its_pdf_and_opacity() {
     // included, and the null lobe's share.
     let cfg = Chi2Config { samples: 200_000, tests: 3, ..Default::default() };
     let images = vec![Image { width: 2, height: 1, data: vec![white(0.3), white(0.9)] }];
-    let textured = Material::Mask { opacity: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE }, nested: Box::new(plastic()) };
+    let textured = Material::Mask { opacity: Texture::bitmap(0, Vec2::ONE), nested: Box::new(plastic()) };
     for (m, uv, wo) in [
         (mask(0.6), Vec2::ZERO, dir(35.0, 20.0)),
         (mask(0.25), Vec2::ZERO, dir(75.0, 200.0)),
@@ -158,7 +158,7 @@ fn bump_and_normal_maps_tilt_the_frame_as_mitsuba_does() {
     // between texel centres; with scale 1/4 the gradient is 2 and dp/du' = (2, 0, 2):
     // n' = normalize((2,0,2) × (0,2,0)) = (-1, 0, 1)/√2.
     let ramp = Image { width: 8, height: 1, data: (0..8).map(|i| white(i as f32)).collect() };
-    let bump = Material::BumpMap { height: Texture::Bitmap { image: 0, uv_scale: Vec2::ONE }, scale: 0.25, nested: Box::new(plastic()) };
+    let bump = Material::BumpMap { height: Texture::bitmap(0, Vec2::ONE), scale: 0.25, nested: Box::new(plastic()) };
     let (_, hit) = quad_hit(bump, vec![ramp], Vec2::new(0.5, 0.5));
     assert!(near(hit.frame.n, Vec3::new(-1.0, 0.0, 1.0).normalize()), "bump normal {}", hit.frame.n);
     assert!(near(hit.base_n, Vec3::Z));
@@ -208,9 +208,7 @@ fn resolving_a_mask_picks_the_nested_material_with_the_opacity() {
 fn wrappers_validate_their_parts() {
     let bad_nested = Material::Diffuse { reflectance: Texture::Const(white(-1.0)) };
     assert!(Material::Mask { opacity: Texture::Const(white(0.5)), nested: Box::new(bad_nested.clone()) }.validate(0).is_err());
-    assert!(Material::Mask { opacity: Texture::Bitmap { image: 3, uv_scale: Vec2::ONE }, nested: Box::new(plastic()) }
-        .validate(1)
-        .is_err());
+    assert!(Material::Mask { opacity: Texture::bitmap(3, Vec2::ONE), nested: Box::new(plastic()) }.validate(1).is_err());
     assert!(Material::BumpMap { height: Texture::Const(white(0.5)), scale: f32::NAN, nested: Box::new(plastic()) }.validate(0).is_err());
     assert!(Material::NormalMap { normals: Texture::Const(white(0.5)), nested: Box::new(bad_nested) }.validate(0).is_err());
     assert!(Material::BumpMap { height: Texture::Const(white(0.5)), scale: -2.0, nested: Box::new(plastic()) }.validate(0).is_ok());

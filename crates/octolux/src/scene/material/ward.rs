@@ -19,7 +19,7 @@
 //! per-channel maxima sum above 1) is applied once at load time by
 //! [`super::Material::ensure_energy_conservation`].
 
-use super::{luminance, Texture};
+use super::{luminance, TexCoord, Texture};
 use crate::image::Image;
 use crate::math::{spherical_direction, Color};
 use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
@@ -61,7 +61,7 @@ impl WardLocal {
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         images: &[Image],
-        uv: Vec2,
+        uv: TexCoord,
         variant: WardVariant,
         alpha_u: f32,
         alpha_v: f32,
