@@ -156,14 +156,18 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         bake::check_settings(path, c, &integrator_settings)?;
     }
     let name = integrator_settings.name();
-    if let Some(w) = settings::scene_integrator_warning(
+    match settings::scene_integrator_remark(
         desc.hints.integrator.as_deref(),
         &args.scene.scene,
         name,
         args.integrator.is_some() || args.settings.is_some() || cache.is_some(),
     ) {
-        eprintln!("warning: {w}");
-        warnings.push(w);
+        Some(settings::IntegratorRemark::Note(n)) => eprintln!("note: {n}"),
+        Some(settings::IntegratorRemark::Warning(w)) => {
+            eprintln!("warning: {w}");
+            warnings.push(w);
+        }
+        None => {}
     }
     let photon_count = settings::get(&integrator_settings, keys::PHOTON_COUNT).and_then(|v| v.as_u64());
     if let (Some(n), None) = (photon_count, &cache) {

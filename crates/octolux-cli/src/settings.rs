@@ -173,18 +173,38 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
 /// differentiable variants give the same image on surface scenes).
 const PATH_TRACERS: &[&str] = &["path", "volpath", "volpathmis", "prb", "prb_basic", "prbvolpath"];
 
-/// The warning due when the scene's `<integrator type>` is not what is rendered and nothing on
-/// the command line chose the integrator (`chosen`: `--integrator` or `--settings` given): an
-/// unknown or unsupported type would otherwise render `used` without a word.
-pub fn scene_integrator_warning(scene_type: Option<&str>, scene: &str, used: &str, chosen: bool) -> Option<String> {
+/// Mitsuba integrators of other methods that converge to the image a path tracer converges to
+/// (unbiased or consistent light transport on surface scenes): octolux's `path` renders that
+/// image, so choosing it is a note, not a warning.
+const SAME_IMAGE: &[&str] = &["bdpt", "ptracer", "photonmapper", "ppm", "sppm", "pssmlt", "mlt", "erpt"];
+
+/// What to say when the scene's `<integrator type>` is not what is rendered.
+#[derive(Debug, PartialEq)]
+pub enum IntegratorRemark {
+    /// Another method converging to the same image (`SAME_IMAGE`).
+    Note(String),
+    /// An unknown type, or one whose image differs: it would otherwise render `used` silently.
+    Warning(String),
+}
+
+/// The remark due when the scene's `<integrator type>` is not what is rendered and nothing on
+/// the command line chose the integrator (`chosen`: `--integrator`, `--settings` or `--cache`).
+pub fn scene_integrator_remark(scene_type: Option<&str>, scene: &str, used: &str, chosen: bool) -> Option<IntegratorRemark> {
     let ty = scene_type?;
     if chosen || ty == used || (used == "path" && PATH_TRACERS.contains(&ty)) {
         return None;
     }
-    Some(format!(
-        "scene '{scene}': <integrator type=\"{ty}\"> is not an octolux integrator; rendering with {used} (choose one with --integrator: {})",
-        IntegratorSettings::NAMES.join(", ")
-    ))
+    let names = IntegratorSettings::NAMES.join(", ");
+    Some(if used == "path" && SAME_IMAGE.contains(&ty) {
+        IntegratorRemark::Note(format!(
+            "scene '{scene}': <integrator type=\"{ty}\"> converges to the image a path tracer converges to; \
+             rendering with path (choose another with --integrator: {names})"
+        ))
+    } else {
+        IntegratorRemark::Warning(format!(
+            "scene '{scene}': <integrator type=\"{ty}\"> is not an octolux integrator; rendering with {used} (choose one with --integrator: {names})"
+        ))
+    })
 }
 
 /// A settings file: the integrator it names (`type`) and its other keys.

@@ -360,15 +360,26 @@ fn scene_inputs_that_used_to_be_dropped_silently_warn() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("sample_count 4294967296 is too large (at most 4294967295)"), "{}", stderr(&o));
 
-    // An integrator octolux does not have renders path, with a word; a path tracer's does not.
+    // An integrator octolux does not know renders path with a warning; another method that
+    // converges to the same image (bdpt) with a note; a path tracer's says nothing.
+    let scene = write_scene(&dir, "whitted", "1", 8);
+    let o = run(&["render", &scene, "-q", "-o", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "warning: scene '{scene}': <integrator type=\"whitted\"> is not an octolux integrator; rendering with path \
+             (choose one with --integrator: path, octree, photonmap, ward, christensen)\n"
+        )
+    );
     let scene = write_scene(&dir, "bdpt", "1", 8);
     let o = run(&["render", &scene, "-q", "-o", &out]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         stderr(&o),
         format!(
-            "warning: scene '{scene}': <integrator type=\"bdpt\"> is not an octolux integrator; rendering with path \
-             (choose one with --integrator: path, octree, photonmap, ward, christensen)\n"
+            "note: scene '{scene}': <integrator type=\"bdpt\"> converges to the image a path tracer converges to; \
+             rendering with path (choose another with --integrator: path, octree, photonmap, ward, christensen)\n"
         )
     );
     let o = run(&["render", &scene, "--integrator", "path", "-q", "-o", &out]);

@@ -228,14 +228,18 @@ impl<'t> Builder<'t> {
         if !PATH_TRACERS.contains(&ty) {
             let names = p.take_unused_values();
             if !names.is_empty() {
-                self.warn(
-                    e,
-                    format!(
-                        "parameters of the \"{ty}\" integrator are ignored (octolux's integrator and its settings are chosen \
-                         on its command line; only max_depth is read as a default): {}",
-                        names.join(", ")
-                    ),
+                let msg = format!(
+                    "parameters of the \"{ty}\" integrator are ignored (octolux's integrator and its settings are chosen \
+                     on its command line; only max_depth is read as a default): {}",
+                    names.join(", ")
                 );
+                // Another method's tuning of how it converges (sppm's photon counts, ...) does
+                // not change the image it converges to: a note. An unknown type's: a warning.
+                if PATH_LIKE.contains(&ty) {
+                    self.notes.push(e.warning(msg));
+                } else {
+                    self.warn(e, msg);
+                }
             }
         }
         p.finish(&mut self.warnings);
