@@ -354,10 +354,10 @@ fn singular_transform_and_zero_area_emitter_warn() {
     // Without an emitter, only the shape's warning.
     let (w, _) = shape_warnings(dir, "<shape type=\"disk\"><transform name=\"to_world\"><scale x=\"0\"/></transform></shape>");
     assert_eq!(w, ["h.xml:2: <shape type=\"disk\">: to_world is singular (determinant 0): the shape has zero area and is skipped"]);
-    // Tiny but regular scales are not singular (the determinant is taken in f64: 1e-45 is 0 in f32).
+    // Tiny but regular scales are not singular (the determinant is taken in f64: 1e-60 is 0 in f32).
     let (w, n) = shape_warnings(
         dir,
-        &format!("<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"1e-15\"/></transform>{AREA}</shape>"),
+        &format!("<shape type=\"sphere\"><transform name=\"to_world\"><scale value=\"1e-20\"/></transform>{AREA}</shape>"),
     );
     assert!(w.is_empty(), "{w:?}");
     assert_eq!(n, 1);
@@ -404,4 +404,21 @@ fn zero_area_mesh_emitter_warns() {
         ]
     );
     assert_eq!(n, 0);
+}
+
+/// An area emitter defined at scene level and referenced by a shape is read there, without the
+/// "must be nested in a shape" warning (it said "ignored" while the shape emitted); one that no
+/// shape references still warns (Mitsuba 3 renders nothing of it either).
+#[test]
+fn referenced_scene_level_area_emitter_is_used_without_warning() {
+    setup();
+    let text = "<scene version=\"3.0.0\">\n<emitter type=\"area\" id=\"e\"><rgb name=\"radiance\" value=\"2\"/></emitter>\n\
+                <shape type=\"rectangle\"><ref id=\"e\"/></shape>\n</scene>\n";
+    let s = load_str(text, Path::new("h.xml"), &[]).unwrap();
+    assert!(s.warnings.iter().all(|w| !w.contains("emitter")), "{:?}", s.warnings);
+    assert_eq!(s.desc.shapes[0].emission, Some(Color::splat(2.0)));
+    let text = text.replace("<ref id=\"e\"/>", "");
+    let s = load_str(&text, Path::new("h.xml"), &[]).unwrap();
+    assert_eq!(s.warnings[0], "h.xml:2: <emitter type=\"area\" id=\"e\">: an area emitter must be nested in a shape; ignored");
+    assert_eq!(s.desc.shapes[0].emission, None);
 }

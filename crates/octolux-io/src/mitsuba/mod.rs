@@ -45,7 +45,7 @@ mod tree;
 use crate::{IoError, LoadedScene};
 use octolux::scene::{FilmDesc, PixelFilter, SceneDesc};
 use props::Props;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use tree::Elem;
 
@@ -67,7 +67,7 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
     let mut ids = HashMap::new();
     let mut aliases = Vec::new();
     collect_ids(&tree.root, &mut ids, &mut aliases)?;
-    for a in aliases {
+    for a in &aliases {
         let from = a.req_attr("id")?;
         let to = a.req_attr("as")?;
         let target = *ids.get(from).ok_or_else(|| a.loc.error(format!("<alias>: reference to unknown id \"{from}\"")))?;
@@ -75,8 +75,18 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
             return Err(a.loc.error(format!("<alias>: id \"{to}\" is already used")));
         }
     }
+    let mut referenced = HashSet::new();
+    collect_refs(&tree.root, &mut referenced);
+    for a in &aliases {
+        if let (Some(id), Some(to)) = (a.attr("id"), a.attr("as")) {
+            if referenced.contains(to) {
+                referenced.insert(id.to_string());
+            }
+        }
+    }
     let mut b = Builder {
         ids,
+        referenced,
         main_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         search_dirs: &tree.search_dirs,
         desc: SceneDesc::default(),
@@ -87,6 +97,18 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
     };
     b.scene(&tree.root)?;
     Ok(LoadedScene { desc: b.desc, warnings: b.warnings })
+}
+
+/// The ids named by `<ref>` elements anywhere under `e`.
+fn collect_refs(e: &Elem, refs: &mut HashSet<String>) {
+    for c in &e.children {
+        if c.tag == "ref" {
+            if let Some(id) = c.attr("id") {
+                refs.insert(id.to_string());
+            }
+        }
+        collect_refs(c, refs);
+    }
 }
 
 /// Map every object `id` to its element; duplicate ids are an error.
@@ -110,6 +132,8 @@ fn collect_ids<'t>(e: &'t Elem, ids: &mut HashMap<String, &'t Elem>, aliases: &m
 
 struct Builder<'t> {
     ids: HashMap<String, &'t Elem>,
+    /// Ids some `<ref>` names (directly or through an `<alias>`).
+    referenced: HashSet<String>,
     main_dir: PathBuf,
     search_dirs: &'t [PathBuf],
     desc: SceneDesc,

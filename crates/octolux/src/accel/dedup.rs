@@ -83,4 +83,15 @@ mod tests {
         let many = vec![[0, 1, 2]; 1_000_000];
         assert_eq!(unique_triangles(&v, &many), Some(vec![0]));
     }
+
+    /// A million distinct triangles (a strip): nothing dropped; the time is printed.
+    #[test]
+    fn million_distinct_triangles() {
+        let n = 1_000_000u32;
+        let v: Vec<Vec3> = (0..n + 2).map(|i| Vec3::new(i as f32 * 0.5, (i % 2) as f32, 0.0)).collect();
+        let tris: Vec<[u32; 3]> = (0..n).map(|i| [i, i + 1, i + 2]).collect();
+        let t = std::time::Instant::now();
+        assert_eq!(unique_triangles(&v, &tris), None);
+        println!("dedup of {n} distinct triangles: {:?}", t.elapsed());
+    }
 }
