@@ -11,7 +11,8 @@
 //! sample, Embree more than two minutes for a 32x32 image at 8 samples per pixel.
 //!
 //! Cost on distinct triangles: one 64-bit hash per triangle and a parallel sort of
-//! (hash, index) pairs, a few tens of milliseconds per million triangles.
+//! (hash, index) pairs (test `million_distinct_triangles`: 0.7 s for a million on two cores
+//! shared with a load of 15, so a fraction of that on an idle machine).
 
 use glam::Vec3;
 use rayon::prelude::*;
