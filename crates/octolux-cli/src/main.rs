@@ -177,8 +177,16 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let backend = backend_kind(args.backend);
     let t1 = Instant::now();
     let mut scene = Scene::prepare(desc, backend).with_context(|| format!("cannot prepare scene '{}'", args.scene.scene))?;
-    if scene.lights.is_empty() {
-        eprintln!("warning: the scene has no light; the image will be black");
+    let light_warning = if scene.lights.is_empty() {
+        Some("the scene has no light; the image will be black")
+    } else if !scene.lights.emits() {
+        Some("the scene's lights emit nothing (zero radiance, intensity or area); the image will be black")
+    } else {
+        None
+    };
+    if let Some(w) = light_warning {
+        eprintln!("warning: {w}");
+        warnings.push(w.to_string());
     }
     // The scene the photons are traced in (the rendered one unless --cache-scene says otherwise).
     let cache_scene = match &args.octree.cache_scene {

@@ -388,3 +388,52 @@ fn scene_inputs_that_used_to_be_dropped_silently_warn() {
     let o = run(&["render", &scene, "-q", "-o", &out]);
     assert_eq!(stderr(&o), "");
 }
+
+/// Lights that emit nothing: a zero-area emitter (the loader's two warnings, then the CLI's
+/// "no light"), zero radiance (a light that is there but dark), and a photon integrator on a
+/// scene without light (a clear error, each cause said once).
+#[test]
+fn lights_that_emit_nothing_warn() {
+    let dir = TempDir::new("dark");
+    let out = path_str(&dir.path.join("x.exr"));
+    let scene_file = dir.path.join("scene.xml");
+    let scene = path_str(&scene_file);
+    let write = |emitter: &str| {
+        let xml = scene_xml("path", "1", 8).replace(
+            "<shape type=\"rectangle\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"1,1,1\"/></emitter></shape>",
+            &format!("{emitter}\n<shape type=\"cube\"><transform name=\"to_world\"><translate z=\"-3\"/></transform></shape>"),
+        );
+        std::fs::write(&scene_file, xml).expect("write scene");
+    };
+    write("<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"0\"/></transform>\n<emitter type=\"area\"/></shape>");
+    let o = run(&["render", &scene, "-q", "-o", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "warning: {scene}:10: <shape type=\"rectangle\">: to_world is singular (determinant 0): the shape has zero area and is skipped\n\
+             warning: {scene}:11: <emitter type=\"area\">: its shape has zero area: the emitter emits nothing\n\
+             warning: the scene has no light; the image will be black\n"
+        )
+    );
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("JSON");
+    assert_eq!(json["warnings"][2], "the scene has no light; the image will be black", "{json}");
+    let o = run(&["render", &scene, "--integrator", "octree", "--photons", "1000", "-q", "-o", &out]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).ends_with("error: cannot build the integrator: octree: the scene has no light to emit photons from\n"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&["render", &scene, "--integrator", "photonmap", "--photons", "1000", "-q", "-o", &out]);
+    assert!(
+        stderr(&o).ends_with("error: cannot build the integrator: photonmap: the scene has no light to emit photons from\n"),
+        "{}",
+        stderr(&o)
+    );
+
+    write("<shape type=\"rectangle\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"0\"/></emitter></shape>");
+    let o = run(&["render", &scene, "-q", "-o", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "warning: the scene's lights emit nothing (zero radiance, intensity or area); the image will be black\n");
+}

@@ -305,3 +305,120 @@ fn fuzz_targets_survive_trivial_input() {
     }
     assert!(fuzzing::run_target("nope", b"").is_none());
 }
+
+/// Warnings of a scene whose line 2 is `shape` (a shape element on one line).
+fn shape_warnings(dir: &Path, shape: &str) -> (Vec<String>, usize) {
+    setup();
+    let text = format!("<scene version=\"3.0.0\">\n{shape}\n</scene>\n");
+    let s = load_str(&text, &dir.join("h.xml"), &[]).unwrap_or_else(|e| panic!("{shape}: {e}"));
+    // Only this scene's warnings (the default sensor's is always there).
+    let w = s.warnings.into_iter().filter(|w| !w.contains("no usable sensor")).collect();
+    (w, s.desc.shapes.len())
+}
+
+const AREA: &str = "<emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter>";
+
+/// A shape with a singular `to_world` (a zero scale) left with zero area, and its area emitter:
+/// one warning each (they vanished with only a mesh warning, the emitter without a word).
+#[test]
+fn singular_transform_and_zero_area_emitter_warn() {
+    let dir = Path::new("");
+    for scale in ["<scale value=\"0\"/>", "<scale y=\"0\"/>"] {
+        let shape = format!("<shape type=\"rectangle\"><transform name=\"to_world\">{scale}</transform>{AREA}</shape>");
+        let (w, n) = shape_warnings(dir, &shape);
+        assert_eq!(
+            w,
+            [
+                "h.xml:2: <shape type=\"rectangle\">: to_world is singular (determinant 0): the shape has zero area and is skipped",
+                "h.xml:2: <emitter type=\"area\">: its shape has zero area: the emitter emits nothing",
+            ],
+            "{scale}"
+        );
+        assert_eq!(n, 0);
+    }
+    // A sphere scaled to a point, and one of radius 0 (an error before: Mitsuba loads both).
+    let (w, n) =
+        shape_warnings(dir, &format!("<shape type=\"sphere\"><transform name=\"to_world\"><scale value=\"0\"/></transform>{AREA}</shape>"));
+    assert_eq!(w[0], "h.xml:2: <shape type=\"sphere\">: to_world is singular (determinant 0): the shape has zero area and is skipped");
+    assert_eq!(w[1], "h.xml:2: <emitter type=\"area\">: its shape has zero area: the emitter emits nothing");
+    assert_eq!((w.len(), n), (2, 0));
+    let (w, n) = shape_warnings(dir, &format!("<shape type=\"sphere\"><float name=\"radius\" value=\"0\"/>{AREA}</shape>"));
+    assert_eq!(
+        w,
+        [
+            "h.xml:2: <shape type=\"sphere\">: the sphere has radius 0: the shape has zero area and is skipped",
+            "h.xml:2: <emitter type=\"area\">: its shape has zero area: the emitter emits nothing",
+        ]
+    );
+    assert_eq!(n, 0);
+    // Without an emitter, only the shape's warning.
+    let (w, _) = shape_warnings(dir, "<shape type=\"disk\"><transform name=\"to_world\"><scale x=\"0\"/></transform></shape>");
+    assert_eq!(w, ["h.xml:2: <shape type=\"disk\">: to_world is singular (determinant 0): the shape has zero area and is skipped"]);
+    // Tiny but regular scales are not singular (the determinant is taken in f64: 1e-60 is 0 in f32).
+    let (w, n) = shape_warnings(
+        dir,
+        &format!("<shape type=\"sphere\"><transform name=\"to_world\"><scale value=\"1e-20\"/></transform>{AREA}</shape>"),
+    );
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!(n, 1);
+}
+
+/// A singular `to_world` that leaves area (a rectangle flattened along its normal, an OBJ
+/// flattened to a plane) keeps the shape, with one warning; where Mitsuba 3 transforms the
+/// shape's normals by the (missing) inverse, the warning says it renders differently.
+#[test]
+fn singular_transform_that_keeps_area_warns() {
+    let dir = tmp_dir("singular_flattened");
+    let (w, n) =
+        shape_warnings(&dir, &format!("<shape type=\"rectangle\"><transform name=\"to_world\"><scale z=\"0\"/></transform>{AREA}</shape>"));
+    let loc = dir.join("h.xml").display().to_string();
+    assert_eq!(
+        w,
+        [format!(
+            "{loc}:2: <shape type=\"rectangle\">: to_world is singular (determinant 0): the shape is flattened (Mitsuba 3 cannot \
+             transform its normals by a singular matrix: it renders it black or refuses the file)"
+        )]
+    );
+    assert_eq!(n, 1);
+    std::fs::write(dir.join("m.obj"), "v -1 -1 0.5\nv 1 -1 0\nv 1 1 0.5\nv -1 1 0\nf 1 2 3\nf 1 3 4\n").unwrap();
+    let obj =
+        "<shape type=\"obj\"><string name=\"filename\" value=\"m.obj\"/><transform name=\"to_world\"><scale z=\"0\"/></transform></shape>";
+    let (w, n) = shape_warnings(&dir, obj);
+    assert_eq!(w, [format!("{loc}:2: <shape type=\"obj\">: to_world is singular (determinant 0): the shape is flattened")]);
+    assert_eq!(n, 1);
+}
+
+/// An area emitter on a mesh file of only degenerate triangles: the mesh's warning, then the
+/// emitter's.
+#[test]
+fn zero_area_mesh_emitter_warns() {
+    let dir = tmp_dir("zero_area_mesh");
+    std::fs::write(dir.join("flat.obj"), "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n").unwrap();
+    let (w, n) = shape_warnings(&dir, &format!("<shape type=\"obj\"><string name=\"filename\" value=\"flat.obj\"/>{AREA}</shape>"));
+    let loc = dir.join("h.xml").display().to_string();
+    assert_eq!(
+        w,
+        [
+            format!("{loc}:2: <shape type=\"obj\">: the mesh has only degenerate triangles (1); the shape is skipped"),
+            format!("{loc}:2: <emitter type=\"area\">: its shape has zero area: the emitter emits nothing"),
+        ]
+    );
+    assert_eq!(n, 0);
+}
+
+/// An area emitter defined at scene level and referenced by a shape is read there, without the
+/// "must be nested in a shape" warning (it said "ignored" while the shape emitted); one that no
+/// shape references still warns (Mitsuba 3 renders nothing of it either).
+#[test]
+fn referenced_scene_level_area_emitter_is_used_without_warning() {
+    setup();
+    let text = "<scene version=\"3.0.0\">\n<emitter type=\"area\" id=\"e\"><rgb name=\"radiance\" value=\"2\"/></emitter>\n\
+                <shape type=\"rectangle\"><ref id=\"e\"/></shape>\n</scene>\n";
+    let s = load_str(text, Path::new("h.xml"), &[]).unwrap();
+    assert!(s.warnings.iter().all(|w| !w.contains("emitter")), "{:?}", s.warnings);
+    assert_eq!(s.desc.shapes[0].emission, Some(Color::splat(2.0)));
+    let text = text.replace("<ref id=\"e\"/>", "");
+    let s = load_str(&text, Path::new("h.xml"), &[]).unwrap();
+    assert_eq!(s.warnings[0], "h.xml:2: <emitter type=\"area\" id=\"e\">: an area emitter must be nested in a shape; ignored");
+    assert_eq!(s.desc.shapes[0].emission, None);
+}

@@ -48,8 +48,8 @@ fn scene(copies: usize, shared: bool) -> SceneDesc {
     }
 }
 
-fn render_scene(desc: SceneDesc) -> (octolux::image::Image, Duration) {
-    let scene = Scene::prepare(desc, BackendKind::Bvh).expect("valid scene");
+fn render_scene(desc: SceneDesc, backend: BackendKind) -> (octolux::image::Image, Duration) {
+    let scene = Scene::prepare(desc, backend).expect("valid scene");
     let integrator = Integrator::Path(PathSettings { max_depth: 3, ..Default::default() });
     let settings = RenderSettings { spp: 8, seed: 7, ..Default::default() };
     let t = Instant::now();
@@ -57,17 +57,39 @@ fn render_scene(desc: SceneDesc) -> (octolux::image::Image, Duration) {
     (img, t.elapsed())
 }
 
+/// Embree when it can be loaded (a `skip:` line otherwise, a failure with
+/// `OCTOLUX_REQUIRE_EMBREE=1`).
+fn embree_available() -> bool {
+    if octolux::accel::Accel::embree_available() {
+        return true;
+    }
+    assert!(std::env::var("OCTOLUX_REQUIRE_EMBREE").map_or(true, |v| v != "1"), "OCTOLUX_REQUIRE_EMBREE=1 but Embree cannot be loaded");
+    println!("skip: Embree cannot be loaded; the Embree case is not run");
+    false
+}
+
 #[test]
 fn million_coincident_triangles_render_in_seconds() {
-    let (reference, _) = render_scene(scene(1, true));
+    check_backend(BackendKind::Bvh);
+}
+
+#[test]
+fn million_coincident_triangles_render_in_seconds_with_embree() {
+    if embree_available() {
+        check_backend(BackendKind::Embree);
+    }
+}
+
+fn check_backend(backend: BackendKind) {
+    let (reference, _) = render_scene(scene(1, true), backend);
     // The triangle covers the middle of the image, the sky (radiance 1) the corners.
     let (centre, corner) = (reference.data[16 * 32 + 16], reference.data[0]);
     assert!(centre.x < 0.9 && corner.x == 1.0, "centre {centre}, corner {corner}");
     for shared in [true, false] {
         let t = Instant::now();
-        let (img, render_time) = render_scene(scene(COPIES, shared));
+        let (img, render_time) = render_scene(scene(COPIES, shared), backend);
         let total = t.elapsed();
-        println!("{COPIES} coincident triangles (shared vertices: {shared}): render {render_time:?}, with build {total:?}");
+        println!("{backend:?}: {COPIES} coincident triangles (shared vertices: {shared}): render {render_time:?}, with build {total:?}");
         // 32x32 pixels x 8 samples: one triangle takes milliseconds; without deduplication
         // each of the 8192 camera rays alone visits a million triangles.
         assert!(render_time < Duration::from_secs(2), "render took {render_time:?}");

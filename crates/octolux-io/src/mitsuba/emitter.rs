@@ -86,7 +86,10 @@ impl<'t> Builder<'t> {
                 return Ok(());
             }
             "area" => {
-                self.warn(e, "an area emitter must be nested in a shape; ignored");
+                // One a shape refers to is read there (as Mitsuba 3 does).
+                if !e.attr("id").is_some_and(|id| self.referenced.contains(id)) {
+                    self.warn(e, "an area emitter must be nested in a shape; ignored");
+                }
                 return Ok(());
             }
             other => {

@@ -46,7 +46,7 @@ use crate::{IoError, LoadedScene};
 use octolux::scene::material::TexFilter;
 use octolux::scene::{FilmDesc, PixelFilter, SceneDesc};
 use props::Props;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use tree::Elem;
 
@@ -68,7 +68,7 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
     let mut ids = HashMap::new();
     let mut aliases = Vec::new();
     collect_ids(&tree.root, &mut ids, &mut aliases)?;
-    for a in aliases {
+    for a in &aliases {
         let from = a.req_attr("id")?;
         let to = a.req_attr("as")?;
         let target = *ids.get(from).ok_or_else(|| a.loc.error(format!("<alias>: reference to unknown id \"{from}\"")))?;
@@ -76,8 +76,18 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
             return Err(a.loc.error(format!("<alias>: id \"{to}\" is already used")));
         }
     }
+    let mut referenced = HashSet::new();
+    collect_refs(&tree.root, &mut referenced);
+    for a in &aliases {
+        if let (Some(id), Some(to)) = (a.attr("id"), a.attr("as")) {
+            if referenced.contains(to) {
+                referenced.insert(id.to_string());
+            }
+        }
+    }
     let mut b = Builder {
         ids,
+        referenced,
         main_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         search_dirs: &tree.search_dirs,
         desc: SceneDesc::default(),
@@ -92,6 +102,18 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
     };
     b.scene(&tree.root)?;
     Ok(LoadedScene { desc: b.desc, warnings: b.warnings, sensors: b.sensors, notes: b.notes })
+}
+
+/// The ids named by `<ref>` elements anywhere under `e`.
+fn collect_refs(e: &Elem, refs: &mut HashSet<String>) {
+    for c in &e.children {
+        if c.tag == "ref" {
+            if let Some(id) = c.attr("id") {
+                refs.insert(id.to_string());
+            }
+        }
+        collect_refs(c, refs);
+    }
 }
 
 /// Map every object `id` to its element; duplicate ids are an error.
@@ -115,6 +137,8 @@ fn collect_ids<'t>(e: &'t Elem, ids: &mut HashMap<String, &'t Elem>, aliases: &m
 
 struct Builder<'t> {
     ids: HashMap<String, &'t Elem>,
+    /// Ids some `<ref>` names (directly or through an `<alias>`).
+    referenced: HashSet<String>,
     main_dir: PathBuf,
     search_dirs: &'t [PathBuf],
     desc: SceneDesc,

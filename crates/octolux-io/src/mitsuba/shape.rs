@@ -7,6 +7,12 @@
 //! winding normal (which decides the emitting side) is Mitsuba's shading normal. Degenerate
 //! triangles are removed in world space with one warning; a mesh left without any triangle is
 //! skipped with one warning (Mitsuba 3 loads such files and renders nothing of them).
+//!
+//! Nothing vanishes without a word (issue 12; docs/errors.md, "No silent drop"): a singular
+//! `to_world` (determinant 0: a zero scale) warns once, saying whether the shape was flattened
+//! or, left with zero area, skipped; an area emitter on a shape of zero area (a zero scale, a
+//! sphere of radius 0, a mesh of degenerate triangles) warns once at the emitter, since it emits
+//! nothing (Mitsuba 3 renders nothing of it either).
 //! `serialized` reads `shape_index` (0.6: `shapeIndex`), `face_normals` and, from Mitsuba 0.6
 //! (Mitsuba 3 has no such parameter), `max_smooth_angle` (`maxSmoothAngle`: creases sharper than
 //! the angle stay sharp, see `mesh::rebuild_topology`).
@@ -19,17 +25,25 @@ use crate::IoError;
 use glam::{Mat4, Vec3};
 use octolux::scene::{Geometry, ShapeDesc, TriMesh};
 
+/// How a shape's warning names a singular `to_world`.
+const SINGULAR: &str = "to_world is singular (determinant 0)";
+
 impl<'t> Builder<'t> {
     pub(super) fn shape(&mut self, e: &'t Elem) -> Result<(), IoError> {
         let ty = e.req_attr("type")?;
         let p = self.props(e)?;
         let to_world = p.transform("to_world")?.unwrap_or(Mat4::IDENTITY);
+        // In f64: a product of small scales must not underflow to a false 0.
+        let singular = to_world.as_dmat4().determinant() == 0.0;
         let mut name = e.attr("id").map(str::to_string);
         // Mitsuba 3 turns a mirrored sphere inside out (see `sphere` below).
         let mut inside_out = false;
+        // Whether a mesh file's normals come from the file (transformed by `to_world`).
+        let mut normals_given = false;
         let mut geometry = match ty {
             "obj" | "ply" | "serialized" => {
-                let (mesh, stem) = self.mesh_file(e, &p, ty, &to_world)?;
+                let (mesh, stem, given) = self.mesh_file(e, &p, ty, &to_world)?;
+                normals_given = given;
                 if name.is_none() {
                     name = Some(stem);
                 }
@@ -52,8 +66,13 @@ impl<'t> Builder<'t> {
                         .loc
                         .error(format!("{}: to_world of a sphere may only rotate, translate and scale uniformly", e.describe())));
                 }
-                if !(r > 0.0 && r.is_finite() && m.w_axis.is_finite()) {
-                    return Err(e.loc.error(format!("{}: the sphere radius {r} must be positive", e.describe())));
+                if !(r.is_finite() && m.w_axis.is_finite()) {
+                    return Err(e.loc.error(format!("{}: the sphere radius {r} is not finite (check to_world)", e.describe())));
+                }
+                if r == 0.0 {
+                    let why = if singular { SINGULAR } else { "the sphere has radius 0" };
+                    self.warn(e, format!("{why}: the shape has zero area and is skipped"));
+                    return self.zero_area_emitter(&p);
                 }
                 // Mitsuba 3 splits `to_world` into scale, rotation and translation with the
                 // determinant's sign in the scale (Dr.Jit's `transform_decompose`): a mirror (a
@@ -88,8 +107,23 @@ impl<'t> Builder<'t> {
             let removed = m.remove_degenerate();
             if m.indices.is_empty() {
                 let what = if before == 0 { "has no triangles".to_string() } else { format!("has only degenerate triangles ({before})") };
-                self.warn(e, format!("the mesh {what}; the shape is skipped"));
-                return Ok(());
+                if singular && before > 0 {
+                    self.warn(e, format!("{SINGULAR}: the shape has zero area and is skipped"));
+                } else {
+                    self.warn(e, format!("the mesh {what}; the shape is skipped"));
+                }
+                return self.zero_area_emitter(&p);
+            }
+            if singular {
+                // Mitsuba 3 transforms given normals (the analytic shapes', a file's) by the
+                // inverse transpose of `to_world`, which does not exist here.
+                let given = matches!(ty, "rectangle" | "cube" | "disk") || normals_given;
+                let note = if given {
+                    " (Mitsuba 3 cannot transform its normals by a singular matrix: it renders it black or refuses the file)"
+                } else {
+                    ""
+                };
+                self.warn(e, format!("{SINGULAR}: the shape is flattened{note}"));
             }
             if removed > 0 {
                 self.warn(e, format!("removed {removed} degenerate triangle{} of {before}", if removed == 1 { "" } else { "s" }));
@@ -144,9 +178,20 @@ impl<'t> Builder<'t> {
         self.desc.shapes.push(ShapeDesc { name, geometry, material, emission, flip_normals });
         Ok(())
     }
+    /// After a shape of zero area was skipped: one warning at each area emitter it carries.
+    fn zero_area_emitter(&mut self, p: &Props<'t>) -> Result<(), IoError> {
+        for (_, o) in p.objects() {
+            if o.target.tag == "emitter" && o.target.attr("type") == Some("area") {
+                self.warn(o.target, "its shape has zero area: the emitter emits nothing");
+            }
+        }
+        Ok(())
+    }
+
     /// Load the mesh file of an `obj`, `ply` or `serialized` shape and place it in world space.
-    /// Returns the mesh and a default shape name (file stem, `@index` for serialized).
-    fn mesh_file(&mut self, e: &'t Elem, p: &Props<'t>, ty: &str, to_world: &Mat4) -> Result<(TriMesh, String), IoError> {
+    /// Returns the mesh, a default shape name (file stem, `@index` for serialized) and whether
+    /// its normals come from the file.
+    fn mesh_file(&mut self, e: &'t Elem, p: &Props<'t>, ty: &str, to_world: &Mat4) -> Result<(TriMesh, String, bool), IoError> {
         let file = p.string("filename")?.ok_or_else(|| e.loc.error(format!("{} needs a \"filename\"", e.describe())))?;
         let path = resolve_file(&e.loc, file, &self.main_dir, self.search_dirs)
             .ok_or_else(|| e.loc.error(format!("{}: mesh file \"{file}\" not found", e.describe())))?;
@@ -185,7 +230,7 @@ impl<'t> Builder<'t> {
         } else {
             NormalSource::Computed
         };
-        match p.float("max_smooth_angle")? {
+        let given = match p.float("max_smooth_angle")? {
             Some(angle) => {
                 if face_normals {
                     return Err(e.loc.error(format!("{}: give either max_smooth_angle or face_normals, not both", e.describe())));
@@ -195,9 +240,13 @@ impl<'t> Builder<'t> {
                 }
                 place_mesh(&mut mesh, to_world, NormalSource::Face);
                 mesh = rebuild_topology(&mesh, angle);
+                false
             }
-            None => place_mesh(&mut mesh, to_world, source),
-        }
-        Ok((mesh, stem))
+            None => {
+                place_mesh(&mut mesh, to_world, source);
+                source == NormalSource::Given
+            }
+        };
+        Ok((mesh, stem, given))
     }
 }

@@ -16,10 +16,10 @@
 //! largest surface area until it has `4H` children (the usual "collapse a BVH2" rule, done during
 //! the build). Leaves hold at most [`MAX_LEAF_TRIS`] triangles. Below depth [`MAX_SAH_DEPTH`] the
 //! builder switches to object-median splits of the most populated candidate, which bounds the
-//! tree depth (and so the fixed traversal stack) for any input. Where all centroids of a range
-//! coincide, identical triangles are dropped (one per set is kept), so that coincident copies
-//! cost one leaf, not a tree of overlapping boxes. Subtrees with many triangles are
-//! built in parallel (rayon). Measured on 983k triangles: BVH8 slightly faster than BVH4, and
+//! tree depth (and so the fixed traversal stack) for any input. Identical triangles are dropped
+//! before any backend sees them ([`super::dedup`]); without that, a million coincident copies
+//! make a tree of overlapping boxes that every ray through them visits to the bottom. Subtrees
+//! with many triangles are built in parallel (rayon). Measured on 983k triangles: BVH8 slightly faster than BVH4, and
 //! both faster than the `obvhs` 0.4 CWBVH (which is therefore not used).
 //!
 //! Traversal: closest hit is ordered (nearest child first, the others pushed farthest-first with
@@ -375,8 +375,7 @@ impl<const H: usize> Bvh<H> {
             })
             .collect();
         let (bounds, cbounds) = range_bounds(&prims);
-        let geom = Geom { vertices, triangles };
-        let root = build_inner(&mut prims, 0, bounds, cbounds, 0, 4 * H, &geom);
+        let root = build_inner(&mut prims, 0, bounds, cbounds, 0, 4 * H);
         bvh.tris.reserve(triangles.len() / 3);
         bvh.flatten(&root, &prims, vertices, triangles);
         bvh.nodes.shrink_to_fit();
@@ -702,51 +701,8 @@ fn partition(prims: &mut [PrimRef], plan: SplitPlan) -> usize {
     }
 }
 
-/// The input mesh, read by the builder to recognise duplicate triangles.
-struct Geom<'a> {
-    vertices: &'a [Vec3],
-    triangles: &'a [[u32; 3]],
-}
-
-impl Geom<'_> {
-    /// The triangle's vertex positions as bit patterns (`-0.0` read as `0.0`), sorted: equal
-    /// keys are the same triangle, whatever its vertex order, winding or vertex indices.
-    fn key(&self, p: &PrimRef) -> [[u32; 3]; 3] {
-        let mut k = self.triangles[p.idx as usize].map(|i| self.vertices[i as usize].to_array().map(|c| (c + 0.0).to_bits()));
-        k.sort_unstable();
-        k
-    }
-}
-
-/// Keep one triangle of each set of identical triangles in `prims`: the kept ones (the lowest
-/// original index of each set) move to the front, sorted by key; returns how many. A ray hits
-/// identical triangles at the same `t`, and a ray that ties keeps the first it finds, so only
-/// the reported index can change (to the lowest of the set), never what is hit.
-fn dedup(prims: &mut [PrimRef], geom: &Geom) -> usize {
-    prims.par_sort_by_cached_key(|p| (geom.key(p), p.idx));
-    let mut n = 0;
-    for i in 0..prims.len() {
-        if n == 0 || geom.key(&prims[i]) != geom.key(&prims[n - 1]) {
-            prims[n] = prims[i];
-            n += 1;
-        }
-    }
-    n
-}
-
 /// Build one node with up to `width` children over `prims` (which start at global index `offset`).
-///
-/// A range whose centroids all coincide cannot be split spatially: duplicate triangles (the
-/// usual cause: meshes copied onto themselves) are dropped there first, so that a million copies
-/// of one triangle make one leaf instead of a deep tree of overlapping boxes that every ray
-/// through them visits to the bottom.
-fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb, depth: usize, width: usize, geom: &Geom) -> BuildNode {
-    let prims = if prims.len() > MAX_LEAF_TRIS && (cbounds.hi - cbounds.lo).max_element() <= 0.0 {
-        let n = dedup(prims, geom);
-        &mut prims[..n]
-    } else {
-        prims
-    };
+fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb, depth: usize, width: usize) -> BuildNode {
     let root_plan = plan(prims, &bounds, &cbounds, depth);
     let mut cands = vec![Cand { start: 0, end: prims.len(), bounds, cbounds, plan: root_plan }];
     while cands.len() < width {
@@ -780,7 +736,7 @@ fn build_inner(prims: &mut [PrimRef], offset: usize, bounds: Aabb, cbounds: Aabb
         let node = if c.plan.is_none() {
             BuildNode::Leaf { start: offset + c.start, count: c.end - c.start }
         } else {
-            build_inner(slice, offset + c.start, c.bounds, c.cbounds, depth + 1, width, geom)
+            build_inner(slice, offset + c.start, c.bounds, c.cbounds, depth + 1, width)
         };
         (c.bounds, node)
     };

@@ -1,7 +1,7 @@
 //! Ray–triangle intersection backends behind one closed enum.
 //!
-//! All triangles of a scene go into one backend; `TriHit::prim` is the global triangle index
-//! in the order given to [`Accel::build`]. Barycentrics `(u, v)` weight vertices 1 and 2:
+//! All triangles of a scene go into one backend, identical copies dropped first ([`dedup`]);
+//! `TriHit::prim` is the global triangle index in the order given to [`Accel::build`]. Barycentrics `(u, v)` weight vertices 1 and 2:
 //! `p = (1-u-v) p0 + u p1 + v p2`. Hits with `t` in `[ray.tmin, ray.tmax]` count.
 //!
 //! Backends: Embree 3 (loaded at run time when `libembree3.so.3` is present, robust mode) and
@@ -12,6 +12,7 @@
 //! shadow), falling back to the BVH when Embree cannot be loaded.
 
 pub mod bvh;
+pub mod dedup;
 pub mod embree;
 #[doc(hidden)]
 pub mod meshes;
@@ -50,7 +51,15 @@ pub enum AccelError {
 }
 
 /// A built acceleration structure.
-pub enum Accel {
+pub struct Accel {
+    backend: Backend,
+    /// Original index of each triangle the backend holds, when identical triangles were
+    /// dropped ([`dedup`]); `None` when it holds all of them, in order.
+    kept: Option<Vec<u32>>,
+}
+
+/// The backend of an [`Accel`].
+pub enum Backend {
     /// Embree 3, loaded at run time.
     Embree(embree::EmbreeAccel),
     /// Pure-Rust 8-wide BVH.
@@ -67,17 +76,41 @@ impl Accel {
     /// No triangles gives an empty structure that reports no hits.
     pub fn build(vertices: &[Vec3], triangles: &[[u32; 3]], kind: BackendKind) -> Result<Accel, AccelError> {
         validate(vertices, triangles)?;
-        let bvh = || Ok(Accel::Bvh(bvh::Bvh8::build(vertices, triangles)));
-        match kind {
+        let kept = dedup::unique_triangles(vertices, triangles);
+        let unique: Vec<[u32; 3]>;
+        let tris = match &kept {
+            Some(k) => {
+                unique = k.iter().map(|&i| triangles[i as usize]).collect();
+                &unique[..]
+            }
+            None => triangles,
+        };
+        let bvh = || Backend::Bvh(bvh::Bvh8::build(vertices, tris));
+        let backend = match kind {
             BackendKind::Bvh => bvh(),
-            BackendKind::Embree => Ok(Accel::Embree(embree::EmbreeAccel::build(vertices, triangles)?)),
-            BackendKind::Auto if triangles.len() < AUTO_BVH_MAX_TRIANGLES => bvh(),
-            BackendKind::Auto => match embree::EmbreeAccel::build(vertices, triangles) {
-                Ok(e) => Ok(Accel::Embree(e)),
+            BackendKind::Embree => Backend::Embree(embree::EmbreeAccel::build(vertices, tris)?),
+            BackendKind::Auto if tris.len() < AUTO_BVH_MAX_TRIANGLES => bvh(),
+            BackendKind::Auto => match embree::EmbreeAccel::build(vertices, tris) {
+                Ok(e) => Backend::Embree(e),
                 Err(AccelError::EmbreeUnavailable(_)) => bvh(),
-                Err(e) => Err(e),
+                Err(e) => return Err(e),
             },
+        };
+        Ok(Accel { backend, kept })
+    }
+
+    /// The backend in use.
+    pub fn backend(&self) -> &Backend {
+        &self.backend
+    }
+
+    /// A backend hit with the caller's triangle index.
+    #[inline]
+    fn original(&self, mut hit: TriHit) -> TriHit {
+        if let Some(k) = &self.kept {
+            hit.prim = k[hit.prim as usize];
         }
+        hit
     }
 
     /// Whether the Embree library can be loaded on this machine.
@@ -87,27 +120,28 @@ impl Accel {
 
     /// Human-readable backend name for logs and stats.
     pub fn name(&self) -> String {
-        match self {
-            Accel::Embree(e) => e.name(),
-            Accel::Bvh(_) => "bvh8 (octolux)".into(),
+        match &self.backend {
+            Backend::Embree(e) => e.name(),
+            Backend::Bvh(_) => "bvh8 (octolux)".into(),
         }
     }
 
     /// Closest hit with `t` in `[ray.tmin, ray.tmax]`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<TriHit> {
-        match self {
-            Accel::Embree(e) => e.intersect(ray),
-            Accel::Bvh(b) => b.intersect(ray),
-        }
+        let hit = match &self.backend {
+            Backend::Embree(e) => e.intersect(ray),
+            Backend::Bvh(b) => b.intersect(ray),
+        };
+        hit.map(|h| self.original(h))
     }
 
     /// Whether any triangle is hit with `t` in `[ray.tmin, ray.tmax]`.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        match self {
-            Accel::Embree(e) => e.occluded(ray),
-            Accel::Bvh(b) => b.occluded(ray),
+        match &self.backend {
+            Backend::Embree(e) => e.occluded(ray),
+            Backend::Bvh(b) => b.occluded(ray),
         }
     }
 }
@@ -403,7 +437,7 @@ mod tests {
             for a in all_backends(&m) {
                 let h = a.intersect(&Ray::new(Vec3::new(0.25, 0.5, 0.0), Vec3::Z)).expect("hit");
                 assert!((h.t - 1.0).abs() < 1e-6 && (h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6, "{}: {h:?}", a.name());
-                assert!((h.prim as usize) < m.triangles.len());
+                assert_eq!(h.prim, 0, "{}: the lowest index of identical triangles", a.name());
                 assert!(a.intersect(&Ray::new(Vec3::new(0.75, 0.5, 0.0), Vec3::Z)).is_none(), "{}", a.name());
             }
         }
@@ -437,14 +471,14 @@ mod tests {
     fn embree_name_and_auto_backend() {
         let small = meshes::cornell_box();
         let auto = Accel::build(&small.vertices, &small.triangles, BackendKind::Auto).expect("auto");
-        assert!(matches!(auto, Accel::Bvh(_)), "small scenes use the BVH");
+        assert!(matches!(auto.backend(), Backend::Bvh(_)), "small scenes use the BVH");
         let big = meshes::triangle_soup(AUTO_BVH_MAX_TRIANGLES, 0.01, 1);
         let auto = Accel::build(&big.vertices, &big.triangles, BackendKind::Auto).expect("auto");
         if let Some(e) = embree(&small) {
             assert!(e.name().starts_with("embree 3."), "{}", e.name());
-            assert!(matches!(auto, Accel::Embree(_)), "large scenes use Embree when it loads");
+            assert!(matches!(auto.backend(), Backend::Embree(_)), "large scenes use Embree when it loads");
         } else {
-            assert!(matches!(auto, Accel::Bvh(_)));
+            assert!(matches!(auto.backend(), Backend::Bvh(_)));
         }
     }
 

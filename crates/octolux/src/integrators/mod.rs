@@ -75,20 +75,24 @@ impl IntegratorSettings {
 /// Errors while building an integrator; the message starts with the integrator's name.
 #[derive(Debug, thiserror::Error)]
 pub enum IntegratorError {
+    // The inner errors are in the messages, not chained as sources: a chain printed with
+    // `{:#}` would say each cause twice.
     #[error("octree: {0}")]
-    Octree(#[from] octree::BuildError),
-    #[error("{name}: {source}")]
-    Baseline {
-        name: &'static str,
-        #[source]
-        source: photon::BaselineError,
-    },
+    Octree(octree::BuildError),
+    #[error("{name}: {error}")]
+    Baseline { name: &'static str, error: photon::BaselineError },
+}
+
+impl From<octree::BuildError> for IntegratorError {
+    fn from(e: octree::BuildError) -> Self {
+        IntegratorError::Octree(e)
+    }
 }
 
 /// Build the integrator `settings` describe over `scene` (photon pass, caches, priming: the
 /// work before rendering). The settings are validated first, before any long work.
 pub fn build(settings: &IntegratorSettings, scene: &Scene) -> Result<Integrator, IntegratorError> {
-    let baseline = |name: &'static str| move |source| IntegratorError::Baseline { name, source };
+    let baseline = |name: &'static str| move |error| IntegratorError::Baseline { name, error };
     Ok(match settings {
         IntegratorSettings::Path(s) => Integrator::Path(*s),
         IntegratorSettings::Octree(s) => Integrator::Octree(Box::new(OctreeIntegrator::build(scene, s.clone())?)),

@@ -184,6 +184,11 @@ impl LightSet {
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
     }
+    /// True when some light emits a positive power (false for an empty set, or one whose lights
+    /// all have zero radiance or zero area).
+    pub fn emits(&self) -> bool {
+        self.power.iter().any(|p| p.max_element() > 0.0)
+    }
     /// Area light id of a shape, if it emits.
     #[inline]
     pub fn shape_light(&self, shape: u32) -> Option<u32> {
