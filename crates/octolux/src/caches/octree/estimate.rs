@@ -38,6 +38,8 @@ pub(super) struct LeafEstimate {
     /// half-axis itself when the geometry is unknown: the compression keeps the irradiance
     /// exact for it.
     pub normals: [Vec3; 6],
+    /// Mean position and normal of the photons of the leaf's own cell.
+    pub anchor: super::Anchor,
 }
 
 /// What every leaf estimate reads (shared by the rayon jobs).
@@ -255,6 +257,21 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         });
     }
 
+    /// Mean position and mean normal of the photons of the leaf's own cell (the incident
+    /// directions stand for the normal when the records carry none), summed in f64.
+    fn anchor(&self, leaf: &LeafBuild) -> super::Anchor {
+        let (mut p, mut n) = (DVec3::ZERO, DVec3::ZERO);
+        for i in leaf.lo..leaf.hi {
+            p += self.pos[i as usize].as_dvec3();
+            let r = &self.recs[i as usize];
+            let ng = r.ng();
+            n += if ng == Vec3::ZERO { r.w().normalize_or_zero() } else { ng }.as_dvec3();
+        }
+        let k = (leaf.hi - leaf.lo).max(1) as f64;
+        let s = self.view.cell_size[leaf.depth as usize];
+        super::Anchor::encode((p / k).as_vec3(), (n / k).as_vec3(), self.view.cell_min(leaf.depth, leaf.ijk), s)
+    }
+
     pub fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch) -> LeafEstimate {
         let (ebox, enlarged, margin) = self.gather_box_margin(leaf);
         // Lower bound on the area the photons stand for. The leaf's photons lie in its own
@@ -344,7 +361,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         } else {
             ALL_FACING
         };
-        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing, normals }
+        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing, normals, anchor: self.anchor(leaf) }
     }
 }
 

@@ -55,7 +55,21 @@
 //! negative irradiance channels are clamped to 0 after the blend. The blend is `C0`: the
 //! weights are continuous in `P`.
 //!
-//! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices.
+//! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices; plus
+//! 1 byte of facing bits and a 6-byte [`Anchor`] per valid leaf.
+//!
+//! # Depth from the scene's scale
+//! `h_max = auto` ([`Depth::Auto`], the `octree` integrator's default for its global tree)
+//! derives the depth limit from the photon count, `n_max` and the scene's surface area
+//! ([`auto_depth`]): the same leaves relative to the scene at any scale, finer with more
+//! photons.
+//!
+//! # Leak control
+//! A leaf's value is light on the surfaces its photons landed on. Across a wall thinner than
+//! a leaf (or the query box), the blend would hand that light to the other side. Each valid
+//! leaf keeps an [`Anchor`] (mean photon position and normal), and
+//! [`Octree::irradiance_where`] lets the caller drop the leaves it cannot see from the query
+//! point (the `octree` integrator casts a ray to the anchor, `docs/octree.md`).
 
 mod build;
 mod cells;
@@ -72,7 +86,7 @@ mod tests;
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
 pub use geometry::AnalyticSphere;
-pub use settings::{Enlarge, Estimator, OctreeSettings, Split, Storage, MAX_DEPTH};
+pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
 
 /// The surfaces the geometry-area estimator clips to each gathering box (world space).
 #[derive(Clone, Copy, Debug, Default)]
@@ -132,6 +146,11 @@ pub struct OctreeStats {
     pub min_leaf_size: f32,
     /// Valid leaves that found no triangle with `Estimator::GeometryArea` (fell back to `Cosine`).
     pub geometry_fallback_leaves: usize,
+    /// The depth limit used: `h_max` as set, or the automatic one ([`auto_depth`]).
+    pub h_max: u32,
+    /// Surface area (scene units²) the automatic depth was derived from: the given surfaces,
+    /// else the root cube's six faces.
+    pub surface_area: f64,
 }
 
 /// Debug view of one leaf (for visualisation).
@@ -144,6 +163,55 @@ pub struct LeafInfo {
     pub valid: bool,
     /// Photons in the cell (not enlarged).
     pub photons: u32,
+}
+
+/// Where the photons of a valid leaf lie, for the leak test of the query
+/// ([`Octree::irradiance_where`]; `docs/octree.md`, "Leak control"). 6 bytes per valid leaf,
+/// plain data (a cache file stores it as is).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C)]
+pub struct Anchor {
+    /// Mean position of the photons in the leaf's own cell, in 256ths of the cell edge from
+    /// its minimum corner (the value `q` stands for `(q + 0.5) / 256`).
+    pub pos: [u8; 3],
+    /// Mean geometric normal of those photons (their incident direction when the normals are
+    /// not known), in 127ths (snorm8), not normalised: short when the photons lie on
+    /// surfaces facing opposite ways.
+    pub normal: [i8; 3],
+}
+
+impl Anchor {
+    /// Quantise a mean position (clamped to the cell) and a mean normal.
+    pub fn encode(mean: Vec3, normal: Vec3, cell_min: Vec3, cell_size: f32) -> Anchor {
+        let rel = ((mean - cell_min) / cell_size * 256.0).floor();
+        let q = |v: f32| if v.is_finite() { v.clamp(0.0, 255.0) as u8 } else { 128 };
+        let n = |v: f32| if v.is_finite() { (v.clamp(-1.0, 1.0) * 127.0).round() as i8 } else { 0 };
+        Anchor { pos: [q(rel.x), q(rel.y), q(rel.z)], normal: [n(normal.x), n(normal.y), n(normal.z)] }
+    }
+
+    /// World position of the anchor, for the cell at `cell_min` of edge `cell_size`.
+    #[inline]
+    pub fn position(&self, cell_min: Vec3, cell_size: f32) -> Vec3 {
+        let q = Vec3::new(self.pos[0] as f32, self.pos[1] as f32, self.pos[2] as f32) + 0.5;
+        cell_min + q * (cell_size / 256.0)
+    }
+
+    /// The mean normal (length at most 1).
+    #[inline]
+    pub fn normal(&self) -> Vec3 {
+        Vec3::new(self.normal[0] as f32, self.normal[1] as f32, self.normal[2] as f32) / 127.0
+    }
+}
+
+/// A valid leaf met by a query, for the leak test: its anchor in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QueryLeaf {
+    /// Mean position of the leaf's photons.
+    pub position: Vec3,
+    /// Their mean normal (length at most 1; see [`Anchor::normal`]).
+    pub normal: Vec3,
+    /// Edge of the leaf's cell.
+    pub cell_size: f32,
 }
 
 /// High bit of `Node::link`: the node is a leaf.
@@ -209,6 +277,8 @@ pub struct Octree {
     /// the query leaves it out of that axis's blend (the paper's rule for atmospheric cells,
     /// per matrix). Empty otherwise: every matrix then carries a value.
     facing: Vec<u8>,
+    /// Per valid leaf: where its photons lie (the leak test of [`Octree::irradiance_where`]).
+    anchors: Vec<Anchor>,
     /// Half side of the query box: `alpha * min_leaf_size / 2`.
     query_half: f32,
     settings: OctreeSettings,
@@ -261,6 +331,11 @@ impl Octree {
     /// Side of the query box (`alpha × min_leaf_size`).
     pub fn query_size(&self) -> f32 {
         2.0 * self.query_half
+    }
+
+    /// The depth limit the tree was built with (resolved when `h_max` is `auto`).
+    pub fn h_max(&self) -> u32 {
+        self.h_max
     }
 }
 
