@@ -345,4 +345,35 @@ mod tests {
         assert!(cube_of(&Bounds3::EMPTY).is_err());
         assert!(cube_of(&Bounds3 { min: Vec3::ZERO, max: Vec3::new(f32::NAN, 1.0, 1.0) }).is_err());
     }
+
+    /// `h_max = auto` depends on the scene only through `A / S²` and the photon count: the
+    /// photons and walls of a box, and the same box 100x larger, give the same depth and the
+    /// same leaves relative to the box; 4x the photons give one level more.
+    #[test]
+    fn auto_depth_is_the_same_for_a_box_and_the_box_scaled_100x() {
+        use super::super::tests::{cornell_geometry, cornell_photons};
+        use super::super::{Estimator, Split};
+        let s = OctreeSettings { h_max: Depth::Auto, estimator: Estimator::GeometryArea, split: Split::Normal, ..Default::default() };
+        let build_at = |scale: f32, n: usize| {
+            let mut photons = cornell_photons(n, 3);
+            photons.iter_mut().for_each(|p| p.p *= scale);
+            let tris: Vec<[Vec3; 3]> = cornell_geometry().iter().map(|t| t.map(|v| v * scale)).collect();
+            let b = Bounds3 { min: Vec3::ZERO, max: Vec3::splat(scale) };
+            let surfaces = Surfaces { triangles: &tris, spheres: &[] };
+            build(&photons, b, &s, Some(surfaces)).unwrap()
+        };
+        let (unit, big) = (build_at(1.0, 200_000), build_at(100.0, 200_000));
+        let (u, b) = (unit.stats(), big.stats());
+        eprintln!("auto depth: unit box {} (area {:.3}), 100x {} (area {:.1})", u.h_max, u.surface_area, b.h_max, b.surface_area);
+        // 6 faces, 200k photons, n_max 500: s* = sqrt(500·6/200k) = 0.122, log2(1/s*) + 1.5 = 4.5
+        assert_eq!((u.h_max, b.h_max), (5, 5));
+        assert!((u.surface_area - 6.0).abs() < 1e-3 && (b.surface_area / 6e4 - 1.0).abs() < 1e-3);
+        assert_eq!((u.valid_leaves, u.max_depth), (b.valid_leaves, b.max_depth));
+        assert!((u.min_leaf_size * 100.0 / b.min_leaf_size - 1.0).abs() < 1e-4);
+        assert!((u.mean_cell_size * 100.0 / b.mean_cell_size - 1.0).abs() < 1e-4);
+        assert_eq!(build_at(1.0, 800_000).stats().h_max, 6, "4x the photons: one level more");
+        // an explicit depth wins
+        let fixed = OctreeSettings { h_max: Depth::Fixed(3), ..Default::default() };
+        assert_eq!(build(&cornell_photons(1000, 1), Bounds3 { min: Vec3::ZERO, max: Vec3::ONE }, &fixed, None).unwrap().stats().h_max, 3);
+    }
 }

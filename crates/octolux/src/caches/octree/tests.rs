@@ -320,7 +320,7 @@ pub(crate) fn cornell_photons(n: usize, seed: u64) -> Vec<Photon> {
         .collect()
 }
 
-fn cornell_geometry() -> Vec<[Vec3; 3]> {
+pub(crate) fn cornell_geometry() -> Vec<[Vec3; 3]> {
     let mut g = Vec::new();
     for axis in 0..3 {
         for side in [0.0f32, 1.0] {
