@@ -59,8 +59,13 @@ pub enum LeakTest {
     /// A leaf counts when a ray from the query point reaches its anchor: the mean position of
     /// its photons, lifted by [`ANCHOR_LIFT`] cell edges along their mean normal. One shadow
     /// ray per valid leaf met.
-    #[default]
     Visibility,
+    /// [`LeakTest::Visibility`], and a second ray from the query point along the leaf's mean
+    /// incident direction must travel one cell edge unblocked: a point in a gap (above a light
+    /// fixture hung under the ceiling) sees its anchor through the gap's opening, but the
+    /// light the leaf's photons received arrived from where the gap is closed.
+    #[default]
+    VisibilityAndDirection,
 }
 
 /// How far (in cell edges) the anchor of a leaf is lifted off its photons' surface, along
@@ -444,6 +449,17 @@ fn keep_leaf(scene: &Scene, hit: &SurfaceHit, n: Vec3, leak: LeakTest, q: QueryL
             let od = target - o;
             let len = od.length();
             len > 0.0 && !scene.occluded(&Ray::segment(o, od / len, len))
+        }
+        LeakTest::VisibilityAndDirection => {
+            if !keep_leaf(scene, hit, n, LeakTest::Visibility, q, rays) {
+                return false;
+            }
+            if q.direction.dot(n) <= 0.0 {
+                return true;
+            }
+            *rays += 1;
+            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), q.direction);
+            !scene.occluded(&Ray::segment(o, q.direction, q.cell_size))
         }
     }
 }

@@ -212,6 +212,9 @@ pub struct QueryLeaf {
     pub normal: Vec3,
     /// Edge of the leaf's cell.
     pub cell_size: f32,
+    /// Mean direction the leaf's light arrives from (unit, pointing away from the surface;
+    /// zero when unknown), for the matrix of the query normal's dominant axis.
+    pub direction: Vec3,
 }
 
 /// High bit of `Node::link`: the node is a leaf.

@@ -45,11 +45,16 @@ impl Octree {
 
     /// The anchor of valid leaf `v` (cell at `depth`, `ijk`) in world space.
     #[inline]
-    fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3]) -> QueryLeaf {
+    fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3], k: usize) -> QueryLeaf {
         let view = self.view();
         let (cmin, s) = (view.cell_min(depth, ijk), self.cell_size[depth as usize]);
         let a = self.anchors[v];
-        QueryLeaf { position: a.position(cmin, s), normal: a.normal(), cell_size: s }
+        let m = match &self.values {
+            LeafValues::Compressed(c) => decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
+            LeafValues::Full(f) => f[v][k],
+        };
+        let direction = (m.x_axis + m.y_axis + m.z_axis).normalize_or_zero();
+        QueryLeaf { position: a.position(cmin, s), normal: a.normal(), cell_size: s, direction }
     }
 
     /// `M_{k,a}^{s(N_a)ᵀ} N` of one leaf for the three axes (not yet weighted by `N_a²`).
@@ -113,11 +118,19 @@ impl Octree {
             return None;
         }
         let sel = selection(n);
+        // the matrix of the dominant axis, for the leak test's direction
+        let dom = sel.0[if sel.1[0] >= sel.1[1] && sel.1[0] >= sel.1[2] {
+            0
+        } else if sel.1[1] >= sel.1[2] {
+            1
+        } else {
+            2
+        }];
         let mut sum = [zero; 3];
         let mut wsum = [0.0f32; 3];
         self.visit_query(p, |v, g, depth, ijk| {
             if let Some(k) = keep.as_mut() {
-                if !k(self.query_leaf(v, depth, ijk)) {
+                if !k(self.query_leaf(v, depth, ijk, dom)) {
                     return;
                 }
             }
