@@ -60,11 +60,17 @@ pub enum LeakTest {
     /// its photons, lifted by [`ANCHOR_LIFT`] cell edges along their mean normal. One shadow
     /// ray per valid leaf met.
     Visibility,
+    /// A leaf counts when a ray from the query point reaches any of its sampled photons
+    /// ([`crate::caches::octree::LeafAnchors`]), each lifted by [`ANCHOR_LIFT`] cell edges along
+    /// its own normal. One to four shadow rays per valid leaf met (the first visible one
+    /// ends the test).
+    #[default]
+    VisibleSample,
     /// [`LeakTest::Visibility`], and a second ray from the query point along the leaf's mean
     /// incident direction must travel one cell edge unblocked: a point in a gap (above a light
     /// fixture hung under the ceiling) sees its anchor through the gap's opening, but the
-    /// light the leaf's photons received arrived from where the gap is closed.
-    #[default]
+    /// light the leaf's photons received arrived from where the gap is closed. It also darkens
+    /// the floor where an object touches it (measured in `docs/octree.md`): not the default.
     VisibilityAndDirection,
 }
 
@@ -449,6 +455,19 @@ fn keep_leaf(scene: &Scene, hit: &SurfaceHit, n: Vec3, leak: LeakTest, q: QueryL
             let od = target - o;
             let len = od.length();
             len > 0.0 && !scene.occluded(&Ray::segment(o, od / len, len))
+        }
+        LeakTest::VisibleSample => {
+            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), n);
+            q.samples.iter().any(|&(p, nrm)| {
+                let target = p + nrm * (ANCHOR_LIFT * q.cell_size);
+                let od = target - o;
+                let len = od.length();
+                if !(len > 1e-4 * q.cell_size) {
+                    return true;
+                }
+                *rays += 1;
+                !scene.occluded(&Ray::segment(o, od / len, len))
+            })
         }
         LeakTest::VisibilityAndDirection => {
             if !keep_leaf(scene, hit, n, LeakTest::Visibility, q, rays) {

@@ -39,7 +39,7 @@ pub(super) struct LeafEstimate {
     /// exact for it.
     pub normals: [Vec3; 6],
     /// Mean position and normal of the photons of the leaf's own cell.
-    pub anchor: super::Anchor,
+    pub anchor: super::LeafAnchors,
 }
 
 /// What every leaf estimate reads (shared by the rayon jobs).
@@ -259,17 +259,31 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
 
     /// Mean position and mean normal of the photons of the leaf's own cell (the incident
     /// directions stand for the normal when the records carry none), summed in f64.
-    fn anchor(&self, leaf: &LeafBuild) -> super::Anchor {
+    fn anchor(&self, leaf: &LeafBuild) -> super::LeafAnchors {
+        let normal = |i: u32| {
+            let r = &self.recs[i as usize];
+            let ng = r.ng();
+            if ng == Vec3::ZERO {
+                r.w().normalize_or_zero()
+            } else {
+                ng
+            }
+        };
         let (mut p, mut n) = (DVec3::ZERO, DVec3::ZERO);
         for i in leaf.lo..leaf.hi {
             p += self.pos[i as usize].as_dvec3();
-            let r = &self.recs[i as usize];
-            let ng = r.ng();
-            n += if ng == Vec3::ZERO { r.w().normalize_or_zero() } else { ng }.as_dvec3();
+            n += normal(i).as_dvec3();
         }
-        let k = (leaf.hi - leaf.lo).max(1) as f64;
+        let count = leaf.hi - leaf.lo;
+        let k = count.max(1) as f64;
         let s = self.view.cell_size[leaf.depth as usize];
-        super::Anchor::encode((p / k).as_vec3(), (n / k).as_vec3(), self.view.cell_min(leaf.depth, leaf.ijk), s)
+        let cmin = self.view.cell_min(leaf.depth, leaf.ijk);
+        let mean = super::Anchor::encode((p / k).as_vec3(), (n / k).as_vec3(), cmin, s);
+        let samples = std::array::from_fn(|j| {
+            let i = leaf.lo + ((count as u64 * (2 * j as u64 + 1)) / (2 * super::ANCHOR_SAMPLES as u64)) as u32;
+            super::Anchor::encode(self.pos[i as usize], normal(i), cmin, s)
+        });
+        super::LeafAnchors { mean, samples }
     }
 
     pub fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch) -> LeafEstimate {

@@ -56,7 +56,7 @@
 //! weights are continuous in `P`.
 //!
 //! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices; plus
-//! 1 byte of facing bits and a 6-byte [`Anchor`] per valid leaf.
+//! 1 byte of facing bits and 30 bytes of [`LeafAnchors`] per valid leaf.
 //!
 //! # Depth from the scene's scale
 //! `h_max = auto` ([`Depth::Auto`], the `octree` integrator's default for its global tree)
@@ -203,7 +203,21 @@ impl Anchor {
     }
 }
 
-/// A valid leaf met by a query, for the leak test: its anchor in world space.
+/// Photons sampled per leaf for the leak test ([`LeafAnchors::samples`]).
+pub const ANCHOR_SAMPLES: usize = 4;
+
+/// Where the photons of a valid leaf lie: their mean, and [`ANCHOR_SAMPLES`] of them spread
+/// over the cell (the photons at the middle of each quarter of the leaf's Morton-sorted range,
+/// so in different sub-cells when the photons allow it), each with its own normal.
+/// 30 bytes per valid leaf, plain data.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C)]
+pub struct LeafAnchors {
+    pub mean: Anchor,
+    pub samples: [Anchor; ANCHOR_SAMPLES],
+}
+
+/// A valid leaf met by a query, for the leak test: its anchors in world space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct QueryLeaf {
     /// Mean position of the leaf's photons.
@@ -215,6 +229,8 @@ pub struct QueryLeaf {
     /// Mean direction the leaf's light arrives from (unit, pointing away from the surface;
     /// zero when unknown), for the matrix of the query normal's dominant axis.
     pub direction: Vec3,
+    /// Sampled photons of the leaf: position and normal (see [`LeafAnchors`]).
+    pub samples: [(Vec3, Vec3); ANCHOR_SAMPLES],
 }
 
 /// High bit of `Node::link`: the node is a leaf.
@@ -281,7 +297,7 @@ pub struct Octree {
     /// per matrix). Empty otherwise: every matrix then carries a value.
     facing: Vec<u8>,
     /// Per valid leaf: where its photons lie (the leak test of [`Octree::irradiance_where`]).
-    anchors: Vec<Anchor>,
+    anchors: Vec<LeafAnchors>,
     /// Half side of the query box: `alpha * min_leaf_size / 2`.
     query_half: f32,
     settings: OctreeSettings,

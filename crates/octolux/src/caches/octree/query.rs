@@ -48,13 +48,14 @@ impl Octree {
     fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3], k: usize) -> QueryLeaf {
         let view = self.view();
         let (cmin, s) = (view.cell_min(depth, ijk), self.cell_size[depth as usize]);
-        let a = self.anchors[v];
+        let a = &self.anchors[v];
         let m = match &self.values {
             LeafValues::Compressed(c) => decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
             LeafValues::Full(f) => f[v][k],
         };
         let direction = (m.x_axis + m.y_axis + m.z_axis).normalize_or_zero();
-        QueryLeaf { position: a.position(cmin, s), normal: a.normal(), cell_size: s, direction }
+        let samples = a.samples.map(|x| (x.position(cmin, s), x.normal()));
+        QueryLeaf { position: a.mean.position(cmin, s), normal: a.mean.normal(), cell_size: s, direction, samples }
     }
 
     /// `M_{k,a}^{s(N_a)ᵀ} N` of one leaf for the three axes (not yet weighted by `N_a²`).
