@@ -365,13 +365,13 @@ mod tests {
         let (unit, big) = (build_at(1.0, 200_000), build_at(100.0, 200_000));
         let (u, b) = (unit.stats(), big.stats());
         eprintln!("auto depth: unit box {} (area {:.3}), 100x {} (area {:.1})", u.h_max, u.surface_area, b.h_max, b.surface_area);
-        // 6 faces, 200k photons, n_max 500: s* = sqrt(500·6/200k) = 0.122, log2(1/s*) + 1.5 = 4.5
-        assert_eq!((u.h_max, b.h_max), (5, 5));
+        // 6 faces, 200k photons, n_max 500: s* = sqrt(500·6/200k) = 0.122, log2(1/s*) + 2.5 = 5.5
+        assert_eq!((u.h_max, b.h_max), (6, 6));
         assert!((u.surface_area - 6.0).abs() < 1e-3 && (b.surface_area / 6e4 - 1.0).abs() < 1e-3);
         assert_eq!((u.valid_leaves, u.max_depth), (b.valid_leaves, b.max_depth));
         assert!((u.min_leaf_size * 100.0 / b.min_leaf_size - 1.0).abs() < 1e-4);
         assert!((u.mean_cell_size * 100.0 / b.mean_cell_size - 1.0).abs() < 1e-4);
-        assert_eq!(build_at(1.0, 800_000).stats().h_max, 6, "4x the photons: one level more");
+        assert_eq!(build_at(1.0, 800_000).stats().h_max, 7, "4x the photons: one level more");
         // an explicit depth wins
         let fixed = OctreeSettings { h_max: Depth::Fixed(3), ..Default::default() };
         assert_eq!(build(&cornell_photons(1000, 1), Bounds3 { min: Vec3::ZERO, max: Vec3::ONE }, &fixed, None).unwrap().stats().h_max, 3);
