@@ -17,6 +17,11 @@
 //!
 //! An emitter seen directly or through a specular chain adds its emission; emission reached
 //! otherwise is already in the direct term.
+//!
+//! **Leak control** ([`LeakTest`], `docs/octree.md` "Leak control"): every octree read drops
+//! the leaves whose photons the shading point cannot see (default: none of four sampled
+//! photons per leaf is visible), so light does not pass through walls thinner than the query
+//! box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
 use crate::caches::octree::{AnalyticSphere, Depth, QueryLeaf, Surfaces};
