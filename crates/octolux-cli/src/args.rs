@@ -91,9 +91,10 @@ pub struct OctreeArgs {
     /// instead of at the first surface: less bias, a little noise.
     #[arg(long)]
     pub gather: bool,
-    /// octree: maximum octree depth h_max.
+    /// octree: maximum octree depth h_max, a number or `auto` (the global tree's default: from
+    /// the photon count, n_max and the scene's surface area).
     #[arg(long)]
-    pub h_max: Option<u32>,
+    pub h_max: Option<String>,
     /// octree: wanted least photons per leaf.
     #[arg(long)]
     pub n_min: Option<u32>,
@@ -140,6 +141,12 @@ pub struct OctreeArgs {
     pub caustic_n_max: Option<u32>,
 }
 
+/// A depth flag's value: a number stays a number (so that it is checked as a depth), any other
+/// word a string (`auto`, or an error naming the key when the settings are read).
+fn depth_value(v: &str) -> Value {
+    v.parse::<u64>().map_or_else(|_| Value::from(v), |n| json!(n))
+}
+
 impl OctreeArgs {
     /// The settings keys the given flags write, in the order given above. A flag scoped to one
     /// integrator (`octree:` in its help) warns with any other; an unscoped one warns with an
@@ -157,7 +164,7 @@ impl OctreeArgs {
         let oct = Some("octree");
         add("--photons", None, vec![keys::PHOTON_COUNT.into()], self.photons.map(|v| json!(v)));
         add("--gather", oct, vec!["gather".into()], self.gather.then_some(Value::Bool(true)));
-        add("--h-max", oct, both_trees("h_max"), self.h_max.map(|v| json!(v)));
+        add("--h-max", oct, both_trees("h_max"), self.h_max.as_deref().map(depth_value));
         add("--n-min", oct, both_trees("n_min"), self.n_min.map(|v| json!(v)));
         add("--n-max", oct, both_trees("n_max"), self.n_max.map(|v| json!(v)));
         add("--epsilon", oct, both_trees("epsilon"), self.epsilon.map(|v| json!(v)));

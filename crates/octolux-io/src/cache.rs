@@ -7,11 +7,12 @@
 //! body     fingerprint: geometry u64, materials u64, emitters u64
 //!          meta: u32 length + JSON {octolux_version, scene, backend, settings, stats}
 //!          tree count u8 (1: global; 2: global, caustic), then per tree:
-//!            u32 length + JSON {stats}; origin 3 x f32; size f32;
+//!            u32 length + JSON {stats}; origin 3 x f32; size f32; depth limit u32;
 //!            node count u32, nodes (link u32, photons u32);
 //!            storage u8 (0 compressed, 1 full), value count u32, values
 //!              (36 bytes, or 54 f32: six column-major 3x3 matrices);
-//!            facing count u32, facing bytes
+//!            facing count u32, facing bytes;
+//!            anchor count u32, anchors (per valid leaf 5 x (position 3 x u8, normal 3 x i8))
 //! trailer  CRC-32 (IEEE, zlib's) of every byte before it, u32
 //! ```
 //!
@@ -27,7 +28,7 @@
 use crate::IoError;
 use glam::{Mat3, Vec3};
 use octolux::caches::octree::compress::{CompressedLeaf, FullLeaf, LEAF_BYTES};
-use octolux::caches::octree::{LeafValueParts, OctreeParts};
+use octolux::caches::octree::{Anchor, LeafAnchors, LeafValueParts, OctreeParts, ANCHOR_SAMPLES};
 use octolux::caches::OctreeStats;
 use octolux::integrators::octree::{OctreeBuildStats, OctreeIntegratorParts, OctreeIntegratorSettings};
 use octolux::integrators::{build_from_parts, Integrator};
@@ -35,10 +36,13 @@ use octolux::scene::LightingFingerprint;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
+/// Bytes of one valid leaf's anchors on disk: the mean and the samples, 6 bytes each.
+const ANCHORS_BYTES: usize = 6 * (1 + ANCHOR_SAMPLES);
+
 /// The first 8 bytes of a cache file.
 pub const MAGIC: [u8; 8] = *b"OXCACHE\0";
 /// The format version this octolux writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 /// Header bytes: magic, version, reserved, body length.
 pub const HEADER_BYTES: usize = 24;
 /// Trailer bytes: the CRC-32.
@@ -120,6 +124,7 @@ fn put_tree(out: &mut Vec<u8>, t: &OctreeParts) {
         put_f32(out, v);
     }
     put_f32(out, t.size);
+    put_u32(out, t.h_max);
     put_u32(out, count(t.nodes.len()));
     for [link, photons] in &t.nodes {
         put_u32(out, *link);
@@ -141,6 +146,13 @@ fn put_tree(out: &mut Vec<u8>, t: &OctreeParts) {
     }
     put_u32(out, count(t.facing.len()));
     out.extend_from_slice(&t.facing);
+    put_u32(out, count(t.anchors.len()));
+    for a in &t.anchors {
+        for x in std::iter::once(&a.mean).chain(&a.samples) {
+            out.extend_from_slice(&x.pos);
+            out.extend(x.normal.map(|c| c as u8));
+        }
+    }
 }
 
 /// The bytes of a cache file.
@@ -246,6 +258,7 @@ fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSetti
     let meta: TreeMeta = r.json(&what("statistics"))?;
     let origin = Vec3::new(r.f32(&what("origin"))?, r.f32(&what("origin"))?, r.f32(&what("origin"))?);
     let size = r.f32(&what("size"))?;
+    let h_max = r.u32(&what("depth limit"))?;
     let (_, nb) = r.array(8, &what("nodes"))?;
     let w: Vec<u32> = words(nb).collect();
     let nodes = w.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
@@ -264,7 +277,13 @@ fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSetti
         s => return Err(what(&format!("unknown storage {s} (0: compressed, 1: full)"))),
     };
     let (_, facing) = r.array(1, &what("facing bits"))?;
-    Ok(OctreeParts { origin, size, settings: settings.clone(), nodes, values, facing: facing.to_vec(), stats: meta.stats })
+    let (_, ab) = r.array(ANCHORS_BYTES, &what("leaf anchors"))?;
+    let anchor = |b: &[u8]| Anchor { pos: [b[0], b[1], b[2]], normal: [b[3] as i8, b[4] as i8, b[5] as i8] };
+    let anchors = ab
+        .chunks_exact(ANCHORS_BYTES)
+        .map(|l| LeafAnchors { mean: anchor(&l[..6]), samples: std::array::from_fn(|k| anchor(&l[6 * (k + 1)..6 * (k + 2)])) })
+        .collect();
+    Ok(OctreeParts { origin, size, h_max, settings: settings.clone(), nodes, values, facing: facing.to_vec(), anchors, stats: meta.stats })
 }
 
 /// Parse the bytes of a cache file (module docs for the order of the checks). The octrees'

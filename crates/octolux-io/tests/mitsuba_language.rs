@@ -338,7 +338,7 @@ fn mitsuba_05_names_are_upgraded() {
 }
 
 #[test]
-fn another_methods_integrator_parameters_warn_in_one_line() {
+fn another_methods_integrator_parameters_are_one_line() {
     let xml = r#"<scene version="0.6.0">
     <integrator type="sppm">
         <integer name="maxDepth" value="7"/>
@@ -354,9 +354,16 @@ fn another_methods_integrator_parameters_warn_in_one_line() {
         </film>
     </sensor>
 </scene>"#;
+    // sppm converges to a path tracer's image: its tuning parameters are a note, one line.
     let s = load_str(xml, Path::new("/virtual/sppm.xml"), &[]).unwrap();
     assert_eq!(s.desc.hints.max_depth, Some(7));
+    assert!(s.warnings.is_empty(), "{:#?}", s.warnings);
+    assert_eq!(s.notes.len(), 1, "{:#?}", s.notes);
+    let n = &s.notes[0];
+    assert!(n.starts_with("/virtual/sppm.xml:2:") && n.ends_with("photon_count, dual_buffer"), "{n}");
+    // A type that is no Mitsuba light-transport method: a warning.
+    let s = load_str(&xml.replace("sppm", "whitted"), Path::new("/virtual/whitted.xml"), &[]).unwrap();
+    assert!(s.notes.is_empty(), "{:#?}", s.notes);
     assert_eq!(s.warnings.len(), 1, "{:#?}", s.warnings);
-    let w = &s.warnings[0];
-    assert!(w.starts_with("/virtual/sppm.xml:2:") && w.ends_with("photon_count, dual_buffer"), "{w}");
+    assert!(s.warnings[0].ends_with("photon_count, dual_buffer"), "{}", s.warnings[0]);
 }

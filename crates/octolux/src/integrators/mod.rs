@@ -15,6 +15,8 @@ pub mod common;
 #[cfg(test)]
 mod furnaces;
 pub mod octree;
+#[cfg(test)]
+mod octree_leak;
 pub mod path;
 pub mod photon;
 #[cfg(test)]

@@ -17,9 +17,14 @@
 //!
 //! An emitter seen directly or through a specular chain adds its emission; emission reached
 //! otherwise is already in the direct term.
+//!
+//! **Leak control** ([`LeakTest`], `docs/octree.md` "Leak control"): every octree read drops
+//! the leaves whose photons the shading point cannot see (default: none of four sampled
+//! photons per leaf is visible), so light does not pass through walls thinner than the query
+//! box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
-use crate::caches::octree::{AnalyticSphere, OctreeParts, PartsError, Surfaces};
+use crate::caches::octree::{AnalyticSphere, Depth, OctreeParts, PartsError, QueryLeaf, Surfaces};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
 use crate::math::{Color, Frame, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonError, PhotonSettings};
@@ -45,6 +50,42 @@ pub enum OctreeView {
     Leaves,
 }
 
+/// How a query keeps the light of a leaf from leaking through a wall to a point that cannot
+/// see the leaf's photons (`docs/octree.md`, "Leak control").
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum LeakTest {
+    /// The paper's blend: every valid leaf met by the query box counts.
+    None,
+    /// A leaf counts when the mean position of its photons lies within half a cell edge of the
+    /// query point's tangent plane (no ray; catches surfaces in front of or behind the query's,
+    /// not coplanar ones across a wall).
+    Plane,
+    /// A leaf counts when a ray from the query point reaches its anchor: the mean position of
+    /// its photons, lifted by [`ANCHOR_LIFT`] cell edges along their mean normal. One shadow
+    /// ray per valid leaf met.
+    Visibility,
+    /// A leaf counts when a ray from the query point reaches any of its sampled photons
+    /// ([`crate::caches::octree::LeafAnchors`]), each lifted by [`ANCHOR_LIFT`] cell edges along
+    /// its own normal. One to four shadow rays per valid leaf met (the first visible one
+    /// ends the test).
+    #[default]
+    VisibleSample,
+    /// [`LeakTest::Visibility`], and a second ray from the query point along the leaf's mean
+    /// incident direction must travel one cell edge unblocked: a point in a gap (above a light
+    /// fixture hung under the ceiling) sees its anchor through the gap's opening, but the
+    /// light the leaf's photons received arrived from where the gap is closed. It also darkens
+    /// the floor where an object touches it (measured in `docs/octree.md`): not the default.
+    VisibilityAndDirection,
+}
+
+/// How far (in cell edges) the anchor of a leaf is lifted off its photons' surface, along
+/// their mean normal, before the visibility ray of [`LeakTest::Visibility`]: the mean position
+/// of photons on a curved surface lies below it (by `s²/8R` for a cap of chord `s` on a
+/// sphere of radius `R`), and a thin wall must lie between the query point and the lifted
+/// anchor, not behind it.
+pub const ANCHOR_LIFT: f32 = 0.25;
+
 /// Settings of the `octree` integrator.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 #[serde(default, deny_unknown_fields)]
@@ -64,6 +105,8 @@ pub struct OctreeIntegratorSettings {
     /// lands (see `OctreeIntegrator::gathered_global`): one BSDF-sampled ray per sample, and
     /// the cache's bias is averaged over the hemisphere instead of showing directly.
     pub gather: bool,
+    /// Leak control of the octree queries.
+    pub leak: LeakTest,
 }
 
 /// Safety bound on specular chains from the camera when `max_depth` is unbounded (a closed
@@ -85,6 +128,7 @@ impl Default for OctreeIntegratorSettings {
     /// cosine 1.4e-3, geometry-area 8.5e-4; `--estimator paper` restores the paper's).
     fn default() -> Self {
         let tree = OctreeSettings {
+            h_max: Depth::Auto,
             estimator: crate::caches::Estimator::GeometryArea,
             split: crate::caches::Split::Normal,
             ..OctreeSettings::default()
@@ -92,10 +136,11 @@ impl Default for OctreeIntegratorSettings {
         OctreeIntegratorSettings {
             photons: PhotonSettings::default(),
             global: tree.clone(),
-            caustic: OctreeSettings { h_max: CAUSTIC_H_MAX, n_max: CAUSTIC_N_MAX, ..tree },
+            caustic: OctreeSettings { h_max: Depth::Fixed(CAUSTIC_H_MAX), n_max: CAUSTIC_N_MAX, ..tree },
             max_depth: -1,
             view: OctreeView::Render,
             gather: false,
+            leak: LeakTest::default(),
         }
     }
 }
@@ -259,10 +304,10 @@ impl OctreeIntegrator {
                         + self.indirect_from(scene, &v, material, counters, true, true));
             }
             OctreeView::Irradiance | OctreeView::IrradianceAll => {
-                let mut e = self.irradiance(&self.global, &v, counters);
+                let mut e = self.irradiance(scene, &self.global, &v, counters);
                 if view == OctreeView::IrradianceAll {
                     if let Some(c) = &self.caustic {
-                        e += self.irradiance(c, &v, counters);
+                        e += self.irradiance(scene, c, &v, counters);
                     }
                 }
                 result += v.throughput * e.max(Color::ZERO);
@@ -273,8 +318,30 @@ impl OctreeIntegrator {
     }
 
     /// Irradiance `M(N)ᵀ N` from `tree` at a vertex (normal on the viewer's side), W/m².
-    fn irradiance(&self, tree: &Octree, v: &Vertex, counters: &mut RayCounters) -> Color {
-        counters.time_query(|| tree.incident_matrix(v.hit.p, v.n)).map_or(Color::ZERO, |m| m.transpose() * v.n)
+    fn irradiance(&self, scene: &Scene, tree: &Octree, v: &Vertex, counters: &mut RayCounters) -> Color {
+        self.incident_matrix(scene, tree, &v.hit, v.n, counters).map_or(Color::ZERO, |m| m.transpose() * v.n)
+    }
+
+    /// `tree`'s irradiance at `hit` for normal `n` (on the viewer's side), leak control applied.
+    pub fn irradiance_at(&self, scene: &Scene, tree: &Octree, hit: &SurfaceHit, n: Vec3, counters: &mut RayCounters) -> Option<Color> {
+        let mut rays = 0u64;
+        let e = counters.time_query(|| match self.settings.leak {
+            LeakTest::None => tree.irradiance(hit.p, n),
+            leak => tree.irradiance_where(hit.p, n, &mut |q| keep_leaf(scene, hit, n, leak, q, &mut rays)),
+        });
+        counters.shadow_rays += rays;
+        e
+    }
+
+    /// `tree`'s incident matrix at `hit` for normal `n`, leak control applied.
+    fn incident_matrix(&self, scene: &Scene, tree: &Octree, hit: &SurfaceHit, n: Vec3, counters: &mut RayCounters) -> Option<Mat3> {
+        let mut rays = 0u64;
+        let m = counters.time_query(|| match self.settings.leak {
+            LeakTest::None => tree.incident_matrix(hit.p, n),
+            leak => tree.incident_matrix_where(hit.p, n, &mut |q| keep_leaf(scene, hit, n, leak, q, &mut rays)),
+        });
+        counters.shadow_rays += rays;
+        m
     }
 
     /// Reflected light from the global and/or the caustic octree at `v` (see the module docs).
@@ -298,13 +365,13 @@ impl OctreeIntegrator {
             match albedo {
                 Some(rho) => {
                     if rho != Color::ZERO {
-                        if let Some(e) = counters.time_query(|| tree.irradiance(hit.p, n)) {
+                        if let Some(e) = self.irradiance_at(scene, tree, hit, n, counters) {
                             l += rho * e * std::f32::consts::FRAC_1_PI;
                         }
                     }
                 }
                 None => {
-                    if let Some(m) = counters.time_query(|| tree.incident_matrix(hit.p, n)) {
+                    if let Some(m) = self.incident_matrix(scene, tree, hit, n, counters) {
                         l += shade_matrix(scene, hit, material, v.wo, &m);
                     }
                 }
@@ -360,7 +427,7 @@ impl OctreeIntegrator {
         if !leaf.valid {
             return Color::splat(0.02);
         }
-        let h_max = self.global.settings().h_max.max(1) as f32;
+        let h_max = self.global.h_max().max(1) as f32;
         let hue = leaf.depth as f32 / h_max;
         let base = hsv(hue * 0.8, 0.7, 0.9);
         // Darken near cell borders (in units of the cell edge).
@@ -414,6 +481,53 @@ fn hsv(h: f32, s: f32, v: f32) -> Color {
         3 => Color::new(p, q, v),
         4 => Color::new(t, p, v),
         _ => Color::new(v, p, q),
+    }
+}
+
+/// Whether the light of a leaf met by a query at `hit` (normal `n`, on the viewer's side) can
+/// reach it ([`LeakTest`]); `rays` counts the visibility rays cast.
+fn keep_leaf(scene: &Scene, hit: &SurfaceHit, n: Vec3, leak: LeakTest, q: QueryLeaf, rays: &mut u64) -> bool {
+    match leak {
+        LeakTest::None => true,
+        LeakTest::Plane => (q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size,
+        LeakTest::Visibility => {
+            let target = q.position + q.normal * (ANCHOR_LIFT * q.cell_size);
+            let d = target - hit.p;
+            let dist = d.length();
+            if !(dist > 1e-4 * q.cell_size) {
+                return true;
+            }
+            *rays += 1;
+            // leave from the viewer's side of the surface, whatever side the anchor is on
+            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), n);
+            let od = target - o;
+            let len = od.length();
+            len > 0.0 && !scene.occluded(&Ray::segment(o, od / len, len))
+        }
+        LeakTest::VisibleSample => {
+            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), n);
+            q.samples.iter().any(|&(p, nrm)| {
+                let target = p + nrm * (ANCHOR_LIFT * q.cell_size);
+                let od = target - o;
+                let len = od.length();
+                if !(len > 1e-4 * q.cell_size) {
+                    return true;
+                }
+                *rays += 1;
+                !scene.occluded(&Ray::segment(o, od / len, len))
+            })
+        }
+        LeakTest::VisibilityAndDirection => {
+            if !keep_leaf(scene, hit, n, LeakTest::Visibility, q, rays) {
+                return false;
+            }
+            if q.direction.dot(n) <= 0.0 {
+                return true;
+            }
+            *rays += 1;
+            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), q.direction);
+            !scene.occluded(&Ray::segment(o, q.direction, q.cell_size))
+        }
     }
 }
 

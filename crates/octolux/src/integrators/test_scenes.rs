@@ -8,7 +8,7 @@ use crate::scene::Scene;
 use crate::scene::{FilmDesc, Geometry, PixelFilter, SceneDesc, ShapeDesc, TriMesh};
 use glam::{Mat4, Vec3};
 
-fn quad(name: &str, to_world: Mat4, material: u32, emission: Option<Color>) -> ShapeDesc {
+pub(crate) fn quad(name: &str, to_world: Mat4, material: u32, emission: Option<Color>) -> ShapeDesc {
     ShapeDesc { name: name.into(), geometry: Geometry::Mesh(TriMesh::rectangle(&to_world)), material, emission, flip_normals: false }
 }
 

@@ -17,7 +17,7 @@
 use super::cells::{LeafBuild, TreeView};
 use super::compress::{compress_leaf, compress_leaf_for_normals};
 use super::estimate::{EstimateCtx, LeafEstimate, Scratch};
-use super::settings::{Estimator, Split, Storage, MAX_DEPTH};
+use super::settings::{auto_depth, Depth, Estimator, Split, Storage, MAX_DEPTH};
 use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg, SortKey, Sorted};
 use super::{LeafValues, Node, Octree, OctreeError, OctreeSettings, OctreeStats, Surfaces, ALL_FACING, LEAF_BIT, NO_VALUE};
 use crate::math::Bounds3;
@@ -42,6 +42,14 @@ fn cube_of(b: &Bounds3) -> Result<(Vec3, f32), OctreeError> {
         return Err(OctreeError::InvalidBounds(format!("box too large {b:?}")));
     }
     Ok((c - Vec3::splat(0.5 * edge), edge))
+}
+
+/// Total area of the surfaces (scene units², f64): triangles plus analytic spheres.
+fn surface_area(s: &Surfaces<'_>) -> f64 {
+    let tri: f64 =
+        s.triangles.iter().map(|t| 0.5 * (t[1] - t[0]).as_dvec3().cross((t[2] - t[0]).as_dvec3()).length()).filter(|a| a.is_finite()).sum();
+    let sph: f64 = s.spheres.iter().map(|sp| 4.0 * std::f64::consts::PI * (sp.radius as f64).powi(2)).filter(|a| a.is_finite()).sum();
+    tri + sph
 }
 
 struct TreeBuilder<'a, K> {
@@ -149,10 +157,10 @@ struct Tree {
     valid: Vec<LeafBuild>,
 }
 
-fn subdivide<K: SortKey>(keys: &[K], settings: &OctreeSettings) -> Tree {
+fn subdivide<K: SortKey>(keys: &[K], h: u32, settings: &OctreeSettings) -> Tree {
     let mut tb = TreeBuilder {
         keys,
-        h: settings.h_max,
+        h,
         n_max: settings.n_max as usize,
         n_min: settings.n_min as usize,
         respect_n_min: settings.split_respects_n_min,
@@ -169,13 +177,14 @@ fn subdivide<K: SortKey>(keys: &[K], settings: &OctreeSettings) -> Tree {
 fn estimates<R: PhotonRec, K: SortKey>(
     sorted: Sorted<R, K>,
     origin: Vec3,
+    h: u32,
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
     surfaces: Surfaces<'_>,
 ) -> (Tree, usize, Vec<LeafEstimate>) {
     let Surfaces { triangles, spheres } = surfaces;
     let Sorted { keys, pos, recs } = sorted;
-    let tree = subdivide(&keys, settings);
+    let tree = subdivide(&keys, h, settings);
     drop(keys);
     let view = TreeView { nodes: &tree.nodes, origin, cell_size };
     let tri_lists = if triangles.is_empty() {
@@ -213,9 +222,9 @@ fn sort_and_estimate<R: PhotonRec>(
     surfaces: Surfaces<'_>,
 ) -> (Tree, usize, Vec<LeafEstimate>) {
     if 3 * kf.h < 32 {
-        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, surfaces)
+        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, kf.h, cell_size, settings, surfaces)
     } else {
-        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, cell_size, settings, surfaces)
+        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, kf.h, cell_size, settings, surfaces)
     }
 }
 
@@ -234,7 +243,12 @@ pub(super) fn build(
         return Err(OctreeError::TooManyPhotons(photons.len()));
     }
     let (origin, size) = cube_of(&bounds)?;
-    let h = settings.h_max;
+    let surface_area = geometry.map_or(0.0, |g| surface_area(&g));
+    let surface_area = if surface_area > 0.0 { surface_area } else { 6.0 * size as f64 * size as f64 };
+    let h = match settings.h_max {
+        Depth::Fixed(h) => h,
+        Depth::Auto => auto_depth(photons.len(), surface_area, size as f64, settings.n_max),
+    };
     // shared with `parts.rs`, so that an octree read back has the same bits
     let inv_quant = super::parts::morton_scale(h, size);
     let cell_size = super::parts::cell_sizes(size);
@@ -252,6 +266,7 @@ pub(super) fn build(
     // The facing bits are kept only when they say something (Split::Normal with geometry);
     // an empty list reads as "every matrix carries a value".
     let facing: Vec<u8> = if est.iter().any(|e| e.facing != ALL_FACING) { est.iter().map(|e| e.facing).collect() } else { Vec::new() };
+    let anchors: Vec<_> = est.iter().map(|e| e.anchor).collect();
     let values = match settings.storage {
         Storage::Compressed if settings.split == Split::Normal => {
             LeafValues::Compressed(est.par_iter().map(|e| compress_leaf_for_normals(&e.m, &e.normals)).collect())
@@ -273,7 +288,7 @@ pub(super) fn build(
     }
     let nv = valid.len();
     let mean = |s: f64| if nv > 0 { s / nv as f64 } else { 0.0 };
-    let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes() + facing.len();
+    let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes() + facing.len() + std::mem::size_of_val(anchors.as_slice());
     let stats = OctreeStats {
         t_build_s: 0.0,
         bytes,
@@ -290,6 +305,8 @@ pub(super) fn build(
         max_depth,
         min_leaf_size,
         geometry_fallback_leaves: est.iter().filter(|e| e.fallback).count(),
+        h_max: h,
+        surface_area,
     };
     let mut tree = Octree {
         origin,
@@ -300,6 +317,7 @@ pub(super) fn build(
         nodes,
         values,
         facing,
+        anchors,
         query_half: 0.5 * settings.alpha * min_leaf_size,
         settings: settings.clone(),
         stats,
@@ -324,5 +342,36 @@ mod tests {
         assert!(cube_of(&p).unwrap().1 > 0.0);
         assert!(cube_of(&Bounds3::EMPTY).is_err());
         assert!(cube_of(&Bounds3 { min: Vec3::ZERO, max: Vec3::new(f32::NAN, 1.0, 1.0) }).is_err());
+    }
+
+    /// `h_max = auto` depends on the scene only through `A / S²` and the photon count: the
+    /// photons and walls of a box, and the same box 100x larger, give the same depth and the
+    /// same leaves relative to the box; 4x the photons give one level more.
+    #[test]
+    fn auto_depth_is_the_same_for_a_box_and_the_box_scaled_100x() {
+        use super::super::tests::{cornell_geometry, cornell_photons};
+        use super::super::{Estimator, Split};
+        let s = OctreeSettings { h_max: Depth::Auto, estimator: Estimator::GeometryArea, split: Split::Normal, ..Default::default() };
+        let build_at = |scale: f32, n: usize| {
+            let mut photons = cornell_photons(n, 3);
+            photons.iter_mut().for_each(|p| p.p *= scale);
+            let tris: Vec<[Vec3; 3]> = cornell_geometry().iter().map(|t| t.map(|v| v * scale)).collect();
+            let b = Bounds3 { min: Vec3::ZERO, max: Vec3::splat(scale) };
+            let surfaces = Surfaces { triangles: &tris, spheres: &[] };
+            build(&photons, b, &s, Some(surfaces)).unwrap()
+        };
+        let (unit, big) = (build_at(1.0, 200_000), build_at(100.0, 200_000));
+        let (u, b) = (unit.stats(), big.stats());
+        eprintln!("auto depth: unit box {} (area {:.3}), 100x {} (area {:.1})", u.h_max, u.surface_area, b.h_max, b.surface_area);
+        // 6 faces, 200k photons, n_max 500: s* = sqrt(500·6/200k) = 0.122, log2(1/s*) + 2.5 = 5.5
+        assert_eq!((u.h_max, b.h_max), (6, 6));
+        assert!((u.surface_area - 6.0).abs() < 1e-3 && (b.surface_area / 6e4 - 1.0).abs() < 1e-3);
+        assert_eq!((u.valid_leaves, u.max_depth), (b.valid_leaves, b.max_depth));
+        assert!((u.min_leaf_size * 100.0 / b.min_leaf_size - 1.0).abs() < 1e-4);
+        assert!((u.mean_cell_size * 100.0 / b.mean_cell_size - 1.0).abs() < 1e-4);
+        assert_eq!(build_at(1.0, 800_000).stats().h_max, 7, "4x the photons: one level more");
+        // an explicit depth wins
+        let fixed = OctreeSettings { h_max: Depth::Fixed(3), ..Default::default() };
+        assert_eq!(build(&cornell_photons(1000, 1), Bounds3 { min: Vec3::ZERO, max: Vec3::ONE }, &fixed, None).unwrap().stats().h_max, 3);
     }
 }

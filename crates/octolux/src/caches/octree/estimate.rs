@@ -38,6 +38,8 @@ pub(super) struct LeafEstimate {
     /// half-axis itself when the geometry is unknown: the compression keeps the irradiance
     /// exact for it.
     pub normals: [Vec3; 6],
+    /// Mean position and normal of the photons of the leaf's own cell.
+    pub anchor: super::LeafAnchors,
 }
 
 /// What every leaf estimate reads (shared by the rayon jobs).
@@ -255,6 +257,35 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         });
     }
 
+    /// Mean position and mean normal of the photons of the leaf's own cell (the incident
+    /// directions stand for the normal when the records carry none), summed in f64.
+    fn anchor(&self, leaf: &LeafBuild) -> super::LeafAnchors {
+        let normal = |i: u32| {
+            let r = &self.recs[i as usize];
+            let ng = r.ng();
+            if ng == Vec3::ZERO {
+                r.w().normalize_or_zero()
+            } else {
+                ng
+            }
+        };
+        let (mut p, mut n) = (DVec3::ZERO, DVec3::ZERO);
+        for i in leaf.lo..leaf.hi {
+            p += self.pos[i as usize].as_dvec3();
+            n += normal(i).as_dvec3();
+        }
+        let count = leaf.hi - leaf.lo;
+        let k = count.max(1) as f64;
+        let s = self.view.cell_size[leaf.depth as usize];
+        let cmin = self.view.cell_min(leaf.depth, leaf.ijk);
+        let mean = super::Anchor::encode((p / k).as_vec3(), (n / k).as_vec3(), cmin, s);
+        let samples = std::array::from_fn(|j| {
+            let i = leaf.lo + ((count as u64 * (2 * j as u64 + 1)) / (2 * super::ANCHOR_SAMPLES as u64)) as u32;
+            super::Anchor::encode(self.pos[i as usize], normal(i), cmin, s)
+        });
+        super::LeafAnchors { mean, samples }
+    }
+
     pub fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch) -> LeafEstimate {
         let (ebox, enlarged, margin) = self.gather_box_margin(leaf);
         // Lower bound on the area the photons stand for. The leaf's photons lie in its own
@@ -344,7 +375,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         } else {
             ALL_FACING
         };
-        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing, normals }
+        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing, normals, anchor: self.anchor(leaf) }
     }
 }
 

@@ -55,8 +55,22 @@
 //! negative irradiance channels are clamped to 0 after the blend. The blend is `C0`: the
 //! weights are continuous in `P`.
 //!
-//! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices. As plain
-//! data for cache files: `parts.rs` ([`Octree::to_parts`], [`Octree::from_parts`], docs/baking.md).
+//! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices; plus
+//! 1 byte of facing bits and 30 bytes of [`LeafAnchors`] per valid leaf. As plain data for
+//! cache files: `parts.rs` ([`Octree::to_parts`], [`Octree::from_parts`], docs/baking.md).
+//!
+//! # Depth from the scene's scale
+//! `h_max = auto` ([`Depth::Auto`], the `octree` integrator's default for its global tree)
+//! derives the depth limit from the photon count, `n_max` and the scene's surface area
+//! ([`auto_depth`]): the same leaves relative to the scene at any scale, finer with more
+//! photons.
+//!
+//! # Leak control
+//! A leaf's value is light on the surfaces its photons landed on. Across a wall thinner than
+//! a leaf (or the query box), the blend would hand that light to the other side. Each valid
+//! leaf keeps an [`Anchor`] (mean photon position and normal), and
+//! [`Octree::irradiance_where`] lets the caller drop the leaves it cannot see from the query
+//! point (the `octree` integrator casts a ray to the anchor, `docs/octree.md`).
 
 mod build;
 mod cells;
@@ -75,7 +89,7 @@ pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
 pub use geometry::AnalyticSphere;
 pub use parts::{LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
-pub use settings::{Enlarge, Estimator, OctreeSettings, Split, Storage, MAX_DEPTH};
+pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
 
 /// The surfaces the geometry-area estimator clips to each gathering box (world space).
 #[derive(Clone, Copy, Debug, Default)]
@@ -135,6 +149,11 @@ pub struct OctreeStats {
     pub min_leaf_size: f32,
     /// Valid leaves that found no triangle with `Estimator::GeometryArea` (fell back to `Cosine`).
     pub geometry_fallback_leaves: usize,
+    /// The depth limit used: `h_max` as set, or the automatic one ([`auto_depth`]).
+    pub h_max: u32,
+    /// Surface area (scene units²) the automatic depth was derived from: the given surfaces,
+    /// else the root cube's six faces.
+    pub surface_area: f64,
 }
 
 /// Debug view of one leaf (for visualisation).
@@ -147,6 +166,74 @@ pub struct LeafInfo {
     pub valid: bool,
     /// Photons in the cell (not enlarged).
     pub photons: u32,
+}
+
+/// Where the photons of a valid leaf lie, for the leak test of the query
+/// ([`Octree::irradiance_where`]; `docs/octree.md`, "Leak control"). 6 bytes per valid leaf,
+/// plain data (a cache file stores it as is).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C)]
+pub struct Anchor {
+    /// Mean position of the photons in the leaf's own cell, in 256ths of the cell edge from
+    /// its minimum corner (the value `q` stands for `(q + 0.5) / 256`).
+    pub pos: [u8; 3],
+    /// Mean geometric normal of those photons (their incident direction when the normals are
+    /// not known), in 127ths (snorm8), not normalised: short when the photons lie on
+    /// surfaces facing opposite ways.
+    pub normal: [i8; 3],
+}
+
+impl Anchor {
+    /// Quantise a mean position (clamped to the cell) and a mean normal.
+    pub fn encode(mean: Vec3, normal: Vec3, cell_min: Vec3, cell_size: f32) -> Anchor {
+        let rel = ((mean - cell_min) / cell_size * 256.0).floor();
+        let q = |v: f32| if v.is_finite() { v.clamp(0.0, 255.0) as u8 } else { 128 };
+        let n = |v: f32| if v.is_finite() { (v.clamp(-1.0, 1.0) * 127.0).round() as i8 } else { 0 };
+        Anchor { pos: [q(rel.x), q(rel.y), q(rel.z)], normal: [n(normal.x), n(normal.y), n(normal.z)] }
+    }
+
+    /// World position of the anchor, for the cell at `cell_min` of edge `cell_size`.
+    #[inline]
+    pub fn position(&self, cell_min: Vec3, cell_size: f32) -> Vec3 {
+        let q = Vec3::new(self.pos[0] as f32, self.pos[1] as f32, self.pos[2] as f32) + 0.5;
+        cell_min + q * (cell_size / 256.0)
+    }
+
+    /// The mean normal (length at most 1).
+    #[inline]
+    pub fn normal(&self) -> Vec3 {
+        Vec3::new(self.normal[0] as f32, self.normal[1] as f32, self.normal[2] as f32) / 127.0
+    }
+}
+
+/// Photons sampled per leaf for the leak test ([`LeafAnchors::samples`]).
+pub const ANCHOR_SAMPLES: usize = 4;
+
+/// Where the photons of a valid leaf lie: their mean, and [`ANCHOR_SAMPLES`] of them spread
+/// over the cell (the photons at the middle of each quarter of the leaf's Morton-sorted range,
+/// so in different sub-cells when the photons allow it), each with its own normal.
+/// 30 bytes per valid leaf, plain data.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C)]
+pub struct LeafAnchors {
+    pub mean: Anchor,
+    pub samples: [Anchor; ANCHOR_SAMPLES],
+}
+
+/// A valid leaf met by a query, for the leak test: its anchors in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QueryLeaf {
+    /// Mean position of the leaf's photons.
+    pub position: Vec3,
+    /// Their mean normal (length at most 1; see [`Anchor::normal`]).
+    pub normal: Vec3,
+    /// Edge of the leaf's cell.
+    pub cell_size: f32,
+    /// Mean direction the leaf's light arrives from (unit, pointing away from the surface;
+    /// zero when unknown), for the matrix of the query normal's dominant axis.
+    pub direction: Vec3,
+    /// Sampled photons of the leaf: position and normal (see [`LeafAnchors`]).
+    pub samples: [(Vec3, Vec3); ANCHOR_SAMPLES],
 }
 
 /// High bit of `Node::link`: the node is a leaf.
@@ -212,6 +299,8 @@ pub struct Octree {
     /// the query leaves it out of that axis's blend (the paper's rule for atmospheric cells,
     /// per matrix). Empty otherwise: every matrix then carries a value.
     facing: Vec<u8>,
+    /// Per valid leaf: where its photons lie (the leak test of [`Octree::irradiance_where`]).
+    anchors: Vec<LeafAnchors>,
     /// Half side of the query box: `alpha * min_leaf_size / 2`.
     query_half: f32,
     settings: OctreeSettings,
@@ -264,6 +353,11 @@ impl Octree {
     /// Side of the query box (`alpha × min_leaf_size`).
     pub fn query_size(&self) -> f32 {
         2.0 * self.query_half
+    }
+
+    /// The depth limit the tree was built with (resolved when `h_max` is `auto`).
+    pub fn h_max(&self) -> u32 {
+        self.h_max
     }
 }
 

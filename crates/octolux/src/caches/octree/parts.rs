@@ -22,8 +22,8 @@
 //! the build's; the others (build time, photons dropped, gathered means, fallbacks) are kept.
 
 use super::compress::{CompressedLeaf, FullLeaf};
-use super::settings::MAX_DEPTH;
-use super::{LeafValues, Node, Octree, OctreeSettings, OctreeStats, LEAF_BIT, NO_VALUE};
+use super::settings::{Depth, MAX_DEPTH};
+use super::{LeafAnchors, LeafValues, Node, Octree, OctreeSettings, OctreeStats, LEAF_BIT, NO_VALUE};
 use glam::Vec3;
 
 /// The leaf values of [`OctreeParts`], one per valid leaf in depth-first order.
@@ -55,6 +55,9 @@ pub struct OctreeParts {
     pub origin: Vec3,
     /// Edge of the root cube (scene units).
     pub size: f32,
+    /// The depth limit the build used (`settings.h_max` resolved: [`Depth::Auto`] depends on
+    /// the photons and the scene).
+    pub h_max: u32,
     pub settings: OctreeSettings,
     /// Per node `[link, photons]`: `link` is the first child's index for an internal node,
     /// `LEAF_LINK | value index` for a leaf ([`ATMOSPHERIC`] as the value: no value);
@@ -63,6 +66,8 @@ pub struct OctreeParts {
     pub values: LeafValueParts,
     /// Per valid leaf, the six facing bits (`+X, −X, +Y, −Y, +Z, −Z`); empty: all set.
     pub facing: Vec<u8>,
+    /// Per valid leaf, where its photons lie (the leak test's anchors; any bytes are valid).
+    pub anchors: Vec<LeafAnchors>,
     /// The build's statistics (the structural ones are recomputed by `from_parts`).
     pub stats: OctreeStats,
 }
@@ -158,6 +163,7 @@ impl Octree {
         OctreeParts {
             origin: self.origin,
             size: self.size,
+            h_max: self.h_max,
             settings: self.settings.clone(),
             nodes: self.nodes.iter().map(|n| [n.link, n.photons]).collect(),
             values: match &self.values {
@@ -165,6 +171,7 @@ impl Octree {
                 LeafValues::Full(v) => LeafValueParts::Full(v.clone()),
             },
             facing: self.facing.clone(),
+            anchors: self.anchors.clone(),
             stats: self.stats.clone(),
         }
     }
@@ -172,13 +179,16 @@ impl Octree {
     /// An octree from plain data, every invariant checked (module docs). Queries of the
     /// result are bit-identical to those of the octree the parts came from.
     pub fn from_parts(parts: OctreeParts) -> Result<Octree, PartsError> {
-        let OctreeParts { origin, size, settings, nodes, values, facing, stats } = parts;
+        let OctreeParts { origin, size, h_max, settings, nodes, values, facing, anchors, stats } = parts;
         let bad = |m: String| Err(PartsError(m));
         settings.validate().map_err(|e| PartsError(e.to_string()))?;
         if !(origin.is_finite() && size.is_finite() && size > 0.0) {
             return bad(format!("root cube at {origin} of edge {size}"));
         }
-        let h = settings.h_max;
+        let h = h_max;
+        if h > MAX_DEPTH || matches!(settings.h_max, Depth::Fixed(f) if f != h) {
+            return bad(format!("h_max {h} (settings: {:?}, at most {MAX_DEPTH})", settings.h_max));
+        }
         let inv_quant = morton_scale(h, size);
         if !(inv_quant.is_finite() && inv_quant > 0.0) {
             return bad(format!("root cube edge {size} is too small for h_max = {h}"));
@@ -189,6 +199,9 @@ impl Octree {
         let n_values = values.len();
         if !facing.is_empty() && facing.len() != n_values {
             return bad(format!("{} facing entries for {n_values} valid leaves", facing.len()));
+        }
+        if anchors.len() != n_values {
+            return bad(format!("{} leaf anchors for {n_values} valid leaves", anchors.len()));
         }
         if let Some(f) = facing.iter().find(|&&f| f & !super::ALL_FACING != 0) {
             return bad(format!("facing bits {f:#010b} beyond the six matrices"));
@@ -225,7 +238,7 @@ impl Octree {
             LeafValueParts::Compressed(v) => LeafValues::Compressed(v),
             LeafValueParts::Full(v) => LeafValues::Full(v),
         };
-        let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes() + facing.len();
+        let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes() + facing.len() + std::mem::size_of_val(anchors.as_slice());
         let stats = OctreeStats {
             bytes,
             bytes_per_valid_leaf: if nv > 0 { bytes as f64 / nv as f64 } else { 0.0 },
@@ -237,6 +250,7 @@ impl Octree {
             nodes: nodes.len(),
             max_depth: walk.max_depth,
             min_leaf_size,
+            h_max: h,
             ..stats
         };
         Ok(Octree {
@@ -248,6 +262,7 @@ impl Octree {
             nodes: nodes.into_iter().map(|[link, photons]| Node { link, photons }).collect(),
             values,
             facing,
+            anchors,
             query_half: 0.5 * settings.alpha * min_leaf_size,
             settings,
             stats,
@@ -330,7 +345,15 @@ mod tests {
                 }),
             ),
             ("facing", Box::new(|p| p.facing = vec![1; 3])),
-            ("h_max", Box::new(|p| p.settings.h_max = 1)),
+            ("h_max", Box::new(|p| p.h_max = 1)),
+            ("h_max", Box::new(|p| p.h_max = MAX_DEPTH + 1)),
+            ("h_max", Box::new(|p| p.settings.h_max = Depth::Fixed(p.h_max + 1))),
+            (
+                "anchors",
+                Box::new(|p| {
+                    p.anchors.pop();
+                }),
+            ),
             ("alpha", Box::new(|p| p.settings.alpha = f32::NAN)),
             ("root cube", Box::new(|p| p.size = -1.0)),
             ("root cube", Box::new(|p| p.origin.x = f32::INFINITY)),

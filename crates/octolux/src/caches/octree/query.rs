@@ -12,7 +12,7 @@
 
 use super::cells::{quantize, TreeView};
 use super::compress::{decompress_matrix, tables, MATRIX_BYTES};
-use super::{LeafInfo, LeafValues, Octree, ALL_FACING, NO_VALUE};
+use super::{LeafInfo, LeafValues, Octree, QueryLeaf, ALL_FACING, NO_VALUE};
 use crate::math::{Bounds3, Color};
 use glam::{Mat3, Vec3};
 
@@ -30,17 +30,32 @@ impl Octree {
         TreeView { nodes: &self.nodes, origin: self.origin, cell_size: &self.cell_size }
     }
 
-    /// Visit the valid leaves overlapping the query box centred on `p`: `f(value, γ)`.
+    /// Visit the valid leaves overlapping the query box centred on `p`: `f(value, γ, depth, ijk)`.
     #[inline]
-    fn visit_query<F: FnMut(usize, f32)>(&self, p: Vec3, mut f: F) {
+    fn visit_query<F: FnMut(usize, f32, u32, [u32; 3])>(&self, p: Vec3, mut f: F) {
         let h = Vec3::splat(self.query_half);
         let nodes = &self.nodes;
-        self.view().visit(p - h, p + h, |node, _, _, g| {
+        self.view().visit(p - h, p + h, |node, depth, ijk, g| {
             let v = nodes[node as usize].value();
             if v != NO_VALUE {
-                f(v as usize, g);
+                f(v as usize, g, depth, ijk);
             }
         });
+    }
+
+    /// The anchor of valid leaf `v` (cell at `depth`, `ijk`) in world space.
+    #[inline]
+    fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3], k: usize) -> QueryLeaf {
+        let view = self.view();
+        let (cmin, s) = (view.cell_min(depth, ijk), self.cell_size[depth as usize]);
+        let a = &self.anchors[v];
+        let m = match &self.values {
+            LeafValues::Compressed(c) => decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
+            LeafValues::Full(f) => f[v][k],
+        };
+        let direction = (m.x_axis + m.y_axis + m.z_axis).normalize_or_zero();
+        let samples = a.samples.map(|x| (x.position(cmin, s), x.normal()));
+        QueryLeaf { position: a.mean.position(cmin, s), normal: a.mean.normal(), cell_size: s, direction, samples }
     }
 
     /// `M_{k,a}^{s(N_a)ᵀ} N` of one leaf for the three axes (not yet weighted by `N_a²`).
@@ -87,8 +102,16 @@ impl Octree {
     /// over the valid leaves whose matrix `(a, s(N_a))` carries a value ([`Octree::facing`];
     /// all of them unless `Split::Normal` knows the geometry); the `N_a²` are renormalised
     /// over the axes that got any leaf. `None` when no leaf contributes.
+    /// `keep`, when given, sees every valid leaf met and may drop it (leak control).
     #[inline]
-    fn blend<T>(&self, p: Vec3, n: Vec3, zero: T, leaf: impl Fn(usize, &([usize; 3], [f32; 3])) -> [T; 3]) -> Option<T>
+    fn blend<T>(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        zero: T,
+        mut keep: Option<&mut dyn FnMut(QueryLeaf) -> bool>,
+        leaf: impl Fn(usize, &([usize; 3], [f32; 3])) -> [T; 3],
+    ) -> Option<T>
     where
         T: Copy + std::ops::AddAssign + std::ops::Mul<f32, Output = T>,
     {
@@ -96,9 +119,22 @@ impl Octree {
             return None;
         }
         let sel = selection(n);
+        // the matrix of the dominant axis, for the leak test's direction
+        let dom = sel.0[if sel.1[0] >= sel.1[1] && sel.1[0] >= sel.1[2] {
+            0
+        } else if sel.1[1] >= sel.1[2] {
+            1
+        } else {
+            2
+        }];
         let mut sum = [zero; 3];
         let mut wsum = [0.0f32; 3];
-        self.visit_query(p, |v, g| {
+        self.visit_query(p, |v, g, depth, ijk| {
+            if let Some(k) = keep.as_mut() {
+                if !k(self.query_leaf(v, depth, ijk, dom)) {
+                    return;
+                }
+            }
             let bits = self.facing.get(v).copied().unwrap_or(ALL_FACING);
             let terms = leaf(v, &sel);
             for a in 0..3 {
@@ -130,13 +166,27 @@ impl Octree {
     /// negative channels clamped to 0. `None` when no valid leaf meets the query box (or
     /// `p`/`n` is not finite).
     pub fn irradiance(&self, p: Vec3, n: Vec3) -> Option<Color> {
-        self.blend(p, n, Vec3::ZERO, |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
+        self.blend(p, n, Vec3::ZERO, None, |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
     }
 
     /// The blended incident-radiance matrix `M(N)` at `p` (columns = r, g, b irradiance
     /// vectors), for glossy shading. `None` as for [`Octree::irradiance`].
     pub fn incident_matrix(&self, p: Vec3, n: Vec3) -> Option<Mat3> {
-        self.blend(p, n, Mat3::ZERO, |v, sel| self.leaf_matrix(v, sel))
+        self.blend(p, n, Mat3::ZERO, None, |v, sel| self.leaf_matrix(v, sel))
+    }
+
+    /// [`Octree::irradiance`] over the valid leaves that `keep` accepts: it sees each leaf's
+    /// anchor (where its photons lie) and says whether that light can reach `p`, e.g. by a
+    /// visibility ray (leak control, see the module docs). Where `keep` accepts every leaf the
+    /// result is [`Octree::irradiance`]'s, with the same continuity.
+    pub fn irradiance_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> bool) -> Option<Color> {
+        self.blend(p, n, Vec3::ZERO, Some(keep), |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
+    }
+
+    /// [`Octree::incident_matrix`] over the valid leaves that `keep` accepts (see
+    /// [`Octree::irradiance_where`]).
+    pub fn incident_matrix_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> bool) -> Option<Mat3> {
+        self.blend(p, n, Mat3::ZERO, Some(keep), |v, sel| self.leaf_matrix(v, sel))
     }
 
     /// The six matrices of the valid leaf containing `p` (decompressed), in the order

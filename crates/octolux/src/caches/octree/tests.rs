@@ -56,7 +56,16 @@ fn mat_close(a: &Mat3, b: &Mat3, tol: f32) -> bool {
 }
 
 fn settings(estimator: Estimator, storage: Storage) -> OctreeSettings {
-    OctreeSettings { h_max: 3, n_min: 0, n_max: 100, epsilon: 0.25, alpha: 1.5, estimator, storage, ..OctreeSettings::default() }
+    OctreeSettings {
+        h_max: Depth::Fixed(3),
+        n_min: 0,
+        n_max: 100,
+        epsilon: 0.25,
+        alpha: 1.5,
+        estimator,
+        storage,
+        ..OctreeSettings::default()
+    }
 }
 
 /// Number of grid points of one axis inside the enlarged depth-3 cell `c` (`ε = 0.25`:
@@ -199,7 +208,7 @@ fn geometry_area_is_exact_in_a_corner_with_two_beams() {
         m
     };
     let s = OctreeSettings {
-        h_max: 3,
+        h_max: Depth::Fixed(3),
         n_max: 100,
         epsilon: 0.25,
         estimator: Estimator::GeometryArea,
@@ -272,7 +281,7 @@ fn geometry_area_fixes_the_dark_sphere() {
             silhouette += area * n.dot(w);
         }
     }
-    let s = OctreeSettings { h_max: 3, n_min: 0, n_max: 10, epsilon: 0.25, storage: Storage::Full, ..Default::default() };
+    let s = OctreeSettings { h_max: Depth::Fixed(3), n_min: 0, n_max: 10, epsilon: 0.25, storage: Storage::Full, ..Default::default() };
     let truth = Mat3::from_cols(w * col.x, w * col.y, w * col.z) * e_perp;
     let ga =
         Octree::build(&photons, unit_cube(), &OctreeSettings { estimator: Estimator::GeometryArea, ..s.clone() }, Some(&tris)).unwrap();
@@ -311,7 +320,7 @@ pub(crate) fn cornell_photons(n: usize, seed: u64) -> Vec<Photon> {
         .collect()
 }
 
-fn cornell_geometry() -> Vec<[Vec3; 3]> {
+pub(crate) fn cornell_geometry() -> Vec<[Vec3; 3]> {
     let mut g = Vec::new();
     for axis in 0..3 {
         for side in [0.0f32, 1.0] {
@@ -331,7 +340,7 @@ fn cornell_geometry() -> Vec<[Vec3; 3]> {
 #[test]
 fn subdivision_invariants_hold() {
     let photons = cornell_photons(200_000, 1);
-    let s = OctreeSettings { h_max: 5, n_max: 300, ..Default::default() };
+    let s = OctreeSettings { h_max: Depth::Fixed(5), n_max: 300, ..Default::default() };
     let t = Octree::build(&photons, unit_cube(), &s, None).unwrap();
     let leaves = t.leaf_infos();
     let st = t.stats();
@@ -351,10 +360,12 @@ fn subdivision_invariants_hold() {
     }
     // no leaf over n_max unless at h_max; atmospheric = empty
     for l in &leaves {
-        assert!(l.photons <= s.n_max || l.depth == s.h_max, "{l:?}");
+        assert!(l.photons <= s.n_max || Depth::Fixed(l.depth) == s.h_max, "{l:?}");
         assert_eq!(l.valid, l.photons > 0);
     }
-    assert_eq!(st.bytes, st.nodes * 8 + st.valid_leaves * 36);
+    // nodes, 36-byte leaves and 30 bytes of leak-test anchors per valid leaf
+    assert_eq!(std::mem::size_of::<LeafAnchors>(), 30);
+    assert_eq!(st.bytes, st.nodes * 8 + st.valid_leaves * (36 + 30));
     assert_eq!(st.depth_histogram.iter().sum::<u32>() as usize, st.valid_leaves);
 }
 
@@ -380,7 +391,7 @@ fn bad_settings_and_inputs_give_errors() {
     let d = OctreeSettings::default();
     let bad = [
         OctreeSettings { n_min: 10, n_max: 5, ..d.clone() },
-        OctreeSettings { h_max: 30, ..d.clone() },
+        OctreeSettings { h_max: Depth::Fixed(30), ..d.clone() },
         OctreeSettings { epsilon: -1.0, ..d.clone() },
         OctreeSettings { alpha: 0.0, ..d.clone() },
         OctreeSettings { alpha: f32::NAN, ..d.clone() },
@@ -401,7 +412,7 @@ fn bad_settings_and_inputs_give_errors() {
 #[test]
 fn query_weights_sum_to_the_box_volume_inside_valid_cells() {
     let photons = cornell_photons(100_000, 4);
-    let s = OctreeSettings { h_max: 5, n_max: 200, alpha: 1.7, ..Default::default() };
+    let s = OctreeSettings { h_max: Depth::Fixed(5), n_max: 200, alpha: 1.7, ..Default::default() };
     let t = Octree::build(&photons, unit_cube(), &s, None).unwrap();
     let leaves = t.leaf_infos();
     let cube = t.bounds();
@@ -468,7 +479,7 @@ fn build_is_deterministic_for_one_and_two_threads() {
     let photons = cornell_photons(150_000, 5);
     let geometry = cornell_geometry();
     for (estimator, storage) in [(Estimator::Paper, Storage::Compressed), (Estimator::GeometryArea, Storage::Full)] {
-        let s = OctreeSettings { h_max: 5, n_max: 150, estimator, storage, ..Default::default() };
+        let s = OctreeSettings { h_max: Depth::Fixed(5), n_max: 150, estimator, storage, ..Default::default() };
         let run = |threads: usize| -> Result<Octree, Box<dyn std::error::Error>> {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
             Ok(pool.install(|| Octree::build(&photons, unit_cube(), &s, Some(&geometry)))?)
@@ -500,7 +511,7 @@ fn diffuse_field_on_walls_paper_two_thirds_cosine_unbiased() {
     let geometry = cornell_geometry();
     let mut got = Vec::new();
     for estimator in [Estimator::Paper, Estimator::Cosine, Estimator::GeometryArea] {
-        let s = OctreeSettings { h_max: 4, n_max: 2000, estimator, ..Default::default() };
+        let s = OctreeSettings { h_max: Depth::Fixed(4), n_max: 2000, estimator, ..Default::default() };
         let t = Octree::build(&photons, unit_cube(), &s, Some(&geometry)).unwrap();
         // the floor (z = 0, white), averaged over a patch away from the edges
         let mut sum = 0.0f64;
@@ -522,7 +533,7 @@ fn diffuse_field_on_walls_paper_two_thirds_cosine_unbiased() {
 #[test]
 fn enlarge_and_n_min_options_do_what_they_say() {
     let photons = cornell_photons(100_000, 7);
-    let base = OctreeSettings { h_max: 5, n_min: 40, n_max: 300, ..Default::default() };
+    let base = OctreeSettings { h_max: Depth::Fixed(5), n_min: 40, n_max: 300, ..Default::default() };
     let all = Octree::build(&photons, unit_cube(), &base, None).unwrap();
     let under = Octree::build(&photons, unit_cube(), &OctreeSettings { enlarge: Enlarge::UnderNMin, ..base.clone() }, None).unwrap();
     let none = Octree::build(&photons, unit_cube(), &OctreeSettings { epsilon: 0.0, ..base.clone() }, None).unwrap();
@@ -537,8 +548,8 @@ fn enlarge_and_n_min_options_do_what_they_say() {
     let loose = Octree::build(&photons, unit_cube(), &OctreeSettings { split_respects_n_min: false, ..strict_s.clone() }, None).unwrap();
     let strict = Octree::build(&photons, unit_cube(), &strict_s, None).unwrap();
     let leaves = strict.leaf_infos();
-    assert!(leaves.iter().any(|l| l.photons > base.n_max && l.depth < base.h_max));
-    assert!(loose.leaf_infos().iter().all(|l| l.photons <= base.n_max || l.depth == base.h_max));
+    assert!(leaves.iter().any(|l| l.photons > base.n_max && Depth::Fixed(l.depth) != base.h_max));
+    assert!(loose.leaf_infos().iter().all(|l| l.photons <= base.n_max || Depth::Fixed(l.depth) == base.h_max));
     assert!(strict.stats().valid_leaves < loose.stats().valid_leaves);
     for l in leaves.iter().filter(|l| l.depth > 0) {
         // a leaf under n_min exists only if it has no photons
@@ -574,7 +585,7 @@ fn diffuse_field(origin: Vec3, u: Vec3, v: Vec3, n: Vec3, power: Vec3, count: u6
 
 /// Depth-3 leaves (the photon counts below split every cell the surfaces cross).
 fn normal_split(split: Split) -> OctreeSettings {
-    OctreeSettings { h_max: 3, n_min: 0, n_max: 1000, split, ..settings(Estimator::GeometryArea, Storage::Full) }
+    OctreeSettings { h_max: Depth::Fixed(3), n_min: 0, n_max: 1000, split, ..settings(Estimator::GeometryArea, Storage::Full) }
 }
 
 /// A plane tilted by 30° about the y axis under a diffuse field: the paper's split by the
