@@ -53,15 +53,7 @@ pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
     let loaded = load(&args.scene)?;
     let desc = loaded.desc;
     let mut flags = args.octree.settings();
-    if let Some(d) = args.max_depth {
-        flags.push(settings::FlagSetting {
-            flag: "--max-depth",
-            only: None,
-            keys: vec![keys::MAX_DEPTH.into()],
-            value: json!(d),
-            at_most: false,
-        });
-    }
+    flags.extend(args.max_depth.map(settings::max_depth_flag));
     let resolved = settings::resolve(&SettingsInput {
         integrator: Some("octree"),
         base: None,

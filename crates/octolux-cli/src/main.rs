@@ -120,15 +120,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
 
     // The integrator's settings, checked before any long work.
     let mut flags = args.octree.settings();
-    if let Some(d) = args.max_depth {
-        flags.push(settings::FlagSetting {
-            flag: "--max-depth",
-            only: None,
-            keys: vec![keys::MAX_DEPTH.into()],
-            value: json!(d),
-            at_most: false,
-        });
-    }
+    flags.extend(args.max_depth.map(settings::max_depth_flag));
     let (integrator_name, base, derived) = match &cache {
         // the cache's settings are the defaults; nothing is derived from the scene or the seed
         Some((c, _)) => (Some("octree"), Some(bake::base_settings(c)?), vec![]),

@@ -18,6 +18,7 @@
 //! density.r_max.absolute=30` replaces `{"relative": ...}` by `{"absolute": 30}`. The
 //! deserialization then decides, and a key it drops is reported as unknown too.
 
+use crate::args::keys;
 use anyhow::{anyhow, bail, Context, Result};
 use octolux::integrators::IntegratorSettings;
 use serde_json::{Map, Value};
@@ -38,6 +39,11 @@ pub struct FlagSetting {
     pub value: Value,
     /// Lower the (numeric) value at the keys to at most `value` instead of replacing it.
     pub at_most: bool,
+}
+
+/// What `--max-depth D` writes (render and bake alike).
+pub fn max_depth_flag(d: i32) -> FlagSetting {
+    FlagSetting { flag: "--max-depth", only: None, keys: vec![keys::MAX_DEPTH.into()], value: serde_json::json!(d), at_most: false }
 }
 
 /// Everything the settings of one render come from.

@@ -21,22 +21,29 @@ impl Image {
     /// `flip_tex_coords`), so an OBJ's `(0,0)` ends up at the bottom-left as in Mitsuba.
     /// An empty or inconsistent image, or a non-finite `uv`, reads as black.
     pub fn lookup(&self, uv: Vec2) -> Color {
+        let Some(([i00, i10, i01, i11], fx, fy)) = self.bilinear_taps(uv) else { return Color::ZERO };
+        let top = self.data[i00] * (1.0 - fx) + self.data[i10] * fx;
+        let bottom = self.data[i01] * (1.0 - fx) + self.data[i11] * fx;
+        top * (1.0 - fy) + bottom * fy
+    }
+
+    /// The texels of the bilinear, repeat-wrapped lookup at `uv` ([`Image::lookup`]'s
+    /// convention): indices into `data` of `(x0, y0)`, `(x1, y0)`, `(x0, y1)`, `(x1, y1)`, and
+    /// the weights `(fx, fy)` of `x1` and `y1`. `None` for an empty or inconsistent image or a
+    /// non-finite `uv`.
+    pub fn bilinear_taps(&self, uv: Vec2) -> Option<([usize; 4], f32, f32)> {
         let (w, h) = (self.width as usize, self.height as usize);
         if w == 0 || h == 0 || self.data.len() < w * h || !uv.is_finite() {
-            return Color::ZERO;
+            return None;
         }
         let x = uv.x * w as f32 - 0.5;
         let y = uv.y * h as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
         let ix0 = (x0 as i64).rem_euclid(w as i64) as usize;
         let iy0 = (y0 as i64).rem_euclid(h as i64) as usize;
         let ix1 = if ix0 + 1 == w { 0 } else { ix0 + 1 };
         let iy1 = if iy0 + 1 == h { 0 } else { iy0 + 1 };
-        let at = |ix: usize, iy: usize| self.data[iy * w + ix];
-        let top = at(ix0, iy0) * (1.0 - fx) + at(ix1, iy0) * fx;
-        let bottom = at(ix0, iy1) * (1.0 - fx) + at(ix1, iy1) * fx;
-        top * (1.0 - fy) + bottom * fy
+        Some(([iy0 * w + ix0, iy0 * w + ix1, iy1 * w + ix0, iy1 * w + ix1], x - x0, y - y0))
     }
 
     /// The texel containing `uv` (Mitsuba's `nearest` filter: `⌊u·W⌋, ⌊v·H⌋`, repeat wrap).

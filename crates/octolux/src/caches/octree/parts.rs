@@ -200,9 +200,6 @@ impl Octree {
         if !facing.is_empty() && facing.len() != n_values {
             return bad(format!("{} facing entries for {n_values} valid leaves", facing.len()));
         }
-        if anchors.len() != n_values {
-            return bad(format!("{} leaf anchors for {n_values} valid leaves", anchors.len()));
-        }
         if let Some(f) = facing.iter().find(|&&f| f & !super::ALL_FACING != 0) {
             return bad(format!("facing bits {f:#010b} beyond the six matrices"));
         }
@@ -230,6 +227,9 @@ impl Octree {
         }
         if walk.next_value as usize != n_values {
             return bad(format!("{} valid leaves, {n_values} values", walk.next_value));
+        }
+        if anchors.len() != n_values {
+            return bad(format!("{} leaf anchors for {n_values} valid leaves", anchors.len()));
         }
         let nv = n_values;
         let mean = |s: f64| if nv > 0 { s / nv as f64 } else { 0.0 };

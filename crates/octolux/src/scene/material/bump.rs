@@ -41,21 +41,10 @@ use glam::{Vec2, Vec3};
 pub fn luminance_gradient(t: &Texture, images: &[Image], uv: Vec2) -> Vec2 {
     let Texture::Bitmap { image, uv_scale, .. } = t else { return Vec2::ZERO };
     let Some(im) = images.get(*image as usize) else { return Vec2::ZERO };
-    let st = uv * *uv_scale;
-    let (w, h) = (im.width as usize, im.height as usize);
-    if w == 0 || h == 0 || im.data.len() < w * h || !st.is_finite() {
-        return Vec2::ZERO;
-    }
-    let x = st.x * w as f32 - 0.5;
-    let y = st.y * h as f32 - 0.5;
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
-    let ix0 = (x0 as i64).rem_euclid(w as i64) as usize;
-    let iy0 = (y0 as i64).rem_euclid(h as i64) as usize;
-    let ix1 = if ix0 + 1 == w { 0 } else { ix0 + 1 };
-    let iy1 = if iy0 + 1 == h { 0 } else { iy0 + 1 };
-    let at = |ix: usize, iy: usize| luminance(im.data[iy * w + ix]);
-    let (v00, v10, v01, v11) = (at(ix0, iy0), at(ix1, iy0), at(ix0, iy1), at(ix1, iy1));
+    let Some(([i00, i10, i01, i11], fx, fy)) = im.bilinear_taps(uv * *uv_scale) else { return Vec2::ZERO };
+    let (w, h) = (im.width, im.height);
+    let at = |i: usize| luminance(im.data[i]);
+    let (v00, v10, v01, v11) = (at(i00), at(i10), at(i01), at(i11));
     let du = ((v10 - v00) * (1.0 - fy) + (v11 - v01) * fy) * w as f32;
     let dv = ((v01 - v00) * (1.0 - fx) + (v11 - v10) * fx) * h as f32;
     let g = Vec2::new(du, dv) * *uv_scale;
