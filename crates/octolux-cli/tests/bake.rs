@@ -189,7 +189,7 @@ fn broken_cache_files_are_refused_with_their_name_before_the_scene_is_read() {
         b
     };
     let mut future = good.clone();
-    future[8] = 2;
+    future[8..12].copy_from_slice(&(octolux_io::cache::FORMAT_VERSION + 1).to_le_bytes());
     let mut flipped = good.clone();
     flipped[good.len() / 2] ^= 0x10;
     let mut magic = good.clone();
