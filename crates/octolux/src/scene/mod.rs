@@ -230,6 +230,7 @@ impl Scene {
             }
         }
         mask_nested.resize(materials.len(), None);
+        material::plastic::precompute_plastic_tables(&materials);
         Ok(Scene {
             materials,
             images: desc.images,

@@ -470,6 +470,31 @@ fn plastic_tables_approach_smooth_fresnel() {
     assert!(std::ptr::eq(r, plastic_tables(MicrofacetKind::Ggx, 0.4, eta)), "cached");
 }
 
+/// Tables computed ahead (scene preparation, in parallel) are published for the lazy lookup and
+/// hold the same bits as computed on first use. Alphas used by no other test, so that the
+/// process-wide cache cannot hold them yet.
+#[test]
+fn precomputed_plastic_tables_are_the_lazy_ones() {
+    let (a, b) = (0.3173, 0.2119);
+    let nested = |alpha: f32| Material::TwoSided {
+        front: Box::new(rough_plastic(alpha, white(0.5))),
+        back: Box::new(rough_plastic(alpha, white(0.5))),
+    };
+    let materials =
+        [nested(a), Material::Mask { opacity: Texture::Const(white(0.5)), nested: Box::new(nested(b)) }, rough_plastic(a, white(0.2))];
+    super::plastic::precompute_plastic_tables(&materials);
+    for alpha in [a, b] {
+        let published = plastic_tables(MicrofacetKind::Ggx, alpha, 1.49);
+        let fresh = PlasticTables::compute(MicrofacetKind::Ggx, alpha, 1.49);
+        assert_eq!(published.external_transmittance.map(f32::to_bits), fresh.external_transmittance.map(f32::to_bits));
+        assert_eq!(published.internal_reflectance.to_bits(), fresh.internal_reflectance.to_bits());
+    }
+    // a second call finds them all and publishes nothing new: the same table stays in use
+    let before = plastic_tables(MicrofacetKind::Ggx, a, 1.49) as *const PlasticTables;
+    super::plastic::precompute_plastic_tables(&materials);
+    assert!(std::ptr::eq(before, plastic_tables(MicrofacetKind::Ggx, a, 1.49)));
+}
+
 #[test]
 fn validation_rejects_bad_parameters() {
     assert!(Material::Diffuse { reflectance: Texture::Const(white(0.5)) }.validate(0).is_ok());
