@@ -45,6 +45,13 @@ pub(crate) struct PlasticTables {
 
 impl PlasticTables {
     pub(crate) fn compute(kind: MicrofacetKind, alpha: f32, eta: f32) -> PlasticTables {
+        Self::compute_in(kind, alpha, eta, false)
+    }
+
+    /// [`PlasticTables::compute`], its 64 angles in parallel when `parallel` (only outside the
+    /// lock of [`plastic_tables`], see [`precompute_plastic_tables`]); the same bits either way.
+    fn compute_in(kind: MicrofacetKind, alpha: f32, eta: f32, parallel: bool) -> PlasticTables {
+        use rayon::prelude::*;
         let ggx = Microfacet::isotropic(kind, alpha);
         let mus: Vec<f32> = (0..PLASTIC_TABLE_RES).map(|i| (i as f32 / (PLASTIC_TABLE_RES - 1) as f32).max(1e-6)).collect();
         // Integrate over the visible-normal sample space [0,1]² like Mitsuba's
@@ -79,11 +86,13 @@ impl PlasticTables {
             }
             acc
         };
+        let row = |&mu: &f32| (quad(eta, mu, true) as f32, quad(1.0 / eta, mu, false) * mu as f64);
+        let rows: Vec<(f32, f64)> = if parallel { mus.par_iter().map(row).collect() } else { mus.iter().map(row).collect() };
         let mut external_transmittance = [0.0f32; PLASTIC_TABLE_RES];
-        for (t, &mu) in external_transmittance.iter_mut().zip(&mus) {
-            *t = quad(eta, mu, true) as f32;
+        for (t, r) in external_transmittance.iter_mut().zip(&rows) {
+            *t = r.0;
         }
-        let internal = mus.iter().map(|&mu| quad(1.0 / eta, mu, false) * mu as f64).sum::<f64>() / PLASTIC_TABLE_RES as f64 * 2.0;
+        let internal = rows.iter().map(|r| r.1).sum::<f64>() / PLASTIC_TABLE_RES as f64 * 2.0;
         PlasticTables { external_transmittance, internal_reflectance: internal as f32 }
     }
 
@@ -165,7 +174,7 @@ pub(crate) fn precompute_plastic_tables(materials: &[super::Material]) {
         }
     }
     let wanted = distinct;
-    let computed: Vec<PlasticTables> = wanted.par_iter().map(|&(k, a, e)| PlasticTables::compute(k, a, e)).collect();
+    let computed: Vec<PlasticTables> = wanted.par_iter().map(|&(k, a, e)| PlasticTables::compute_in(k, a, e, true)).collect();
     let mut g = GLOBAL_TABLES.lock().unwrap_or_else(|e| e.into_inner());
     for (w, t) in wanted.iter().zip(computed) {
         if !g.iter().any(|e| e.0 == bits(w)) {
