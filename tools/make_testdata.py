@@ -120,29 +120,35 @@ def normal_pixel(x: int, y: int) -> tuple[float, float, float]:
     return ((nx + 1) / 2, (ny + 1) / 2, (nz + 1) / 2)
 
 
-ENVMAP_XML = """<?xml version="1.0" encoding="utf-8"?>
-<!-- Written by tools/make_testdata.py: an envmap-lit scene (see its docstring). -->
+def scene_head(comment: str, max_depth: int, fov: int, origin: str, target: str, width: int, height: int) -> str:
+    """What every generated scene starts with: Mitsuba 3's path integrator and a perspective
+    camera (x field of view, 64 spp, box filter) looking from `origin` to `target`, y up."""
+    return f"""<?xml version="1.0" encoding="utf-8"?>
+<!-- Written by tools/make_testdata.py: {comment} -->
 <scene version="3.0.0">
     <integrator type="path">
-        <integer name="max_depth" value="8"/>
+        <integer name="max_depth" value="{max_depth}"/>
     </integrator>
 
     <sensor type="perspective">
-        <float name="fov" value="45"/>
+        <float name="fov" value="{fov}"/>
         <string name="fov_axis" value="x"/>
         <transform name="to_world">
-            <lookat origin="0, 1.3, 4" target="0, 0.45, 0" up="0, 1, 0"/>
+            <lookat origin="{origin}" target="{target}" up="0, 1, 0"/>
         </transform>
         <sampler type="independent">
             <integer name="sample_count" value="64"/>
         </sampler>
         <film type="hdrfilm">
-            <integer name="width" value="320"/>
-            <integer name="height" value="240"/>
+            <integer name="width" value="{width}"/>
+            <integer name="height" value="{height}"/>
             <rfilter type="box"/>
         </film>
     </sensor>
+"""
 
+
+ENVMAP_XML = scene_head(comment='an envmap-lit scene (see its docstring).', max_depth=8, fov=45, origin='0, 1.3, 4', target='0, 0.45, 0', width=320, height=240) + """
     <emitter type="envmap">
         <string name="filename" value="sky.hdr"/>
         <float name="scale" value="1.5"/>
@@ -171,30 +177,7 @@ ENVMAP_XML = """<?xml version="1.0" encoding="utf-8"?>
 </scene>
 """
 
-MIRRORED_XML = """<?xml version="1.0" encoding="utf-8"?>
-<!-- Written by tools/make_testdata.py: analytic shapes and emitters under mirroring transforms
-     (negative determinant); see its docstring. -->
-<scene version="3.0.0">
-    <integrator type="path">
-        <integer name="max_depth" value="6"/>
-    </integrator>
-
-    <sensor type="perspective">
-        <float name="fov" value="50"/>
-        <string name="fov_axis" value="x"/>
-        <transform name="to_world">
-            <lookat origin="0.3, 1.6, 4.2" target="0, 0.7, 0" up="0, 1, 0"/>
-        </transform>
-        <sampler type="independent">
-            <integer name="sample_count" value="64"/>
-        </sampler>
-        <film type="hdrfilm">
-            <integer name="width" value="320"/>
-            <integer name="height" value="240"/>
-            <rfilter type="box"/>
-        </film>
-    </sensor>
-
+MIRRORED_XML = scene_head(comment='analytic shapes and emitters under mirroring transforms\n     (negative determinant); see its docstring.', max_depth=6, fov=50, origin='0.3, 1.6, 4.2', target='0, 0.7, 0', width=320, height=240) + """
     <bsdf type="diffuse" id="white">
         <rgb name="reflectance" value="0.7, 0.7, 0.7"/>
     </bsdf>
@@ -281,29 +264,7 @@ MIRRORED_XML = """<?xml version="1.0" encoding="utf-8"?>
 """
 
 
-WRAPPERS_XML = """<?xml version="1.0" encoding="utf-8"?>
-<!-- Written by tools/make_testdata.py: Mitsuba 3's mask, bumpmap and normalmap (see its docstring). -->
-<scene version="3.0.0">
-    <integrator type="path">
-        <integer name="max_depth" value="6"/>
-    </integrator>
-
-    <sensor type="perspective">
-        <float name="fov" value="50"/>
-        <string name="fov_axis" value="x"/>
-        <transform name="to_world">
-            <lookat origin="0, 2.2, 4.0" target="0, 0.4, 0" up="0, 1, 0"/>
-        </transform>
-        <sampler type="independent">
-            <integer name="sample_count" value="64"/>
-        </sampler>
-        <film type="hdrfilm">
-            <integer name="width" value="160"/>
-            <integer name="height" value="120"/>
-            <rfilter type="box"/>
-        </film>
-    </sensor>
-
+WRAPPERS_XML = scene_head(comment="Mitsuba 3's mask, bumpmap and normalmap (see its docstring).", max_depth=6, fov=50, origin='0, 2.2, 4.0', target='0, 0.4, 0', width=160, height=120) + """
     <bsdf type="diffuse" id="white">
         <rgb name="reflectance" value="0.6, 0.6, 0.6"/>
     </bsdf>

@@ -21,6 +21,7 @@
 use crate::args::keys;
 use anyhow::{anyhow, bail, Context, Result};
 use octolux::integrators::IntegratorSettings;
+use octolux_io::mitsuba::PATH_TRACERS;
 use serde_json::{Map, Value};
 use std::collections::HashSet;
 use std::path::Path;
@@ -174,10 +175,6 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
     }
     Ok(Resolved { settings, warnings })
 }
-
-/// Mitsuba integrators whose image octolux's `path` renders (path tracers: the volumetric and
-/// differentiable variants give the same image on surface scenes).
-const PATH_TRACERS: &[&str] = &["path", "volpath", "volpathmis", "prb", "prb_basic", "prbvolpath"];
 
 /// Mitsuba integrators of other methods that converge to the image a path tracer converges to
 /// (unbiased or consistent light transport on surface scenes): octolux's `path` renders that

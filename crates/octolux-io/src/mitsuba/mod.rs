@@ -116,6 +116,10 @@ fn collect_refs(e: &Elem, refs: &mut HashSet<String>) {
     }
 }
 
+/// Mitsuba integrators whose image octolux's `path` renders (path tracers: the volumetric and
+/// differentiable variants give the same image on surface scenes).
+pub const PATH_TRACERS: &[&str] = &["path", "volpath", "volpathmis", "prb", "prb_basic", "prbvolpath"];
+
 /// Map every object `id` to its element; duplicate ids are an error.
 fn collect_ids<'t>(e: &'t Elem, ids: &mut HashMap<String, &'t Elem>, aliases: &mut Vec<&'t Elem>) -> Result<(), IoError> {
     for c in &e.children {
@@ -239,16 +243,16 @@ impl<'t> Builder<'t> {
                 return Err(e.loc.error(format!("{}: max_depth {d} must be -1 (unbounded) or >= 0", e.describe())));
             }
         }
-        const PATH_LIKE: &[&str] =
-            &["path", "volpath", "volpathmis", "prb", "prb_basic", "prbvolpath", "ptracer", "bdpt", "photonmapper", "ppm", "sppm"];
-        self.desc.hints.max_depth = depth.map(|d| d as i32).or(PATH_LIKE.contains(&ty).then_some(-1));
+        // Other methods whose max_depth means a path tracer's (unbounded by default).
+        const OTHER_PATH_METHODS: &[&str] = &["ptracer", "bdpt", "photonmapper", "ppm", "sppm"];
+        let path_like = PATH_TRACERS.contains(&ty) || OTHER_PATH_METHODS.contains(&ty);
+        self.desc.hints.max_depth = depth.map(|d| d as i32).or(path_like.then_some(-1));
         self.desc.hints.integrator = Some(ty.to_string());
         // Russian roulette only changes the variance.
         p.accept(&["rr_depth"]);
         // The parameters of another method's integrator (sppm's photon counts, ...) say nothing
         // about the image octolux renders: one line names them all. A path tracer's are
         // reported one by one, since some (`hide_emitters`, `strict_normals`) change its image.
-        const PATH_TRACERS: &[&str] = &["path", "volpath", "volpathmis", "prb", "prb_basic", "prbvolpath"];
         if !PATH_TRACERS.contains(&ty) {
             let names = p.take_unused_values();
             if !names.is_empty() {
@@ -259,7 +263,7 @@ impl<'t> Builder<'t> {
                 );
                 // Another method's tuning of how it converges (sppm's photon counts, ...) does
                 // not change the image it converges to: a note. An unknown type's: a warning.
-                if PATH_LIKE.contains(&ty) {
+                if path_like {
                     self.notes.push(e.warning(msg));
                 } else {
                     self.warn(e, msg);
