@@ -187,11 +187,7 @@ impl OctreeArgs {
 
 /// Settings keys the CLI itself names (the flags above, and the values it derives from the
 /// scene and the render: `max_depth`, the photon seed).
-pub mod keys {
-    pub const PHOTON_COUNT: &str = "photons.photons";
-    pub const PHOTON_SEED: &str = "photons.seed";
-    pub const MAX_DEPTH: &str = "max_depth";
-}
+pub use octolux_io::settings::keys;
 
 #[derive(Clone, Copy, ValueEnum, PartialEq, Eq, Debug)]
 pub enum ReconstructionArg {

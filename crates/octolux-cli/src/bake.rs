@@ -21,9 +21,6 @@ use serde_json::{json, Value};
 use std::path::Path;
 use std::time::Instant;
 
-/// The settings keys that shape the octrees: a render from a cache may not change them.
-pub const BAKE_KEYS: [&str; 4] = ["photons", "global", "caustic", "max_depth"];
-
 /// Checks shared by `render` and `bake` before any work: threads, memory limit, max depth.
 pub fn check_run_flags(threads: Option<usize>, memory_limit: Option<&str>, max_depth: Option<i32>) -> Result<()> {
     if let Some(n) = threads {
@@ -118,26 +115,12 @@ pub fn read_cache(path: &Path) -> Result<(LoadedCache, f64)> {
 
 /// The cache's settings as the base layer of the render's (an object without `type`).
 pub fn base_settings(c: &LoadedCache) -> Result<Value> {
-    let mut v = serde_json::to_value(c.integrator.settings())?;
-    if let Value::Object(m) = &mut v {
-        m.remove("type");
-    }
-    Ok(v)
+    Ok(settings::cache_base(c)?)
 }
 
 /// Refuse resolved settings that differ from the cache's in a key that shaped the octrees.
 pub fn check_settings(path: &Path, c: &LoadedCache, resolved: &IntegratorSettings) -> Result<()> {
-    let (baked, now) = (serde_json::to_value(c.integrator.settings())?, serde_json::to_value(resolved)?);
-    let changed: Vec<&str> = BAKE_KEYS.iter().copied().filter(|k| baked.get(k) != now.get(k)).collect();
-    if !changed.is_empty() {
-        bail!(
-            "lighting cache {}: the settings {} differ from the bake's, and they shape the octrees: re-bake with them, or drop \
-             them (with --cache only `view` and `gather` may change)",
-            path.display(),
-            changed.join(", ")
-        );
-    }
-    Ok(())
+    Ok(settings::check_cache_settings(path, c, resolved)?)
 }
 
 /// Compare the scene's lighting fingerprint with the bake's: an error naming what changed,
@@ -149,21 +132,7 @@ pub fn check_fingerprint(
     scene_name: &str,
     allow_stale: bool,
 ) -> Result<Option<String>> {
-    let changes = scene.changes(&c.fingerprint);
-    if changes.is_empty() {
-        return Ok(None);
-    }
-    let what = changes.join(", ");
-    let msg = format!(
-        "lighting cache {} does not match scene '{scene_name}': the {what} changed since it was baked (from '{}')",
-        path.display(),
-        c.info.scene
-    );
-    if allow_stale {
-        Ok(Some(format!("{msg}; rendering anyway (--allow-stale-cache): the indirect light is the bake's")))
-    } else {
-        bail!("{msg}: re-bake it, or pass --allow-stale-cache to render with it anyway (camera and film changes need neither)")
-    }
+    cache::check_fingerprint(path, c, scene, scene_name, allow_stale).map_err(anyhow::Error::msg)
 }
 
 /// What `OUT.json` says of the cache.

@@ -363,6 +363,32 @@ pub fn read(path: &Path) -> Result<LoadedCache, IoError> {
     load_bytes(&bytes, true).map_err(|m| IoError::invalid(path, format!("cannot use this lighting cache: {m}")))
 }
 
+/// Compare a scene's lighting fingerprint with the bake's: an error naming what changed, or
+/// with `allow_stale` a warning (returned, for the caller to print).
+pub fn check_fingerprint(
+    path: &Path,
+    c: &LoadedCache,
+    scene: &LightingFingerprint,
+    scene_name: &str,
+    allow_stale: bool,
+) -> Result<Option<String>, String> {
+    let changes = scene.changes(&c.fingerprint);
+    if changes.is_empty() {
+        return Ok(None);
+    }
+    let what = changes.join(", ");
+    let msg = format!(
+        "lighting cache {} does not match scene '{scene_name}': the {what} changed since it was baked (from '{}')",
+        path.display(),
+        c.info.scene
+    );
+    if allow_stale {
+        Ok(Some(format!("{msg}; rendering anyway (--allow-stale-cache): the indirect light is the bake's")))
+    } else {
+        Err(format!("{msg}: re-bake it, or pass --allow-stale-cache to render with it anyway (camera and film changes need neither)"))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -12,6 +12,7 @@ pub mod fuzzing;
 pub mod image_io;
 pub mod mesh;
 pub mod mitsuba;
+pub mod settings;
 pub mod shared;
 
 use octolux::scene::SceneDesc;

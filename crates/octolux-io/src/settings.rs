@@ -1,0 +1,525 @@
+//! The integrator settings of one render, from four layers (later wins):
+//! Shared by the CLI and the Python module (one path from settings to an integrator).
+//!
+//! 1. the library's defaults for the chosen integrator (`IntegratorSettings::default_for`),
+//!    with what the CLI derives from the scene and the render (the scene's `max_depth`, the
+//!    render's seed for the photons), where the integrator has such a key;
+//! 2. `--settings FILE.json|FILE.toml`;
+//! 3. the flags (`--photons`, `--h-max`, ...: each knows its key paths, [`FlagSetting`]);
+//! 4. `--set KEY=VALUE`, dotted keys into the settings.
+//!
+//! The layers are merged as JSON values, then deserialized into the library's serde-tagged
+//! `IntegratorSettings`: nothing here knows an integrator by name, so adding one touches only
+//! the library. A key of the settings file or of `--set` is
+//! - written where it exists in the chosen integrator's settings;
+//! - a warning when another integrator has it (a shared settings file, a wrong `--integrator`);
+//! - otherwise an error naming it and listing the valid keys.
+//!
+//! A key below a value that is `null` (an `Option` left unset) or an object of one key (an
+//! enum variant, e.g. `density.r_max.relative`) switches that value: `--set
+//! density.r_max.absolute=30` replaces `{"relative": ...}` by `{"absolute": 30}`. The
+//! deserialization then decides, and a key it drops is reported as unknown too.
+
+use crate::cache::LoadedCache;
+use crate::mitsuba::PATH_TRACERS;
+use octolux::integrators::IntegratorSettings;
+use serde_json::{Map, Value};
+use std::collections::HashSet;
+use std::path::Path;
+
+/// Key paths the front ends (CLI, Python) write or read in the settings.
+pub mod keys {
+    pub const PHOTON_COUNT: &str = "photons.photons";
+    pub const PHOTON_SEED: &str = "photons.seed";
+    pub const MAX_DEPTH: &str = "max_depth";
+}
+
+/// A settings error; the message names the layer (settings file, flag, `--set`) and the key.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct SettingsError(pub String);
+
+type Result<T, E = SettingsError> = std::result::Result<T, E>;
+
+impl From<serde_json::Error> for SettingsError {
+    fn from(e: serde_json::Error) -> Self {
+        SettingsError(e.to_string())
+    }
+}
+
+macro_rules! bail {
+    ($($t:tt)*) => { return Err(SettingsError(format!($($t)*))) };
+}
+
+/// `anyhow`'s `with_context` for this module: the context, then the cause after a colon.
+trait Context<T> {
+    fn with_context(self, f: impl FnOnce() -> String) -> Result<T>;
+}
+
+impl<T, E: std::fmt::Display> Context<T> for std::result::Result<T, E> {
+    fn with_context(self, f: impl FnOnce() -> String) -> Result<T> {
+        self.map_err(|e| SettingsError(format!("{}: {e}", f())))
+    }
+}
+
+impl<T> Context<T> for Option<T> {
+    fn with_context(self, f: impl FnOnce() -> String) -> Result<T> {
+        self.ok_or_else(|| SettingsError(f()))
+    }
+}
+
+/// What one command-line flag writes into the settings.
+#[derive(Clone, Debug)]
+pub struct FlagSetting {
+    /// The flag as typed (`--h-max`), for messages.
+    pub flag: &'static str,
+    /// The one integrator the flag is meant for, if it is scoped to one (its keys may exist,
+    /// with another meaning, in other integrators: `n_max` of a photon map's estimate).
+    pub only: Option<&'static str>,
+    /// Dotted key paths written with `value`; those the integrator lacks are skipped, and the
+    /// flag warns when it lacks them all.
+    pub keys: Vec<String>,
+    pub value: Value,
+    /// Lower the (numeric) value at the keys to at most `value` instead of replacing it.
+    pub at_most: bool,
+}
+
+/// What `--max-depth D` writes (render and bake alike).
+pub fn max_depth_flag(d: i32) -> FlagSetting {
+    FlagSetting { flag: "--max-depth", only: None, keys: vec![keys::MAX_DEPTH.into()], value: serde_json::json!(d), at_most: false }
+}
+
+/// Everything the settings of one render come from.
+pub struct SettingsInput<'a> {
+    /// `--integrator`, if given.
+    pub integrator: Option<&'a str>,
+    /// Replaces the library's defaults as layer 1 (a lighting cache's settings, which the
+    /// other layers may then change), as a settings object without `type`.
+    pub base: Option<Value>,
+    /// Values the CLI derives (layer 1): written silently where the integrator has the key.
+    pub derived: Vec<(&'static str, Value)>,
+    pub file: Option<&'a Path>,
+    pub flags: Vec<FlagSetting>,
+    /// The `--set` arguments as typed (`KEY=VALUE`).
+    pub sets: &'a [String],
+}
+
+/// The merged settings and the warnings met on the way.
+#[derive(Debug)]
+pub struct Resolved {
+    pub settings: IntegratorSettings,
+    pub warnings: Vec<String>,
+}
+
+/// One key written by the file or by `--set`, with its origin for messages.
+#[derive(Clone, Debug)]
+struct Write {
+    source: String,
+    key: String,
+    value: Value,
+}
+
+/// Merges the layers (module docs) into the settings of one integrator.
+pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
+    let file = input.file.map(read_settings_file).transpose()?;
+    let name = match (input.integrator, file.as_ref().and_then(|f| f.integrator.as_deref())) {
+        (Some(flag), Some(ty)) if flag != ty => {
+            bail!(
+                "settings file {} is for --integrator {ty}, but --integrator {flag} was given",
+                input.file.unwrap_or(Path::new("")).display()
+            )
+        }
+        (Some(flag), _) => flag.to_string(),
+        (None, Some(ty)) => ty.to_string(),
+        (None, None) => "path".to_string(),
+    };
+    let mut base = match &input.base {
+        Some(b) => b.clone(),
+        None => defaults(&name)?,
+    };
+    for (key, value) in &input.derived {
+        if let Some(slot) = lookup_mut(&mut base, key) {
+            *slot = value.clone();
+        }
+    }
+    let others: Vec<(&str, Value)> =
+        IntegratorSettings::NAMES.iter().filter(|&&n| n != name).map(|&n| Ok((n, defaults(n)?))).collect::<Result<_>>()?;
+    let mut warnings = Vec::new();
+    let mut merged = base.clone();
+    let mut created = HashSet::new();
+    let mut writes = Vec::new();
+
+    // layer 2: the file
+    if let (Some(f), Some(path)) = (file, input.file) {
+        let source = format!("settings file {}", path.display());
+        let mut leaves = Vec::new();
+        flatten(&f.values, String::new(), &mut leaves);
+        for (key, value) in leaves {
+            writes.push(Write { source: source.clone(), key, value });
+        }
+    }
+    let file_writes = writes.len();
+    for w in &writes[..file_writes] {
+        place_checked(&mut merged, &mut created, w, &name, &others, &mut warnings)?;
+    }
+    // layer 3: the flags
+    for f in &input.flags {
+        if let Some(only) = f.only.filter(|&o| o != name) {
+            warnings.push(format!("{} applies to --integrator {only} only; ignored by --integrator {name}", f.flag));
+            continue;
+        }
+        let present: Vec<&String> = f.keys.iter().filter(|k| lookup(&merged, k).is_some()).collect();
+        if present.is_empty() {
+            let users: Vec<&str> = others.iter().filter(|(_, d)| f.keys.iter().any(|k| lookup(d, k).is_some())).map(|(n, _)| *n).collect();
+            let users = if users.is_empty() { "none".to_string() } else { users.join(", ") };
+            warnings.push(format!("{} applies to --integrator {users} only; ignored by --integrator {name}", f.flag));
+            continue;
+        }
+        for key in present {
+            let slot = lookup_mut(&mut merged, key).expect("present");
+            match (f.at_most, slot.as_f64(), f.value.as_f64()) {
+                (true, Some(cur), Some(v)) if cur <= v => {}
+                _ => *slot = f.value.clone(),
+            }
+            // kept to name the flag in a deserialization error
+            writes.push(Write { source: f.flag.to_string(), key: key.clone(), value: f.value.clone() });
+        }
+    }
+    let set_writes = writes.len();
+    // layer 4: --set
+    for s in input.sets {
+        let (key, raw) = s.split_once('=').with_context(|| format!("--set {s}: expected KEY=VALUE (e.g. photons.photons=2000000)"))?;
+        let key = key.trim();
+        if key == "type" {
+            bail!("--set {s}: the integrator is chosen with --integrator (or the settings file's `type`)");
+        }
+        let value = serde_json::from_str(raw).unwrap_or_else(|_| Value::String(raw.to_string()));
+        writes.push(Write { source: format!("--set {s}"), key: key.to_string(), value });
+    }
+    for w in &writes[set_writes..] {
+        place_checked(&mut merged, &mut created, w, &name, &others, &mut warnings)?;
+    }
+
+    let settings = deserialize(&name, &merged).map_err(|e| attribute(e, &name, &base, &writes))?;
+    // a key the deserialization dropped (a field of an enum variant it does not know, say)
+    let round = serde_json::to_value(&settings)?;
+    for w in &writes {
+        let parts: Vec<&str> = w.key.split('.').collect();
+        let (Some(m), r) = (lookup_parts(&merged, &parts), lookup_parts(&round, &parts)) else { continue };
+        let mut missing = Vec::new();
+        match r {
+            Some(r) => dropped_keys(m, r, &w.key, &mut missing),
+            None => missing.push(w.key.clone()),
+        }
+        if let Some(k) = missing.first() {
+            bail!("{}: `{k}` is not a setting of --integrator {name}; valid keys: {}", w.source, valid_keys(&base));
+        }
+    }
+    Ok(Resolved { settings, warnings })
+}
+
+/// Mitsuba integrators of other methods that converge to the image a path tracer converges to
+/// (unbiased or consistent light transport on surface scenes): octolux's `path` renders that
+/// image, so choosing it is a note, not a warning.
+const SAME_IMAGE: &[&str] = &["bdpt", "ptracer", "photonmapper", "ppm", "sppm", "pssmlt", "mlt", "erpt"];
+
+/// What to say when the scene's `<integrator type>` is not what is rendered.
+#[derive(Debug, PartialEq)]
+pub enum IntegratorRemark {
+    /// Another method converging to the same image (`SAME_IMAGE`).
+    Note(String),
+    /// An unknown type, or one whose image differs: it would otherwise render `used` silently.
+    Warning(String),
+}
+
+/// The remark due when the scene's `<integrator type>` is not what is rendered and nothing on
+/// the command line chose the integrator (`chosen`: `--integrator`, `--settings` or `--cache`).
+pub fn scene_integrator_remark(scene_type: Option<&str>, scene: &str, used: &str, chosen: bool) -> Option<IntegratorRemark> {
+    let ty = scene_type?;
+    if chosen || ty == used || (used == "path" && PATH_TRACERS.contains(&ty)) {
+        return None;
+    }
+    let names = IntegratorSettings::NAMES.join(", ");
+    Some(if used == "path" && SAME_IMAGE.contains(&ty) {
+        IntegratorRemark::Note(format!(
+            "scene '{scene}': <integrator type=\"{ty}\"> converges to the image a path tracer converges to; \
+             rendering with path (choose another with --integrator: {names})"
+        ))
+    } else {
+        IntegratorRemark::Warning(format!(
+            "scene '{scene}': <integrator type=\"{ty}\"> is not an octolux integrator; rendering with {used} (choose one with --integrator: {names})"
+        ))
+    })
+}
+
+/// A settings file: the integrator it names (`type`) and its other keys.
+struct SettingsFile {
+    integrator: Option<String>,
+    values: Value,
+}
+
+fn read_settings_file(path: &Path) -> Result<SettingsFile> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read settings file {}", path.display()))?;
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    // both errors say the line and column of a syntax error
+    let value: Value = match ext.as_str() {
+        "json" => serde_json::from_str(&text).with_context(|| format!("settings file {} is not valid JSON", path.display()))?,
+        "toml" => toml::from_str(&text).with_context(|| format!("settings file {} is not valid TOML", path.display()))?,
+        _ => bail!("settings file {}: expected a .json or .toml file", path.display()),
+    };
+    let Value::Object(mut map) = value else { bail!("settings file {}: expected a table of settings at the top", path.display()) };
+    let integrator = match map.remove("type") {
+        None => None,
+        Some(Value::String(t)) if IntegratorSettings::NAMES.contains(&t.as_str()) => Some(t),
+        Some(t) => bail!("settings file {}: `type` = {t} is not an integrator ({})", path.display(), IntegratorSettings::NAMES.join(", ")),
+    };
+    Ok(SettingsFile { integrator, values: Value::Object(map) })
+}
+
+/// The defaults of integrator `name` as a JSON object without its `type` tag.
+fn defaults(name: &str) -> Result<Value> {
+    let s = IntegratorSettings::default_for(name).ok_or_else(|| SettingsError(format!("unknown integrator '{name}'")))?;
+    let mut v = serde_json::to_value(s)?;
+    if let Value::Object(m) = &mut v {
+        m.remove("type");
+    }
+    Ok(v)
+}
+
+fn deserialize(name: &str, merged: &Value) -> serde_json::Result<IntegratorSettings> {
+    let mut tagged = Map::new();
+    tagged.insert("type".into(), Value::String(name.into()));
+    if let Value::Object(m) = merged {
+        tagged.extend(m.clone());
+    }
+    serde_json::from_value(Value::Object(tagged))
+}
+
+/// Names the write a deserialization error comes from: the first that fails alone.
+fn attribute(e: serde_json::Error, name: &str, base: &Value, writes: &[Write]) -> SettingsError {
+    for w in writes {
+        let mut alone = base.clone();
+        if place(&mut alone, &mut HashSet::new(), &w.key, w.value.clone()) && deserialize(name, &alone).is_err() {
+            return SettingsError(format!("{}: {e}", w.source));
+        }
+    }
+    SettingsError(format!("the settings of --integrator {name} do not hold together: {e}"))
+}
+
+/// [`place`], with the warning or error of a key the integrator lacks.
+fn place_checked(
+    merged: &mut Value,
+    created: &mut HashSet<String>,
+    w: &Write,
+    name: &str,
+    others: &[(&str, Value)],
+    warnings: &mut Vec<String>,
+) -> Result<()> {
+    if place(merged, created, &w.key, w.value.clone()) {
+        return Ok(());
+    }
+    let users: Vec<&str> = others.iter().filter(|(_, d)| accepts(d, &w.key)).map(|(n, _)| *n).collect();
+    if users.is_empty() {
+        bail!("{}: no integrator has the setting `{}`; the keys of --integrator {name} are: {}", w.source, w.key, valid_keys(merged));
+    }
+    warnings.push(format!("{}: `{}` is a setting of --integrator {}, not of {name}; ignored", w.source, w.key, users.join(", ")));
+    Ok(())
+}
+
+/// Writes `value` at the dotted `key`; false when the settings have no such key (module docs:
+/// keys below `null` or a one-key object switch it; `created` remembers the switched values,
+/// whose new fields then extend them).
+fn place(merged: &mut Value, created: &mut HashSet<String>, key: &str, value: Value) -> bool {
+    let parts: Vec<&str> = key.split('.').collect();
+    if parts.iter().any(|p| p.is_empty()) {
+        return false;
+    }
+    // the longest prefix that exists (the whole key first)
+    let Some(i) = (1..=parts.len()).rev().find(|&i| lookup_parts(merged, &parts[..i]).is_some()) else { return false };
+    let slot = lookup_parts_mut(merged, &parts[..i]).expect("exists");
+    if i == parts.len() {
+        *slot = value;
+        return true;
+    }
+    let prefix = parts[..i].join(".");
+    let in_created = (1..=i).any(|j| created.contains(&parts[..j].join(".")));
+    match slot {
+        Value::Object(m) if in_created => {
+            insert_nested(m, &parts[i..], value);
+        }
+        Value::Null => {
+            *slot = nested(&parts[i..], value);
+            created.insert(prefix);
+        }
+        Value::Object(m) if m.len() == 1 => {
+            *slot = nested(&parts[i..], value);
+            created.insert(prefix);
+        }
+        _ => return false,
+    }
+    true
+}
+
+/// Whether [`place`] would take `key` in `defaults`.
+fn accepts(defaults: &Value, key: &str) -> bool {
+    place(&mut defaults.clone(), &mut HashSet::new(), key, Value::Null)
+}
+
+fn nested(parts: &[&str], value: Value) -> Value {
+    let mut m = Map::new();
+    insert_nested(&mut m, parts, value);
+    Value::Object(m)
+}
+
+fn insert_nested(m: &mut Map<String, Value>, parts: &[&str], value: Value) {
+    match parts {
+        [] => {}
+        [last] => {
+            m.insert(last.to_string(), value);
+        }
+        [first, rest @ ..] => match m.get_mut(*first) {
+            Some(Value::Object(inner)) => insert_nested(inner, rest, value),
+            _ => {
+                m.insert(first.to_string(), nested(rest, value));
+            }
+        },
+    }
+}
+
+fn lookup<'v>(v: &'v Value, key: &str) -> Option<&'v Value> {
+    lookup_parts(v, &key.split('.').collect::<Vec<_>>())
+}
+
+fn lookup_mut<'v>(v: &'v mut Value, key: &str) -> Option<&'v mut Value> {
+    lookup_parts_mut(v, &key.split('.').collect::<Vec<_>>())
+}
+
+fn lookup_parts<'v>(v: &'v Value, parts: &[&str]) -> Option<&'v Value> {
+    parts.iter().try_fold(v, |v, p| v.as_object()?.get(*p))
+}
+
+fn lookup_parts_mut<'v>(v: &'v mut Value, parts: &[&str]) -> Option<&'v mut Value> {
+    parts.iter().try_fold(v, |v, p| v.as_object_mut()?.get_mut(*p))
+}
+
+/// The leaves of a settings file as (dotted key, value); an empty table is a leaf.
+fn flatten(v: &Value, prefix: String, out: &mut Vec<(String, Value)>) {
+    match v {
+        Value::Object(m) if !m.is_empty() => {
+            for (k, v) in m {
+                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                flatten(v, key, out);
+            }
+        }
+        _ => out.push((prefix, v.clone())),
+    }
+}
+
+/// Keys of `merged` that `round` (the deserialized settings, serialized again) lacks.
+fn dropped_keys(merged: &Value, round: &Value, prefix: &str, out: &mut Vec<String>) {
+    if let (Value::Object(m), Value::Object(r)) = (merged, round) {
+        for (k, v) in m {
+            let key = format!("{prefix}.{k}");
+            match r.get(k) {
+                Some(rv) => dropped_keys(v, rv, &key, out),
+                None => out.push(key),
+            }
+        }
+    }
+}
+
+/// The leaf keys of a settings value, comma-separated.
+pub fn valid_keys(v: &Value) -> String {
+    let mut leaves = Vec::new();
+    flatten(v, String::new(), &mut leaves);
+    leaves.into_iter().map(|(k, _)| k).collect::<Vec<_>>().join(", ")
+}
+
+/// The value at a dotted key of the settings (e.g. the photon count for the log).
+pub fn get(settings: &IntegratorSettings, key: &str) -> Option<Value> {
+    lookup(&serde_json::to_value(settings).ok()?, key).cloned()
+}
+
+/// The settings keys that shape the octrees: a render from a lighting cache may not change them.
+pub const BAKE_KEYS: [&str; 4] = ["photons", "global", "caustic", "max_depth"];
+
+/// A lighting cache's settings as the base layer of a render's ([`SettingsInput::base`]: an
+/// object without `type`).
+pub fn cache_base(c: &LoadedCache) -> Result<Value> {
+    let mut v = serde_json::to_value(c.integrator.settings())?;
+    if let Value::Object(m) = &mut v {
+        m.remove("type");
+    }
+    Ok(v)
+}
+
+/// Refuse resolved settings that differ from the cache's in a key that shaped the octrees.
+pub fn check_cache_settings(path: &Path, c: &LoadedCache, resolved: &IntegratorSettings) -> Result<()> {
+    let (baked, now) = (serde_json::to_value(c.integrator.settings())?, serde_json::to_value(resolved)?);
+    let changed: Vec<&str> = BAKE_KEYS.iter().copied().filter(|k| baked.get(k) != now.get(k)).collect();
+    if !changed.is_empty() {
+        bail!(
+            "lighting cache {}: the settings {} differ from the bake's, and they shape the octrees: re-bake with them, or drop \
+             them (with --cache only `view` and `gather` may change)",
+            path.display(),
+            changed.join(", ")
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn input<'a>(integrator: &'a str, flags: Vec<FlagSetting>, sets: &'a [String]) -> SettingsInput<'a> {
+        SettingsInput { integrator: Some(integrator), base: None, derived: vec![], file: None, flags, sets }
+    }
+
+    #[test]
+    fn keys_below_null_or_a_one_key_object_switch_it_and_others_do_not_exist() {
+        let mut v = json!({ "a": { "relative": 0.5 }, "b": null, "c": { "x": 1, "y": 2 } });
+        let mut created = HashSet::new();
+        assert!(place(&mut v, &mut created, "a.absolute", json!(3)));
+        assert!(place(&mut v, &mut created, "b.grid.columns", json!(8)));
+        assert!(place(&mut v, &mut created, "b.grid.rows", json!(4)), "a switched value takes further keys");
+        assert!(place(&mut v, &mut created, "c.x", json!(5)));
+        assert!(!place(&mut v, &mut created, "c.z", json!(5)), "a struct has its fields only");
+        assert!(!place(&mut v, &mut created, "d", json!(5)));
+        assert!(!place(&mut v, &mut created, "c..x", json!(5)));
+        assert_eq!(v, json!({ "a": { "absolute": 3 }, "b": { "grid": { "columns": 8, "rows": 4 } }, "c": { "x": 5, "y": 2 } }));
+    }
+
+    #[test]
+    fn flags_write_their_keys_and_set_wins() {
+        let flag = |flag, keys: &[&str], value| FlagSetting {
+            flag,
+            only: None,
+            keys: keys.iter().map(|k| k.to_string()).collect(),
+            value,
+            at_most: false,
+        };
+        let sets = vec!["global.h_max=3".to_string()];
+        let r = resolve(&input("octree", vec![flag("--h-max", &["global.h_max", "caustic.h_max"], json!(7))], &sets)).unwrap();
+        let v = serde_json::to_value(&r.settings).unwrap();
+        assert_eq!((v["global"]["h_max"].clone(), v["caustic"]["h_max"].clone()), (json!(3), json!(7)));
+        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+        // the same flag for an integrator without those keys: a warning, nothing written
+        let r = resolve(&input("path", vec![flag("--h-max", &["global.h_max", "caustic.h_max"], json!(7))], &[])).unwrap();
+        assert_eq!(r.warnings, ["--h-max applies to --integrator octree only; ignored by --integrator path"]);
+        assert_eq!(r.settings, IntegratorSettings::default_for("path").unwrap());
+    }
+
+    #[test]
+    fn at_most_only_lowers() {
+        let lower = |v| FlagSetting { flag: "--x", only: None, keys: vec!["caustic.n_min".into()], value: json!(v), at_most: true };
+        let n_min = |v| {
+            let r = resolve(&input("octree", vec![lower(v)], &[])).unwrap();
+            serde_json::to_value(&r.settings).unwrap()["caustic"]["n_min"].as_u64().unwrap()
+        };
+        let default = n_min(u32::MAX as u64);
+        assert!(default > 3);
+        assert_eq!(n_min(3), 3);
+    }
+}

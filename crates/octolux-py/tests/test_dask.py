@@ -1,0 +1,65 @@
+"""octolux.dask on a LocalCluster of 2 worker processes (issue 15, item 2): the frames equal a
+single-machine render bit for bit, with a worker killed in the middle of the job.
+
+Needs the `octolux` binary: `$OCTOLUX_BIN` (tests/pytest.rs sets it to the one cargo built).
+"""
+import json
+import os
+import signal
+import subprocess
+from pathlib import Path
+
+import pytest
+from distributed import Client, LocalCluster
+
+from octolux.dask import render_frames
+
+BIN = os.environ.get("OCTOLUX_BIN", "")
+pytestmark = pytest.mark.skipif(not Path(BIN).is_file(), reason="OCTOLUX_BIN is not an octolux binary")
+
+RENDER = ["--resolution", "64x48", "--spp", "32"]
+
+
+def camera_path(tmp: Path) -> Path:
+    keys = [
+        {"time": 0.0, "position": [0.0, 1.0, 3.4], "target": [0.0, 1.0, 0.0], "fov": 40.0},
+        {"time": 1.0, "position": [0.6, 1.2, 3.0], "target": [0.0, 0.9, 0.0], "fov": 45.0},
+    ]
+    p = tmp / "path.json"
+    p.write_text(json.dumps({"fps": 7, "keyframes": keys}))
+    return p
+
+
+def test_farm_equals_one_machine_with_a_worker_killed(tmp_path):
+    path = camera_path(tmp_path)
+    # one machine: bake, then every frame from the cache
+    subprocess.run([BIN, "bake", "cornell-box", "-o", str(tmp_path / "c.oxc"), "--photons", "20000", "--seed", "1", "-q"], check=True)
+    (tmp_path / "one").mkdir()
+    subprocess.run(
+        [BIN, "render", "cornell-box", "--cache", str(tmp_path / "c.oxc"), "--camera-path", str(path), "--seed", "1", "-q",
+         "-o", str(tmp_path / "one" / "f.exr"), *RENDER],
+        check=True,
+    )
+    one = sorted((tmp_path / "one").glob("f_*.exr"))
+    assert len(one) == 8
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, Client(cluster) as client:
+        pids = client.run(os.getpid)
+        killed = []
+
+        def kill_one(_frame):
+            if not killed:  # after the first frame: the others are queued or running
+                victim = sorted(pids.values())[0]
+                os.kill(victim, signal.SIGKILL)
+                killed.append(victim)
+
+        written = render_frames(
+            client, "cornell-box", str(tmp_path / "farm" / "f.exr"), camera_path=str(path), bake={"photons": 20000},
+            seed=1, render_args=RENDER, octolux_bin=BIN, on_frame=kill_one,
+        )
+    assert killed, "no worker was killed"
+    assert [p.name for p in written] == [p.name for p in one]
+    for a in one:
+        b = tmp_path / "farm" / a.name
+        assert a.read_bytes() == b.read_bytes(), f"{a.name} differs from the single-machine frame"
+        assert a.with_suffix(".png").read_bytes() == b.with_suffix(".png").read_bytes()

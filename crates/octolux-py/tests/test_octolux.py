@@ -1,0 +1,144 @@
+"""pytest suite of the `octolux` Python module (issue 15, item 1).
+
+Run by `cargo test -p octolux-py` (tests/pytest.rs builds the module into a venv first), or by
+hand: `pip install ./crates/octolux-py && pytest crates/octolux-py/tests`.
+"""
+import json
+import threading
+import time
+import _thread
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import octolux
+
+ROOT = Path(__file__).resolve().parents[3]
+REFS = ROOT / "tests" / "refs"
+
+
+def test_readme_one_liner_renders_the_default_scene():
+    img = octolux.render("cornell-box", spp=4)
+    assert img.dtype == np.float32 and img.ndim == 3 and img.shape[2] == 3
+    assert np.isfinite(img).all() and (img >= 0).all()
+    assert img.mean() > 0.01, "the lit box renders black"
+
+
+def test_path_tracer_agrees_with_the_mitsuba_reference():
+    """The built-in box at 128x128 against the committed Mitsuba 3 reference (8192 spp): the
+    error is the render's own noise (two seeds) plus the reference's, with no bias on top."""
+    manifest = json.loads((REFS / "manifest.json").read_text())["references"]["cornell-box"]
+    ref = octolux.read_exr(REFS / manifest["file"])
+    scene = octolux.load_scene("cornell-box", resolution=(128, 128))
+    a = octolux.render(scene, "path", spp=64, seed=1, max_depth=-1)
+    b = octolux.render(scene, "path", spp=64, seed=2, max_depth=-1)
+    err = octolux.compare(a, ref)
+    noise = octolux.compare(a, b)["rel_mse"] / 2
+    ref_noise = manifest["self_noise"]["rel_mse"] / 2
+    assert err["rel_mse"] <= 1.5 * (noise + ref_noise), (err, noise, ref_noise)
+    for c in range(3):
+        assert abs(a[..., c].mean() / ref[..., c].mean() - 1) < 0.02
+
+
+def test_deterministic_for_any_thread_count():
+    scene = octolux.load_scene("cornell-box", resolution=(48, 32))
+    one = octolux.render(scene, "path", spp=4, seed=5, threads=1)
+    two = octolux.render(scene, "path", spp=4, seed=5, threads=2)
+    assert np.array_equal(one, two)
+    other = octolux.render(scene, "path", spp=4, seed=6, threads=2)
+    assert not np.array_equal(one, other), "the seed changes nothing"
+
+
+def test_stats_and_settings_dict():
+    img, stats = octolux.render(
+        "cornell-box", "octree", spp=2, resolution=(32, 32), settings={"photons": {"photons": 20000}, "gather": True}, stats=True
+    )
+    assert img.shape == (32, 32, 3)
+    assert stats["integrator"] == "octree"
+    assert stats["settings"]["photons"]["photons"] == 20000 and stats["settings"]["gather"] is True
+    assert stats["render"]["spp"] == 2 and stats["render"]["samples"] == 32 * 32 * 2
+
+
+def test_bad_settings_raise_the_cli_messages():
+    with pytest.raises(octolux.OctoluxError, match="no integrator has the setting `photons.bogus`"):
+        octolux.render("cornell-box", "octree", spp=1, resolution=(8, 8), settings={"photons": {"bogus": 1}})
+    with pytest.raises(octolux.OctoluxError, match="unknown integrator 'bdpt'"):
+        octolux.render("cornell-box", "bdpt", spp=1, resolution=(8, 8))
+    with pytest.raises(octolux.OctoluxError, match="spp must be at least 1"):
+        octolux.render("cornell-box", spp=0, resolution=(8, 8))
+    with pytest.raises(octolux.OctoluxError, match="cornell-box"):  # the error lists the known scenes
+        octolux.load_scene("no-such-scene")
+    with pytest.raises(octolux.OctoluxError, match="no such file"):
+        octolux.load_scene("missing.xml")
+
+
+def test_scene_warnings_become_python_warnings():
+    with pytest.warns(octolux.OctoluxWarning, match="-D is ignored"):
+        octolux.load_scene("cornell-box", defines={"spp": 4})
+
+
+def test_bake_then_render_from_the_cache_equals_the_uncached_render(tmp_path):
+    scene = octolux.load_scene("cornell-box", resolution=(40, 30))
+    settings = {"photons": {"photons": 30000}}
+    info = octolux.bake(scene, tmp_path / "light.oxc", seed=3, settings=settings)
+    assert info["file_bytes"] == (tmp_path / "light.oxc").stat().st_size > 0
+    direct = octolux.render(scene, "octree", spp=2, seed=3, settings=settings)
+    cached = octolux.render(scene, spp=2, seed=3, cache=tmp_path / "light.oxc")
+    assert np.array_equal(direct, cached)
+    # the cache is refused for another scene, with the CLI's message
+    with pytest.raises(octolux.OctoluxError, match="does not match scene 'cornell-spheres'"):
+        octolux.render("cornell-spheres", spp=1, resolution=(8, 8), cache=tmp_path / "light.oxc")
+    with pytest.warns(octolux.OctoluxWarning, match="rendering anyway"):
+        octolux.render("cornell-spheres", spp=1, resolution=(8, 8), cache=tmp_path / "light.oxc", allow_stale_cache=True)
+    # a truncated file is refused, naming it
+    data = (tmp_path / "light.oxc").read_bytes()
+    (tmp_path / "cut.oxc").write_bytes(data[: len(data) // 2])
+    with pytest.raises(octolux.OctoluxError, match="cut.oxc"):
+        octolux.render(scene, spp=1, cache=tmp_path / "cut.oxc")
+
+
+def test_compare_and_exr_round_trip(tmp_path):
+    img = octolux.render("cornell-box", spp=2, resolution=(16, 12))
+    octolux.write_exr(tmp_path / "a.exr", img)
+    back = octolux.read_exr(tmp_path / "a.exr")
+    assert back.shape == (12, 16, 3)
+    assert octolux.compare(back, img)["rel_mse"] < 1e-6  # EXR half/float storage
+    noisy = img * 1.1
+    assert octolux.compare(noisy, img)["rel_mse"] > 1e-4
+    with pytest.raises(octolux.OctoluxError, match="is 16x12 but the reference is 8x8"):
+        octolux.compare(img, np.zeros((8, 8, 3), np.float32))
+    bad = img.copy()
+    bad[0, 0, 0] = np.nan
+    with pytest.raises(octolux.OctoluxError, match="non-finite"):
+        octolux.compare(bad, img)
+
+
+def test_render_releases_the_gil():
+    scene = octolux.load_scene("cornell-box", resolution=(96, 96))
+    ticks = 0
+    done = threading.Event()
+
+    def work():
+        octolux.render(scene, "path", spp=32)
+        done.set()
+
+    t = threading.Thread(target=work)
+    t.start()
+    while not done.is_set():
+        ticks += 1
+        time.sleep(0.001)
+    t.join()
+    assert ticks > 20, f"the main thread ran {ticks} times while the render held the GIL"
+
+
+def test_ctrl_c_stops_a_render():
+    """A render of ~130M samples (minutes) stops at the next tile (16x16 px x 2000 spp, about
+    a second) once Ctrl-C arrives."""
+    scene = octolux.load_scene("cornell-box", resolution=(256, 256))
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    start = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        octolux.render(scene, "path", spp=2000)
+    assert time.monotonic() - start < 30
