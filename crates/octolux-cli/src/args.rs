@@ -29,6 +29,23 @@ pub enum Command {
     Export(ExportArgs),
     /// List the built-in scenes.
     Scenes,
+    /// Write one self-contained HTML page comparing images: side by side with an exposure
+    /// control, a split slider, error maps (relative squared error, FLIP) and a metrics table
+    /// against `--reference`, and error-against-time plots of `--bench` results.
+    Report {
+        /// The images to compare (EXR).
+        #[arg(required = true)]
+        images: Vec<PathBuf>,
+        /// The reference the errors are measured against (EXR).
+        #[arg(long)]
+        reference: Option<PathBuf>,
+        /// Benchmark results to plot: JSON `{"title": ..., "series": [{"name", "time_s": [..], "rel_mse": [..]}]}`.
+        #[arg(long)]
+        bench: Vec<PathBuf>,
+        /// The HTML file to write.
+        #[arg(short, long, default_value = "report.html")]
+        output: PathBuf,
+    },
     /// Compare an image with a reference: relMSE, RMSE and channel means (JSON on stdout).
     Compare {
         /// The image to judge (EXR).

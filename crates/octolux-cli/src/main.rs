@@ -11,7 +11,8 @@
 //! into the library's integrator settings), [`stats`] (`OUT.json` and the build log),
 //! [`output`] (the output set: checked first, written through staged files, renamed JSON last),
 //! [`interrupt`] (SIGINT/SIGTERM: a partial render is written, a second signal exits),
-//! [`bake`] (`bake`, and the checks of `render --cache`), [`frames`] (camera paths, sensors).
+//! [`bake`] (`bake`, and the checks of `render --cache`), [`frames`] (camera paths, sensors),
+//! [`report`] (`report`: the HTML comparison page).
 //!
 //! Hostile input (issue 12): sizes from the command line or the scene (film, photons) are
 //! checked against the memory budget ([`octolux::budget`]) and the output folder is checked
@@ -22,6 +23,7 @@ mod bake;
 mod frames;
 mod interrupt;
 mod output;
+mod report;
 mod settings;
 mod stats;
 
@@ -374,6 +376,9 @@ fn run(cli: Cli) -> Result<std::process::ExitCode> {
         Command::Bake(a) => bake::cmd_bake(&a),
         Command::Export(a) => cmd_export(&a).map(|()| std::process::ExitCode::SUCCESS),
         Command::Compare { image, reference } => cmd_compare(&image, &reference).map(|()| std::process::ExitCode::SUCCESS),
+        Command::Report { images, reference, bench, output } => {
+            report::cmd_report(&images, reference.as_deref(), &bench, &output).map(|()| std::process::ExitCode::SUCCESS)
+        }
         Command::Scenes => {
             for n in octolux_io::builtin::NAMES {
                 println!("{n}");

@@ -164,6 +164,14 @@ pub fn write_png(path: &Path, img: &Image) -> Result<(), IoError> {
     write_atomically(path, |tmp| buf.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| e.to_string()))
 }
 
+/// PNG bytes of 8-bit RGB pixels (`rgb.len() == 3 * width * height`), for embedding.
+pub fn encode_png_rgb8(width: u32, height: u32, rgb: Vec<u8>) -> Result<Vec<u8>, String> {
+    let buf = image::RgbImage::from_raw(width, height, rgb).ok_or("image buffer size mismatch")?;
+    let mut out = std::io::Cursor::new(Vec::new());
+    buf.write_to(&mut out, image::ImageFormat::Png).map_err(|e| e.to_string())?;
+    Ok(out.into_inner())
+}
+
 /// Read a texture as linear RGB: `.exr` and `.hdr` are linear, `.png`/`.jpg`/`.jpeg` are
 /// sRGB-decoded. Alpha is dropped; grey images are replicated to RGB.
 pub fn read_image(path: &Path) -> Result<Image, IoError> {

@@ -1,0 +1,205 @@
+//! `octolux report`: one self-contained HTML page that compares renders (issue 15, item 4).
+//!
+//! The page (`report.html`, filled here) shows every image side by side under one exposure
+//! control, a split view with a slider between any two of them, false-colour error maps
+//! against the reference (per-pixel relative squared error, the relMSE's terms, and FLIP),
+//! a table of relMSE, RMSE, FLIP mean and channel means, and, given benchmark results,
+//! error-against-time plots (SVG, log-log).
+//!
+//! Images travel as RGBE (Ward's shared-exponent bytes, 4 per pixel, base64) so the exposure
+//! control works on the HDR values in the browser. FLIP is NVIDIA's LDR-FLIP (the `nv-flip`
+//! crate binds the published C++ code) on both images developed as the PNG output is, at
+//! exposure 0 (clamped, sRGB), 67 pixels per degree; the metrics are octolux's (`compare`).
+//! Every input is read and checked (same size as the reference, finite values) before the
+//! page is written, staged and renamed like every output.
+
+use anyhow::{bail, Context, Result};
+use octolux::image::Image;
+use octolux::metrics;
+use octolux_io::image_io::{encode_png_rgb8, encode_srgb8, read_exr};
+use serde::Deserialize;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+
+const TEMPLATE: &str = include_str!("report.html");
+
+/// Benchmark results for the error-against-time plot: one plot per file.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Bench {
+    #[serde(default)]
+    title: String,
+    series: Vec<Series>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Series {
+    name: String,
+    /// Seconds (photon pass and build included where there are any).
+    time_s: Vec<f64>,
+    rel_mse: Vec<f64>,
+}
+
+/// Ward's RGBE: a shared exponent byte and three 8-bit mantissas.
+fn rgbe(c: [f32; 3]) -> [u8; 4] {
+    let m = c[0].max(c[1]).max(c[2]);
+    if !(m > 1e-32) {
+        return [0; 4];
+    }
+    let e = m.log2().floor() as i32 + 1;
+    let scale = 256.0 / 2f32.powi(e);
+    let q = |v: f32| (v.max(0.0) * scale).min(255.0) as u8;
+    [q(c[0]), q(c[1]), q(c[2]), (e + 128).clamp(0, 255) as u8]
+}
+
+/// Standard base64 (RFC 4648, padded).
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for ch in bytes.chunks(3) {
+        let n = (ch[0] as u32) << 16 | (*ch.get(1).unwrap_or(&0) as u32) << 8 | *ch.get(2).unwrap_or(&0) as u32;
+        for i in 0..4 {
+            if i <= ch.len() {
+                s.push(A[(n >> (18 - 6 * i) & 63) as usize] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+fn srgb8(img: &Image) -> Vec<u8> {
+    img.data.iter().flat_map(|c| [encode_srgb8(c.x), encode_srgb8(c.y), encode_srgb8(c.z)]).collect()
+}
+
+/// A value in [0, 1] through the magma colour map as PNG bytes, base64.
+fn false_colour(w: u32, h: u32, values: &[f32], lut: &[u8]) -> Result<String> {
+    let n = lut.len() / 3;
+    let rgb = values
+        .iter()
+        .flat_map(|&v| {
+            let i = ((v.clamp(0.0, 1.0) * (n - 1) as f32).round() as usize).min(n - 1);
+            [lut[3 * i], lut[3 * i + 1], lut[3 * i + 2]]
+        })
+        .collect();
+    Ok(base64(&encode_png_rgb8(w, h, rgb).map_err(anyhow::Error::msg)?))
+}
+
+fn read_checked(path: &Path) -> Result<Image> {
+    let img = read_exr(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bad = img.data.iter().filter(|c| !c.is_finite()).count();
+    if bad > 0 {
+        bail!("{} holds non-finite values (NaN or infinity) in {bad} pixels", path.display());
+    }
+    Ok(img)
+}
+
+fn name_of(p: &Path) -> String {
+    p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
+}
+
+/// Write the report of `images` (against `reference` when given) to `output`.
+pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf], output: &Path) -> Result<()> {
+    if images.is_empty() {
+        bail!("report: give at least one image");
+    }
+    crate::output::check_file(output)?;
+    let reference = reference.map(|p| Ok::<_, anyhow::Error>((p, read_checked(p)?))).transpose()?;
+    let mut loaded = Vec::new();
+    for p in images {
+        let img = read_checked(p)?;
+        if let Some((rp, r)) = &reference {
+            if (img.width, img.height) != (r.width, r.height) {
+                bail!("{} is {}x{} but the reference {} is {}x{}", p.display(), img.width, img.height, rp.display(), r.width, r.height);
+            }
+        }
+        loaded.push((p, img));
+    }
+    let mut benches = Vec::new();
+    for p in bench {
+        let text = std::fs::read_to_string(p).with_context(|| format!("cannot read benchmark results {}", p.display()))?;
+        let b: Bench = serde_json::from_str(&text).with_context(|| format!("benchmark results {} are not valid", p.display()))?;
+        for s in &b.series {
+            if s.time_s.len() != s.rel_mse.len() || s.time_s.iter().chain(&s.rel_mse).any(|v| !(v.is_finite() && *v > 0.0)) {
+                bail!("benchmark results {}: series '{}' needs as many positive time_s as rel_mse values", p.display(), s.name);
+            }
+        }
+        let title = if b.title.is_empty() { name_of(p) } else { b.title };
+        benches.push(json!({ "title": title, "series": b.series.iter().map(|s| json!({"name": s.name, "time_s": s.time_s, "rel_mse": s.rel_mse})).collect::<Vec<_>>() }));
+    }
+
+    let lut = nv_flip::magma_lut().to_vec();
+    let encode = |name: String, img: &Image| {
+        let bytes: Vec<u8> = img.data.iter().flat_map(|c| rgbe([c.x, c.y, c.z])).collect();
+        json!({ "name": name, "width": img.width, "height": img.height, "rgbe": base64(&bytes), "means": metrics::channel_means(img) })
+    };
+    let mut entries: Vec<Value> = Vec::new();
+    if let Some((rp, r)) = &reference {
+        let mut e = encode(format!("{} (reference)", name_of(rp)), r);
+        e["reference"] = json!(true);
+        entries.push(e);
+    }
+    for (p, img) in &loaded {
+        let mut e = encode(name_of(p), img);
+        if let Some((_, r)) = &reference {
+            let m = metrics::compare(img, r).context("image sizes")?;
+            let (w, h) = (img.width, img.height);
+            // relative squared error per pixel (the relMSE's terms), on a log scale 1e-4 .. 10
+            let rel: Vec<f32> = img
+                .data
+                .iter()
+                .zip(&r.data)
+                .map(|(a, b)| {
+                    let t = |x: f32, y: f32| ((x - y) as f64).powi(2) / ((y as f64).powi(2) + metrics::REL_EPS);
+                    let v = (t(a.x, b.x) + t(a.y, b.y) + t(a.z, b.z)) / 3.0;
+                    ((v.max(1e-4).log10() + 4.0) / 5.0) as f32
+                })
+                .collect();
+            let flip_map = nv_flip::flip(
+                nv_flip::FlipImageRgb8::with_data(w, h, &srgb8(r)),
+                nv_flip::FlipImageRgb8::with_data(w, h, &srgb8(img)),
+                nv_flip::DEFAULT_PIXELS_PER_DEGREE,
+            );
+            let flip_mean = nv_flip::FlipPool::from_image(&flip_map).mean();
+            e["metrics"] = json!({ "rel_mse": m.rel_mse, "rmse": m.rmse, "flip_mean": flip_mean });
+            e["relse_png"] = json!(false_colour(w, h, &rel, &lut)?);
+            e["flip_png"] = json!(false_colour(w, h, &flip_map.to_vec(), &lut)?);
+        }
+        entries.push(e);
+    }
+    let data = json!({ "images": entries, "benches": benches, "octolux_version": env!("CARGO_PKG_VERSION") });
+    // `</` cannot close the script element from inside the JSON
+    let html = TEMPLATE.replace("\"__OCTOLUX_DATA__\"", &data.to_string().replace("</", "<\\/"));
+    crate::output::write_file_atomic(output, html.as_bytes())?;
+    eprintln!("report: {} images -> {} ({} bytes)", entries.len(), output.display(), html.len());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc4648_vectors() {
+        for (i, o) in
+            [("", ""), ("f", "Zg=="), ("fo", "Zm8="), ("foo", "Zm9v"), ("foob", "Zm9vYg=="), ("fooba", "Zm9vYmE="), ("foobar", "Zm9vYmFy")]
+        {
+            assert_eq!(base64(i.as_bytes()), o);
+        }
+    }
+
+    #[test]
+    fn rgbe_round_trips_within_its_precision() {
+        for c in [[0.5f32, 0.25, 0.125], [1000.0, 1.0, 0.0], [1e-3, 2e-3, 3e-3]] {
+            let [r, g, b, e] = rgbe(c);
+            let f = 2f32.powi(e as i32 - 128 - 8);
+            for (v, q) in c.iter().zip([r, g, b]) {
+                let back = (q as f32 + 0.5) * f;
+                assert!((back - v).abs() <= 0.5 * f * 2.0 + 1e-6, "{c:?} -> {back}");
+            }
+        }
+        assert_eq!(rgbe([0.0; 3]), [0; 4]);
+    }
+}
