@@ -9,6 +9,7 @@ pub mod builtin;
 pub mod cache;
 pub mod export;
 pub mod fuzzing;
+pub mod gltf_scene;
 pub mod image_io;
 pub mod mesh;
 pub mod mitsuba;
@@ -81,6 +82,7 @@ pub fn load_scene(spec: &str, defines: &[(String, String)]) -> Result<LoadedScen
     match ext.as_str() {
         "xml" => mitsuba::load(path, defines),
         "obj" | "ply" => mesh::load_mesh_scene(path),
-        _ => Err(IoError::invalid(path, "unknown scene format (expected .xml, .obj or .ply, or a built-in scene name)")),
+        "gltf" | "glb" => gltf_scene::load(path),
+        _ => Err(IoError::invalid(path, "unknown scene format (expected .xml, .gltf, .glb, .obj or .ply, or a built-in scene name)")),
     }
 }

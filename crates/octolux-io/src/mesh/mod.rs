@@ -126,7 +126,7 @@ pub const MESH_SCENE_FOV: f32 = 39.3;
 /// A camera framing `bounds`: looking at its centre from the +z side, slightly above
 /// (direction (0, 0.25, 1)), +y up, at the distance where the bounding sphere fits the
 /// horizontal field of view [`MESH_SCENE_FOV`] with a 10% margin.
-fn framing_camera(bounds: octolux::math::Bounds3) -> CameraDesc {
+pub(crate) fn framing_camera(bounds: octolux::math::Bounds3) -> CameraDesc {
     let (center, radius) = bounds.bounding_sphere();
     let radius = radius.max(1e-6);
     let half = (MESH_SCENE_FOV.to_radians() * 0.5).sin();
