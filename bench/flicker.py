@@ -7,15 +7,18 @@ One command, every step in its own process, for each scene: a linear camera move
 camera path, so LuxCore gets the very same cameras), then
 
 * reference  octolux `path`, REF_SPP spp, every frame;
-* baked      `octolux bake` once (seed 0), then `render --cache` frame by frame with seed i;
-* rebuilt    `render --integrator octree` frame by frame with seed i: photons and octree anew;
+* baked      `octolux bake` once (photon seed 0), then `render --cache --camera-path`;
+* rebuilt    `render --integrator octree` frame by frame, photon seed 1000 + i: photons and
+             octree anew every frame;
 * path       octolux `path` at equal time: the spp whose per-frame render time matches the
              baked octree's per-frame time (its render plus the bake shared over the frames);
 * pgi-baked  LuxCore PATHCPU + PhotonGI, its cache saved by frame 1 (path.photongi.persistent.file)
              and loaded by every other frame: LuxCore's own bake;
 * pgi-frame  LuxCore PATHCPU + PhotonGI, its cache rebuilt every frame with seed i;
 
-each frame rendered with the same spp and photon count for the four cache methods, and
+the pixels' seed is 1 in every frame (what `render --camera-path` does; --pixel-seed per-frame
+gives frame i seed i, as frames rendered apart with different seeds), so that the baked and
+rebuilt octrees differ only in their photons; each frame rendered with the same spp and photon count for the four cache methods, and
 `octolux flicker` (crates/octolux/src/flicker.rs) measures each sequence against the
 reference: temporal relMSE of frame differences and the spread of static points' errors over
 frames. LuxCore's frames are shifted one row up (bench/peers/lux_render.py: its film is one row
@@ -57,7 +60,7 @@ SCENES = {
         "keys": [([-0.5, 0.95, 6.8], [0.0, 1.0, 0.0]), ([0.5, 1.1, 6.5], [0.0, 1.0, 0.0])],
     },
 }
-METHODS = ["baked", "rebuilt", "path", "pgi-baked", "pgi-frame"]
+METHODS = ["baked", "rebuilt", "path", "pgi-baked", "pgi-frame", "irr-baked", "irr-rebuilt"]
 
 
 def log(msg: str) -> None:
@@ -99,15 +102,23 @@ def write_path(spec: dict, frames: int, path: Path) -> None:
     path.write_text(json.dumps({"fps": frames, "keyframes": keys}, indent=1))
 
 
-def octolux_frames(args, spec, cam_path, outdir: Path, name: str, common: list, per_frame_seed: bool) -> dict:
-    """Render the frames into outdir/NAME_i.exr, one process per frame (seed i) or one for all."""
+def octolux_frames(args, spec, cam_path, outdir: Path, name: str, common: list, photon_seed_per_frame: bool,
+                   seed: int = 1) -> dict:
+    """Render the frames into outdir/NAME_i.exr: one process for all frames, or (a photon seed
+    per frame, or --pixel-seed per-frame) one process per frame. The pixel seed is 1 for every
+    frame (what `render --camera-path` does), or i with --pixel-seed per-frame."""
     outdir.mkdir(parents=True, exist_ok=True)
     render_s = wall = cpu = build_s = 0.0
-    runs = range(1, args.frames + 1) if per_frame_seed else [None]
-    for i in runs:
+    per_frame = photon_seed_per_frame or args.pixel_seed == "per-frame"
+    for i in range(1, args.frames + 1) if per_frame else [None]:
         cmd = [args.bin, "render", spec["xml"], "--camera-path", cam_path, "--resolution", args.res,
                "--max-depth", spec["max_depth"], "--threads", args.threads, "-q", "-o", outdir / f"{name}.exr"] + common
-        cmd += ["--frames", f"{i}..{i}", "--seed", i] if i else ["--seed", 1000]
+        if i:
+            cmd += ["--frames", f"{i}..{i}", "--seed", i if args.pixel_seed == "per-frame" else seed]
+            if photon_seed_per_frame:
+                cmd += ["--set", f"photons.seed={1000 + i}"]
+        else:
+            cmd += ["--seed", seed]
         _, w, c = run(cmd)
         wall, cpu = wall + w, cpu + c
     for i in range(1, args.frames + 1):
@@ -128,6 +139,9 @@ def luxcore_frames(args, spec, dump: Path, outdir: Path, pgi_file: Path | None) 
     if pgi_file and pgi_file.exists():
         pgi_file.unlink()
     for i in range(1, args.frames + 1):
+        # LuxCore's engine seed also seeds PhotonGI's photons: a new one per frame when the cache
+        # is rebuilt per frame (or with --pixel-seed per-frame), else 1 as octolux's pixels.
+        seed = i if (pgi_file is None or args.pixel_seed == "per-frame") else 1
         fd = outdir / f"dump_{i:04d}"
         fd.mkdir(exist_ok=True)
         origin, target = camera_at(spec, args.frames, i)
@@ -135,7 +149,7 @@ def luxcore_frames(args, spec, dump: Path, outdir: Path, pgi_file: Path | None) 
         (fd / "scene.json").write_text(json.dumps(d))
         npy = outdir / f"lux_{i:04d}.npy"
         cmd = [sys.executable, PEERS / "lux_render.py", fd, "-o", npy, "--spp", args.spp, "--pgi", "auto",
-               "--threads", args.threads, "--seed", i, "--photons", args.photons]
+               "--threads", args.threads, "--seed", seed, "--photons", args.photons]
         if pgi_file:
             cmd += ["-P", f"path.photongi.persistent.file={pgi_file}"]
         out, w, c = run(cmd)
@@ -167,10 +181,13 @@ def main(argv=None) -> int:
     ap.add_argument("--methods", nargs="+", default=METHODS, choices=METHODS)
     ap.add_argument("--frames", type=int, default=8)
     ap.add_argument("--res", default="64x64")
-    ap.add_argument("--spp", type=int, default=16, help="spp of the cache methods")
-    ap.add_argument("--ref-spp", type=int, default=1024)
+    ap.add_argument("--spp", type=int, default=64, help="spp of the cache methods")
+    ap.add_argument("--ref-spp", type=int, default=2048)
     ap.add_argument("--photons", type=int, default=1_000_000)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--pixel-seed", choices=["fixed", "per-frame"], default="fixed",
+                    help="fixed: seed 1 for the pixels of every frame (render --camera-path's way); "
+                         "per-frame: seed i for frame i (frames rendered apart)")
     ap.add_argument("--bin", type=Path, default=ROOT / "target" / "release" / "octolux")
     ap.add_argument("--out", type=Path, default=ROOT / "target" / "flicker")
     args = ap.parse_args(argv)
@@ -190,15 +207,16 @@ def main(argv=None) -> int:
         write_path(spec, args.frames, cam_path)
         res = {}
         log(f"{name}: reference, path {args.ref_spp} spp")
-        res["reference"] = octolux_frames(args, spec, cam_path, sd / "reference", "ref",
-                                          ["--integrator", "path", "--spp", args.ref_spp], False)
+        ref_args = argparse.Namespace(**{**vars(args), "pixel_seed": "fixed"})
+        res["reference"] = octolux_frames(ref_args, spec, cam_path, sd / "reference", "ref",
+                                          ["--integrator", "path", "--spp", args.ref_spp], False, seed=1000)
         common = ["--spp", args.spp]
-        if "baked" in args.methods or "path" in args.methods:
+        if any(m in args.methods for m in ("baked", "path", "irr-baked")):
             log(f"{name}: bake + render --cache")
             oxc = sd / "lighting.oxc"
             _, bw, bc = run([args.bin, "bake", spec["xml"], "-o", oxc, "--photons", args.photons, "--max-depth",
                              spec["max_depth"], "--threads", args.threads, "--seed", 0])
-            r = octolux_frames(args, spec, cam_path, sd / "baked", "f", ["--cache", oxc] + common, True)
+            r = octolux_frames(args, spec, cam_path, sd / "baked", "f", ["--cache", oxc] + common, False)
             r.update({"bake_wall_s": bw, "bake_cpu_s": bc, "cache_bytes": oxc.stat().st_size})
             res["baked"] = r
         if "rebuilt" in args.methods:
@@ -218,9 +236,25 @@ def main(argv=None) -> int:
             per_spp = json.loads((pd / "p_0001.json").read_text())["timings"]["render_s"] / 16
             spp = max(1, round(target / per_spp))
             log(f"{name}: path at equal time: {spp} spp (target {target:.3f} s/frame)")
-            r = octolux_frames(args, spec, cam_path, sd / "path", "f", ["--integrator", "path", "--spp", spp], True)
+            r = octolux_frames(args, spec, cam_path, sd / "path", "f", ["--integrator", "path", "--spp", spp], False)
             r["spp"] = spp
             res["path"] = r
+        if "irr-baked" in args.methods or "irr-rebuilt" in args.methods:
+            # The lighting alone: the global octree's irradiance at the first diffuse hit
+            # (`--view irradiance`: no light sampling, only the pixel filter's jitter), against
+            # the same view of a bake with 10x the photons.
+            log(f"{name}: the lighting alone (--view irradiance), reference baked with {10 * args.photons} photons")
+            view = ["--view", "irradiance", "--spp", 16]
+            oxc10 = sd / "lighting-10x.oxc"
+            run([args.bin, "bake", spec["xml"], "-o", oxc10, "--photons", 10 * args.photons, "--max-depth",
+                 spec["max_depth"], "--threads", args.threads, "--seed", 7])
+            octolux_frames(args, spec, cam_path, sd / "irr-reference", "r", ["--cache", oxc10] + view, False)
+            res["irr-baked"] = octolux_frames(args, spec, cam_path, sd / "irr-baked", "f",
+                                              ["--cache", sd / "lighting.oxc"] + view, False)
+            res["irr-baked"]["spp"] = 16
+            res["irr-rebuilt"] = octolux_frames(args, spec, cam_path, sd / "irr-rebuilt", "f",
+                                                ["--integrator", "octree", "--photons", args.photons] + view, True)
+            res["irr-rebuilt"]["spp"] = 16
         dump = None
         if any(m.startswith("pgi") for m in args.methods):
             dump = sd / "dump"
@@ -232,10 +266,11 @@ def main(argv=None) -> int:
         if "pgi-frame" in args.methods:
             log(f"{name}: LuxCore PhotonGI rebuilt per frame")
             res["pgi-frame"] = luxcore_frames(args, spec, dump, sd / "pgi-frame", None)
-        for m in args.methods:
+        for m in METHODS:
             if m in res:
                 folder = sd / m
-                res[m]["flicker"] = flicker(args, spec, cam_path, folder, sd / "reference")
+                ref = sd / ("irr-reference" if m.startswith("irr-") else "reference")
+                res[m]["flicker"] = flicker(args, spec, cam_path, folder, ref)
                 log(f"{name} {m}: {res[m]['flicker']}")
         results["scenes"][name] = res
         (args.out / "results.json").write_text(json.dumps(results, indent=1))
@@ -247,7 +282,9 @@ def main(argv=None) -> int:
 
 LABEL = {"baked": "octree, baked once (`render --cache`)", "rebuilt": "octree rebuilt per frame (new seed)",
          "path": "octolux `path`, equal time", "pgi-baked": "LuxCore PhotonGI, one cache file (.pgi)",
-         "pgi-frame": "LuxCore PhotonGI, rebuilt per frame"}
+         "pgi-frame": "LuxCore PhotonGI, rebuilt per frame",
+         "irr-baked": "lighting alone (`--view irradiance`): octree baked once",
+         "irr-rebuilt": "lighting alone (`--view irradiance`): octree rebuilt per frame"}
 
 
 def markdown(results: dict, args) -> str:
@@ -255,13 +292,15 @@ def markdown(results: dict, args) -> str:
             "x rebuilt (temporal / static) | s/frame (own clock) | CPU s/frame |",
             "|---|---|---|---|---|---|---|---|---|---|"]
     for name, res in results["scenes"].items():
-        reb = res.get("rebuilt", {}).get("flicker")
         for m in METHODS:
             if m not in res:
                 continue
+            reb = res.get("irr-rebuilt" if m.startswith("irr-") else "rebuilt", {}).get("flicker")
             r, f = res[m], res[m]["flicker"]
             n = args.frames
-            t = (r["render_s"] + r.get("bake_wall_s", 0.0)) / n
+            # octolux's render_s leaves the photons and octree out (build_s); LuxCore's includes them.
+            own = r["render_s"] + (r["build_s"] if m.endswith("rebuilt") else 0.0) + r.get("bake_wall_s", 0.0)
+            t = own / n
             cpu = (r["cpu_s"] + r.get("bake_cpu_s", 0.0)) / n
             rel = "" if not reb else f"{f['temporal_rel_mse'] / reb['temporal_rel_mse']:.3f} / " \
                                      f"{f['static_rel_std'] / reb['static_rel_std']:.3f}"
