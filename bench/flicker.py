@@ -190,28 +190,38 @@ def main(argv=None) -> int:
                          "per-frame: seed i for frame i (frames rendered apart)")
     ap.add_argument("--bin", type=Path, default=ROOT / "target" / "release" / "octolux")
     ap.add_argument("--out", type=Path, default=ROOT / "target" / "flicker")
+    ap.add_argument("--reuse", action="store_true",
+                    help="keep a scene folder of an earlier run with the same settings (its reference, its bake, "
+                         "the results of the methods not asked for) and run only --methods")
     args = ap.parse_args(argv)
     if args.quick:
         args.frames, args.res, args.spp, args.ref_spp, args.photons = 4, "32x32", 4, 64, 100_000
     w, h = (int(v) for v in args.res.split("x"))
     results = {"settings": {k: str(v) for k, v in vars(args).items()}, "scenes": {}}
+    if args.reuse and (args.out / "results.json").exists():
+        results["scenes"] = json.loads((args.out / "results.json").read_text())["scenes"]
     for name in args.scenes:
         spec = SCENES[name]
         if not Path(spec["xml"]).exists():
             print(f"skip: {spec['xml']} not found", file=sys.stderr)
             continue
         sd = args.out / name
-        shutil.rmtree(sd, ignore_errors=True)
-        sd.mkdir(parents=True)
-        cam_path = sd / "path.json"
-        write_path(spec, args.frames, cam_path)
         res = {}
-        log(f"{name}: reference, path {args.ref_spp} spp")
-        ref_args = argparse.Namespace(**{**vars(args), "pixel_seed": "fixed"})
-        res["reference"] = octolux_frames(ref_args, spec, cam_path, sd / "reference", "ref",
-                                          ["--integrator", "path", "--spp", args.ref_spp], False, seed=1000)
+        if args.reuse and (sd / "reference" / f"ref_{args.frames:04d}.exr").exists():
+            old = json.loads((args.out / "results.json").read_text()) if (args.out / "results.json").exists() else {}
+            res = {k: v for k, v in old.get("scenes", {}).get(name, {}).items() if k not in args.methods}
+            log(f"{name}: reusing {sd}: its reference, bake and {sorted(res)}")
+        else:
+            shutil.rmtree(sd, ignore_errors=True)
+            sd.mkdir(parents=True)
+            write_path(spec, args.frames, sd / "path.json")
+            log(f"{name}: reference, path {args.ref_spp} spp")
+            ref_args = argparse.Namespace(**{**vars(args), "pixel_seed": "fixed"})
+            res["reference"] = octolux_frames(ref_args, spec, sd / "path.json", sd / "reference", "ref",
+                                              ["--integrator", "path", "--spp", args.ref_spp], False, seed=1000)
+        cam_path = sd / "path.json"
         common = ["--spp", args.spp]
-        if any(m in args.methods for m in ("baked", "path", "irr-baked")):
+        if any(m in args.methods for m in ("baked", "path")) or not (sd / "lighting.oxc").exists():
             log(f"{name}: bake + render --cache")
             oxc = sd / "lighting.oxc"
             _, bw, bc = run([args.bin, "bake", spec["xml"], "-o", oxc, "--photons", args.photons, "--max-depth",
