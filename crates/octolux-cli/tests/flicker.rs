@@ -133,6 +133,7 @@ fn bad_folders_are_refused() {
     std::fs::remove_file(t.0.join("ref").join("ref_0002.exr")).unwrap();
     let e = err(&["flicker", &t.s("frames"), "--reference", &t.s("ref")]);
     assert!(e.contains("frame 2") && e.contains("has no reference"), "{e}");
+    grey(&t.0.join("ref"), "ref_0002.exr", 0.5);
     grey(&t.0.join("frames"), "g_0001.exr", 0.5);
     let e = err(&["flicker", &t.s("frames"), "--reference", &t.s("ref")]);
     assert!(e.contains("both claim frame 1"), "{e}");
