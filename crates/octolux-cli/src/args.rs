@@ -46,6 +46,10 @@ pub enum Command {
         #[arg(short, long, default_value = "report.html")]
         output: PathBuf,
     },
+    /// Measure the flicker of numbered frames (NAME_0001.exr, ...) against reference frames:
+    /// temporal relMSE of frame differences, and with --scene and --camera-path the spread over
+    /// frames of static points' values (JSON on stdout; docs/baking.md).
+    Flicker(FlickerArgs),
     /// Compare an image with a reference: relMSE, RMSE and channel means (JSON on stdout).
     Compare {
         /// The image to judge (EXR).
@@ -307,6 +311,30 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+#[derive(clap::Args)]
+pub struct FlickerArgs {
+    /// Folder of the frames to judge (NAME_0001.exr, NAME_0002.exr, ...).
+    pub frames: PathBuf,
+    /// Folder of the reference frames, with the same frame numbers.
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// The scene the frames show: static points are followed through it (needs --camera-path).
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// Override a Mitsuba `<default>` parameter of --scene: -D name=value (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub define: Vec<String>,
+    /// The camera path the frames were rendered along (frame numbers are its frames).
+    #[arg(long, value_name = "FILE")]
+    pub camera_path: Option<PathBuf>,
+    /// About this many static points, seen through a grid of the first frame's pixels.
+    #[arg(long, default_value_t = 4096)]
+    pub points: u32,
+    /// Pixels left out on every side of every frame.
+    #[arg(long, default_value_t = 0)]
+    pub border: u32,
 }
 
 #[derive(clap::Args)]

@@ -5,14 +5,15 @@
 //! `octolux export SCENE -o scene.xml` writes the scene as Mitsuba 3 XML (meshes as PLY).
 //! `octolux bake SCENE -o lighting.oxc` writes the `octree` integrator's lighting, which
 //! `render --cache` renders from, for one image or the frames of `--camera-path` / `--sensors`
-//! (docs/baking.md).
+//! (docs/baking.md); `octolux flicker` measures how such frames flicker.
 //!
 //! Rooms: [`args`] (the command line), [`settings`] (flags, `--settings` and `--set` merged
 //! into the library's integrator settings), [`stats`] (`OUT.json` and the build log),
 //! [`output`] (the output set: checked first, written through staged files, renamed JSON last),
 //! [`interrupt`] (SIGINT/SIGTERM: a partial render is written, a second signal exits),
 //! [`bake`] (`bake`, and the checks of `render --cache`), [`frames`] (camera paths, sensors),
-//! [`report`] (`report`: the HTML comparison page).
+//! [`report`] (`report`: the HTML comparison page), [`flicker`] (the flicker measure of a frame
+//! folder).
 //!
 //! Hostile input (issue 12): sizes from the command line or the scene (film, photons) are
 //! checked against the memory budget ([`octolux::budget`]) and the output folder is checked
@@ -20,6 +21,7 @@
 
 mod args;
 mod bake;
+mod flicker;
 mod frames;
 mod interrupt;
 mod output;
@@ -379,6 +381,7 @@ fn run(cli: Cli) -> Result<std::process::ExitCode> {
         Command::Report { images, reference, bench, output } => {
             report::cmd_report(&images, reference.as_deref(), &bench, &output).map(|()| std::process::ExitCode::SUCCESS)
         }
+        Command::Flicker(a) => flicker::cmd_flicker(&a).map(|()| std::process::ExitCode::SUCCESS),
         Command::Scenes => {
             for n in octolux_io::builtin::NAMES {
                 println!("{n}");

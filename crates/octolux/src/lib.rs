@@ -7,6 +7,7 @@ pub mod accel;
 pub mod budget;
 pub mod caches;
 pub mod film;
+pub mod flicker;
 pub mod image;
 pub mod integrators;
 pub mod math;
