@@ -14,7 +14,7 @@ Methods, each a ladder of runs, one process per run, all threads of the machine:
   path (octolux), mitsuba (Mitsuba 3 path, llvm_ad_rgb, tools/mitsuba/render.py, independent sampler)
                                          spp = 1, 4, 16, 64, 256, 1024
 A ladder stops when its spent cost plus the next rung's predicted cost (this rung's times the
-growth) would pass --budget CPU seconds (at least two rungs are run).
+growth) would pass --budget CPU seconds (a second rung is run up to 3x the budget).
 
 Cost of a run = CPU seconds (user + system, all threads) of producing the image from the loaded
 scene: the photon pass and cache build included. octolux: the child's CPU (wait4) minus the CPU
@@ -159,8 +159,8 @@ def run_rung(name: str, sc: dict, method: str, rung, setup: float) -> dict:
         for k in ("global_photons", "caustic_photons", "t_photons_s", "t_octree_s", "t_c_s", "bytes"):
             if k in b:
                 extra[k] = b[k]
-        if "query_share" in stats:
-            extra["query_share"] = stats["query_share"]
+        if "cache_query_share" in stats:
+            extra["query_share"] = stats["cache_query_share"]
     err = compare(out, sc["ref"])
     rel = err["rel_mse"]
     return {"method": method, "cost_cpu_s": cost, "wall_s": wall, "child_cpu_s": child_cpu, "child_wall_s": child_wall,
@@ -181,7 +181,9 @@ def ladder(name: str, sc: dict, method: str, budget: float, setup: float) -> lis
         spent += p["cost_cpu_s"]
         log(f"{name:15} {method:11} {str(rung):14} cpu {p['cost_cpu_s']:8.2f} s  wall {p['wall_s']:7.2f} s  "
             f"relMSE {p['rel_mse']:.3e}  error {p['error']:.3e}")
-        if i >= 1 and spent + growth * p["cost_cpu_s"] > budget:
+        # At least two rungs (a curve), unless the second alone would be far over budget.
+        nxt = spent + growth * p["cost_cpu_s"]
+        if nxt > budget and (i >= 1 or nxt > 3 * budget):
             break
     return pts
 
@@ -301,6 +303,7 @@ def main() -> int:
     ap.add_argument("--plot", action="store_true", help=f"write {IMG.relative_to(ROOT)}")
     ap.add_argument("--write-docs", action="store_true", help="replace the results block of docs/benchmarks.md")
     ap.add_argument("--plot-only", type=Path, help="re-plot and re-tabulate a results.json")
+    ap.add_argument("--reuse", action="store_true", help="keep the scenes already in target/tte/results.json")
     args = ap.parse_args()
     if args.plot_only:
         results = json.loads(args.plot_only.read_text())
@@ -315,10 +318,15 @@ def main() -> int:
         results = {"about": f"`bench/time_to_error.py --budget {args.budget:g}` at {head}, "
                             f"{time.strftime('%Y-%m-%d')}, {os.cpu_count()} CPUs",
                    "scenes": {}}
+        if args.reuse and (OUT / "results.json").exists():
+            results["scenes"] = json.loads((OUT / "results.json").read_text())["scenes"]
         for name in args.scenes:
             sc = all_scenes.get(name)
             if sc is None:
                 log(f"{name}: unknown scene, skipped")
+                continue
+            if name in results["scenes"]:
+                log(f"{name}: reused from {OUT / 'results.json'}")
                 continue
             if sc["mi_scene"] and not Path(sc["mi_scene"]).exists():
                 print(f"skip: {name} ({sc['mi_scene']} missing)")

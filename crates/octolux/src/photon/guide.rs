@@ -44,9 +44,9 @@ pub const MIN_STORED: u32 = 16;
 
 /// Pilot paths per round.
 pub const PILOT_ROUND: u64 = 1 << 15;
-/// The pilot stops once its paths have stored this many photons (classroom needs ~1M paths
-/// for it: 0.12% of its paths store a photon without the guide).
-pub const PILOT_STORED: u64 = 2048;
+/// The pilot stops once its paths have stored this many photons (32 per direction bin on
+/// average; classroom does not get there within 1M paths: 0.12% of its paths store a photon).
+pub const PILOT_STORED: u64 = 4096;
 
 /// Most pilot paths for a pass of `photons`: as many, between 2^16 and 2^21.
 pub fn pilot_cap(photons: u64) -> u64 {
