@@ -207,6 +207,15 @@ def time_at(pts: list[dict], target: float, unbiased: bool) -> tuple[float | Non
     return None, "not reached"
 
 
+def run_share(name: str, p: dict) -> float:
+    """Cache-query share of an octree run, from its out.json (results of older versions lack it)."""
+    f = OUT / "runs" / f"{name}-octree-{p.get('photons')}-{p.get('spp')}.json"
+    try:
+        return float(json.loads(f.read_text()).get("cache_query_share") or 0.0)
+    except (OSError, ValueError):
+        return 0.0
+
+
 def summarise(results: dict) -> str:
     lines = []
     lines.append("| scene | res | ref noise | target | octree | path | Mitsuba 3 | ward | christensen | photonmap "
@@ -236,18 +245,24 @@ def summarise(results: dict) -> str:
                 best = (target, tm / to)
             lines.append(f"| {name} | {sc['res'][0]}x{sc['res'][1]} | {sc['ref_noise']:.2g} | {target:g} | "
                          + " | ".join(cells) + f" | {sp} |")
-        heads.append((name, best, floor["octree"]))
+        oc = sorted(r["curves"].get("octree", []), key=lambda p: p["cost_cpu_s"])
+        trend = oc[-1]["error"] / oc[-2]["error"] if len(oc) >= 2 and oc[-2]["error"] > 0 else None
+        share = max((p.get("query_share") or run_share(name, p) for p in oc), default=None)
+        heads.append((name, best, floor["octree"], trend, share))
     lines.append("")
     lines.append("CPU seconds (user + system, both cores) to reach each error (relMSE minus the reference's own "
                  "noise); ~ = extrapolated as 1/cost past the last rung (unbiased path tracers only); "
-                 "≤ = already at the first rung; floor = the lowest error of a cache that never reached the target.")
+                 "≤ = already at the first rung; floor = the lowest error of a cache that never reached the target within the budget.")
     lines.append("")
     lines.append("| scene | octree's equal-error speed-up over Mitsuba 3 path (at the lowest target it reaches) "
-                 "| octree's floor |")
-    lines.append("|---|---|---|")
-    for name, best, fl in heads:
-        s = f"{best[1]:.2g}x at {best[0]:g}" if best else "no common target"
-        lines.append(f"| {name} | {s} | {fl:.3g} |" if fl is not None else f"| {name} | {s} | — |")
+                 "| octree's lowest error | its last rung / the one before | octree query share (wall) |")
+    lines.append("|---|---|---|---|---|")
+    for name, best, fl, trend, share in heads:
+        sp = f"{best[1]:.2g}x at {best[0]:g}" if best else "no common target"
+        f = "—" if fl is None else f"{fl:.3g}"
+        t = "—" if trend is None else f"{trend:.2f}" + (" (flat: bias floor)" if trend > 0.8 else "")
+        q = "—" if not share else f"{share:.0%}" + (" (loaded machine)" if share > 1 else "")
+        lines.append(f"| {name} | {sp} | {f} | {t} | {q} |")
     return "\n".join(lines) + "\n"
 
 
