@@ -431,7 +431,13 @@ mod tests {
             assert_eq!(u.pilot, 0);
             let (pg, pu) = (power(&g), power(&u));
             let (rg, ru) = (g.global.len() as f64 / g.emitted as f64, u.global.len() as f64 / u.emitted as f64);
-            eprintln!("{what}: pilot {} paths; stored power guided {pg:.5} W ({} photons), uniform {pu:.5} W ({} photons); {} guided bins", g.pilot, g.global.len(), u.global.len(), g.guided_bins);
+            eprintln!(
+                "{what}: pilot {} paths; stored power guided {pg:.5} W ({} photons), uniform {pu:.5} W ({} photons); {} guided bins",
+                g.pilot,
+                g.global.len(),
+                u.global.len(),
+                g.guided_bins
+            );
             assert!(u.global.len() > 2000, "{what}: the uniform pass stores enough to compare");
             assert!((pg / pu - 1.0).abs() < 0.08, "{what}: stored power guided {pg}, uniform {pu}");
             let gain = if what == "constant" { 2.0 } else { 10.0 };
