@@ -37,7 +37,7 @@ use serde::{Deserialize, Serialize};
 /// Stream index separating photon random numbers from pixel random numbers.
 const PHOTON_STREAM: u64 = 0x5048_4f54_4f4e; // "PHOTON"
 /// Stream of the pilot photons of the disc guide.
-const PILOT_STREAM: u64 = 0x5049_4c4f_54; // "PILOT"
+const PILOT_STREAM: u64 = 0x0050_494c_4f54; // "PILOT"
 
 /// Settings of the photon pass.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
