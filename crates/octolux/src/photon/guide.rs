@@ -136,7 +136,7 @@ mod tests {
 
     #[test]
     fn bins_cover_the_sphere_and_the_square() {
-        let mut seen = vec![false; DIR_Z * DIR_PHI];
+        let mut seen = [false; DIR_Z * DIR_PHI];
         let mut s = crate::sampling::Sampler::new(1, 2, 3);
         for _ in 0..20_000 {
             let d = crate::sampling::square_to_uniform_sphere(s.next_2d());
