@@ -14,6 +14,7 @@
 //! Photons that break these rules (NaN, infinite) are dropped by the octree build, not
 //! trusted.
 
+pub mod guide;
 pub mod trace;
 
 use crate::math::Color;

@@ -426,7 +426,7 @@ impl LightSet {
 /// A point on the disk of radius `radius` perpendicular to `dir` through `center`, moved back
 /// by `radius` along `-dir` so that rays starting there traverse the whole bounding sphere.
 #[inline]
-fn disk_origin(center: Vec3, radius: f32, dir: Vec3, u: Vec2) -> Vec3 {
+pub(crate) fn disk_origin(center: Vec3, radius: f32, dir: Vec3, u: Vec2) -> Vec3 {
     let f = Frame::from_normal(dir);
     let d = square_to_uniform_disk_concentric(u) * radius;
     center + f.s * d.x + f.t * d.y - dir * radius
