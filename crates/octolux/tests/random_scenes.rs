@@ -1,20 +1,26 @@
 //! Property test on random scenes (issue 11, item 1): small scenes of open and closed
 //! analytic and mesh shapes (analytic spheres; mesh spheres, cubes, rectangles, disks, open
-//! tubes and hemispheres), under random transforms (tiny, huge and thin), some of them
-//! emitting, optionally a constant sky or a point light, the camera inside an enclosure or
-//! outside the objects. For every integrator (`path`, `octree`, `octree --gather`,
-//! `photonmap`, `ward`, `christensen`) the image must be finite and non-negative, and within
-//! a bound of the path tracer's:
-//! - no pixel above [`K_MAX`] times the path reference's largest pixel (the issue's
-//!   done-when uses 10 on the collection);
-//! - the image mean within a factor [`F_MEAN`] of the reference's, up to an absolute slack of
-//!   [`SLACK`] times the reference's largest pixel (dark scenes lit only by a few noisy
-//!   paths).
+//! tubes and hemispheres), under random transforms (the whole scene scaled by 10^±2, objects
+//! from 0.003 to 2 of it, a quarter of them squashed to 1/10–1/1000 along one axis), some of
+//! them emitting, optionally a constant sky or a point light, the camera inside an enclosure
+//! (mostly facing inwards) or outside the objects. For every integrator (`path`, `octree`,
+//! `octree --gather`, `photonmap`, `ward`, `christensen`) the image must be finite and
+//! non-negative, and within a bound of the path tracer's (`SPP_PATH` samples per pixel; the
+//! others take `SPP`):
+//! - no pixel above [`K_MAX`] = 10 times the path tracer's largest pixel (the issue's done-when
+//!   on the collection), the largest of its renders at `SPP_PATH` and at `SPP` samples (the
+//!   same camera rays as the others: an emitter smaller than a pixel, hit by one sample in
+//!   `SPP`, makes a pixel `SPP_PATH / SPP` times brighter than at `SPP_PATH`);
+//! - the image mean within a factor [`F_MEAN`] of the path tracer's, plus [`Z_NOISE`]
+//!   standard deviations of a mean at `SPP` samples (estimated from the spread of the path
+//!   tracer's pixels: an over-estimate, the spread holds the image's contrast too).
 //!
-//! The generator is a seeded loop (no shrinking): a failure prints the seed and the scene
-//! (`Spec`). `OCTOLUX_PROP_CASES=N` and `OCTOLUX_PROP_FIRST=S` run other seeds (how the bounds
-//! were measured, see the constants); `OCTOLUX_PROP_REPORT=1` prints the ratios and does not
-//! assert the bounds (finiteness is always asserted).
+//! The bounds come from measurement (`OCTOLUX_PROP_CASES=300 OCTOLUX_PROP_REPORT=1`, see
+//! [`F_MEAN`]). The generator is a seeded loop (no shrinking): a failure prints the seed and
+//! the scene (`Spec`). `OCTOLUX_PROP_CASES=N` and `OCTOLUX_PROP_FIRST=S` run other seeds;
+//! `OCTOLUX_PROP_REPORT=1` prints the ratios and does not assert the bounds (finiteness is
+//! always asserted); `OCTOLUX_PROP_SPEC=1` prints every scene, `OCTOLUX_PROP_PIXELS=1` every
+//! image, `OCTOLUX_PROP_WORLD=W` sets the scene scale.
 
 use octolux::accel::BackendKind;
 use octolux::glam::{Mat4, Quat, Vec2, Vec3};
@@ -36,8 +42,11 @@ const CASES: u64 = 12;
 const K_MAX: f64 = 10.0;
 /// Image mean of any integrator within this factor of the path reference's.
 const F_MEAN: f64 = 2.0;
-/// Absolute slack of the mean test, as a fraction of the reference's largest pixel.
-const SLACK: f64 = 0.02;
+/// Noise allowance of the mean test, in standard deviations of the mean at `SPP` samples.
+const Z_NOISE: f64 = 3.0;
+/// Seeds and integrators known to exceed the bounds, and why; the test fails if one of them
+/// comes back within them (then remove it).
+const KNOWN_LEAKS: &[(u64, &str, &str)] = &[];
 /// Film edge in pixels, and samples per pixel of the reference and of the others.
 const RES: u32 = 12;
 const SPP_PATH: u32 = 256;
@@ -357,9 +366,18 @@ fn integrators() -> Vec<(&'static str, IntegratorSettings)> {
     ]
 }
 
-/// Mean (over pixels and channels) and largest channel of a render; panics on a non-finite
-/// or negative pixel.
-fn render_stats(spec: &Spec, scene: &Scene, name: &str, settings: &IntegratorSettings, spp: u32) -> (f64, f64) {
+/// What the test reads of a render.
+struct Stats {
+    /// Mean over pixels and channels.
+    mean: f64,
+    /// Largest pixel channel.
+    max: f64,
+    /// Standard deviation of the pixels' channel means.
+    std: f64,
+}
+
+/// [`Stats`] of a render; panics on a non-finite or negative pixel.
+fn render_stats(spec: &Spec, scene: &Scene, name: &str, settings: &IntegratorSettings, spp: u32) -> Stats {
     let integrator = build(settings, scene).unwrap_or_else(|e| panic!("seed {}: {name}: {e}\n{spec:#?}", spec.seed));
     let (img, _) = render(scene, &integrator, &RenderSettings { spp, seed: spec.seed, ..Default::default() }, &|_, _| {});
     if let Some(bad) = img.data.iter().position(|c| !(c.is_finite() && c.min_element() >= 0.0)) {
@@ -371,8 +389,10 @@ fn render_stats(spec: &Spec, scene: &Scene, name: &str, settings: &IntegratorSet
             println!("    {}", row.iter().map(|c| format!("{:9.2e}", c.element_sum() / 3.0)).collect::<Vec<_>>().join(" "));
         }
     }
-    let mean = img.data.iter().map(|c| c.element_sum() as f64 / 3.0).sum::<f64>() / img.data.len() as f64;
-    (mean, img.data.iter().map(|c| c.max_element() as f64).fold(0.0, f64::max))
+    let n = img.data.len() as f64;
+    let mean = img.data.iter().map(|c| c.element_sum() as f64 / 3.0).sum::<f64>() / n;
+    let var = img.data.iter().map(|c| (c.element_sum() as f64 / 3.0 - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    Stats { mean, max: img.data.iter().map(|c| c.max_element() as f64).fold(0.0, f64::max), std: var.sqrt() }
 }
 
 fn env_u64(name: &str, default: u64) -> u64 {
@@ -386,41 +406,54 @@ fn random_scenes_every_integrator_finite_and_near_the_path_tracer() {
     let report = std::env::var("OCTOLUX_PROP_REPORT").is_ok_and(|v| v == "1");
     let mut failures = Vec::new();
     for seed in first..first + cases {
-        let spec = Spec::random(seed);
-        let mut spec = spec;
+        let mut spec = Spec::random(seed);
         if let Some(w) = std::env::var("OCTOLUX_PROP_WORLD").ok().and_then(|v| v.parse().ok()) {
             spec.world = w;
         }
-        let scene = Scene::prepare(spec.desc(), BackendKind::Bvh).unwrap_or_else(|e| panic!("seed {seed}: {e}\n{spec:#?}"));
-        let path = IntegratorSettings::Path(PathSettings::default());
-        let (ref_mean, ref_max) = render_stats(&spec, &scene, "path", &path, SPP_PATH);
-        let kinds: Vec<_> = spec.shapes.iter().map(|s| format!("{:?}", s.kind)).collect();
         if std::env::var("OCTOLUX_PROP_SPEC").is_ok_and(|v| v == "1") {
             println!("{spec:#?}");
         }
+        let scene = Scene::prepare(spec.desc(), BackendKind::Bvh).unwrap_or_else(|e| panic!("seed {seed}: {e}\n{spec:#?}"));
+        let max_depth = std::env::var("OCTOLUX_PROP_PATH_DEPTH").ok().and_then(|v| v.parse().ok()).unwrap_or(-1);
+        let path = IntegratorSettings::Path(PathSettings { max_depth, ..Default::default() });
+        let reference = render_stats(&spec, &scene, "path", &path, SPP_PATH);
+        // The path tracer at the others' sample count and seed takes the same camera rays:
+        // an emitter smaller than a pixel, hit by one camera sample in `SPP`, makes a pixel
+        // `SPP_PATH / SPP` times brighter than at `SPP_PATH` samples, in every integrator.
+        let same_rays = render_stats(&spec, &scene, "path", &path, SPP);
+        let ref_max = reference.max.max(same_rays.max);
+        // The mean's noise at `SPP` samples, bounded by the pixels' spread (which also holds
+        // the image's own contrast, so it over-estimates the noise).
+        let sigma = reference.std / f64::from(RES * RES).sqrt() * f64::from(SPP_PATH / SPP).sqrt();
+        let slack = Z_NOISE * sigma;
+        let kinds: Vec<_> = spec.shapes.iter().map(|s| format!("{:?}", s.kind)).collect();
         println!(
-            "seed {seed}: world {:.3}, {}, {}, path mean {ref_mean:.4e} max {ref_max:.4e}",
+            "seed {seed}: world {:.3}, {}, {}, path mean {:.4e} max {ref_max:.4e} slack {slack:.3e}",
             spec.world,
             if spec.inside { "inside" } else { "outside" },
-            kinds.join("+")
+            kinds.join("+"),
+            reference.mean,
         );
-        if report {
-            let direct = IntegratorSettings::Path(PathSettings { max_depth: 2, ..Default::default() });
-            let (m, x) = render_stats(&spec, &scene, "path direct", &direct, SPP_PATH);
-            println!("  path direct only: mean {m:.4e} max {x:.4e}");
-        }
         for (name, settings) in integrators() {
-            let (mean, max) = render_stats(&spec, &scene, name, &settings, SPP);
-            let slack = SLACK * ref_max;
-            let mean_ok = mean <= F_MEAN * ref_mean + slack && mean >= ref_mean / F_MEAN - slack;
-            let max_ok = max <= K_MAX * ref_max + 1e-6;
+            let got = render_stats(&spec, &scene, name, &settings, SPP);
+            let mean_ok = got.mean <= F_MEAN * reference.mean + slack && got.mean >= reference.mean / F_MEAN - slack;
+            let max_ok = got.max <= K_MAX * ref_max;
+            let known = KNOWN_LEAKS.iter().any(|&(s, n, _)| s == seed && n == name);
             println!(
-                "  prop seed {seed} {name:16} mean_ratio {:.4} max_ratio {:.4} mean {mean:.4e} max {max:.4e}",
-                mean / ref_mean.max(1e-30),
-                max / ref_max.max(1e-30)
+                "  prop seed {seed} {name:16} mean_ratio {:.4} max_ratio {:.4} mean {:.4e} max {:.4e}{}",
+                got.mean / reference.mean.max(1e-30),
+                got.max / ref_max.max(1e-30),
+                got.mean,
+                got.max,
+                if known { " (known leak)" } else { "" }
             );
-            if !(mean_ok && max_ok) {
-                failures.push(format!("seed {seed}, {name}: mean {mean:.4e} (path {ref_mean:.4e}), max {max:.4e} (path {ref_max:.4e})\n{spec:#?}"));
+            if mean_ok && max_ok && known {
+                failures.push(format!("seed {seed}, {name}: listed in KNOWN_LEAKS but within the bounds now: remove it"));
+            } else if !(mean_ok && max_ok) && !known {
+                failures.push(format!(
+                    "seed {seed}, {name}: mean {:.4e} (path {:.4e} ± {slack:.2e}), max {:.4e} (path {ref_max:.4e})\n{spec:#?}",
+                    got.mean, reference.mean, got.max
+                ));
             }
         }
     }
