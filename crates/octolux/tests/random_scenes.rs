@@ -40,13 +40,48 @@ use octolux::Color;
 const CASES: u64 = 12;
 /// Largest pixel of any integrator over the path reference's largest pixel.
 const K_MAX: f64 = 10.0;
-/// Image mean of any integrator within this factor of the path reference's.
+/// Image mean of any integrator within this factor of the path reference's (plus the noise
+/// allowance). Measured on seeds 0–299 (`OCTOLUX_PROP_CASES=300`, 12x12 pixels, path 256 spp,
+/// the others 16 spp): outside [`KNOWN_LEAKS`] the largest factor a case needed was 1.71
+/// (ward, seed 270, where christensen needs 1.5 and octree 1.05; the next ones 1.36 and
+/// 1.31), 99% of the cases need at most 1.07 and 95% none; the largest pixel ratio was 5.8
+/// (octree --gather, seed 193; 95% under 1.7). Before the shadow-ray fix of
+/// `SurfaceHit::spawn_to`, the path tracer itself was 3–30x too dark in scenes a few
+/// centimetres across (seeds 8, 165).
 const F_MEAN: f64 = 2.0;
+/// Floors of the bounds, as fractions of the brightest emitted radiance (`Spec::light_scale`):
+/// the mean may exceed the path tracer's by `FLOOR_MEAN` of it, a pixel reach `K_MAX` times
+/// `FLOOR_MAX` of it.
+const FLOOR_MEAN: f64 = 1e-3;
+const FLOOR_MAX: f64 = 1e-2;
 /// Noise allowance of the mean test, in standard deviations of the mean at `SPP` samples.
 const Z_NOISE: f64 = 3.0;
-/// Seeds and integrators known to exceed the bounds, and why; the test fails if one of them
-/// comes back within them (then remove it).
-const KNOWN_LEAKS: &[(u64, &str, &str)] = &[];
+/// Seeds and integrators known to exceed the bounds (of seeds 0–299), and why; the test fails
+/// if one of them comes back within them (then remove it). All are light leaking to where the
+/// path tracer sees none, across surfaces of zero thickness or seams — below the leak goal of
+/// issue 11 (no leak once a wall is one leaf thick):
+/// - 104: an open emitting tube wider than the room crosses its walls; the walls inside the
+///   tube (dark) take the light of the walls just outside through the tube's zero-thickness
+///   wall (mean 4.1x for octree, 18x ward, 27x christensen; photonmap and octree --gather
+///   within the bounds);
+/// - 106: the camera inside a closed sphere that cuts the room's wall, the light outside it:
+///   photons and estimates leak across the seam (path 0; octree mean 2.7e-3 of the light's
+///   scale, ward 5e-3, christensen 9e-3, pixels up to 0.1 of it);
+/// - 145: christensen only: a thin closed box emits inwards (its light trapped: path ~0
+///   outside it); the ground's lookups find the box's dense irradiance photons through its
+///   walls within the lookup radius (5.5% of a 75-unit scene) with a compatible normal (mean
+///   5e4x, pixels 344x); ward and the others are within the bounds;
+/// - 289: christensen only, mean 5.2x in a room of open hemispheres (not analysed).
+const KNOWN_LEAKS: &[(u64, &str, &str)] = &[
+    (104, "octree", "zero-thickness emitting tube across the walls"),
+    (104, "ward", "zero-thickness emitting tube across the walls"),
+    (104, "christensen", "zero-thickness emitting tube across the walls"),
+    (106, "octree", "seam of a closed sphere cutting the wall"),
+    (106, "ward", "seam of a closed sphere cutting the wall"),
+    (106, "christensen", "seam of a closed sphere cutting the wall"),
+    (145, "christensen", "irradiance photons trapped in a thin inward-emitting box, found through its walls"),
+    (289, "christensen", "mean 5.2x (not analysed; the others within 1.3x)"),
+];
 /// Film edge in pixels, and samples per pixel of the reference and of the others.
 const RES: u32 = 12;
 const SPP_PATH: u32 = 256;
@@ -112,7 +147,8 @@ enum Kind {
     Hemisphere,
 }
 
-const OBJECT_KINDS: [Kind; 7] = [Kind::AnalyticSphere, Kind::MeshSphere, Kind::Cube, Kind::Rectangle, Kind::Disk, Kind::Tube, Kind::Hemisphere];
+const OBJECT_KINDS: [Kind; 7] =
+    [Kind::AnalyticSphere, Kind::MeshSphere, Kind::Cube, Kind::Rectangle, Kind::Disk, Kind::Tube, Kind::Hemisphere];
 const CLOSED_KINDS: [Kind; 3] = [Kind::AnalyticSphere, Kind::MeshSphere, Kind::Cube];
 
 /// One shape of a random scene, as printed when a case fails.
@@ -258,7 +294,11 @@ impl Spec {
             // the enclosure: a closed shape of size ~1 around the origin, inward (mostly)
             let kind = CLOSED_KINDS[rng.pick(CLOSED_KINDS.len())];
             let mut s = ShapeSpec::random(&mut rng, kind, Vec3::ZERO, 1.0);
-            s.scale = if kind == Kind::AnalyticSphere { Vec3::ONE } else { Vec3::new(rng.range(0.7, 1.4), rng.range(0.7, 1.4), rng.range(0.7, 1.4)) };
+            s.scale = if kind == Kind::AnalyticSphere {
+                Vec3::ONE
+            } else {
+                Vec3::new(rng.range(0.7, 1.4), rng.range(0.7, 1.4), rng.range(0.7, 1.4))
+            };
             s.specular = None;
             s.flip_normals = !rng.chance(0.1);
             if rng.chance(0.3) {
@@ -309,6 +349,16 @@ impl Spec {
             last.emission = Some(rng.log(0.0, 1.5));
         }
         spec
+    }
+
+    /// The brightest radiance a light emits (W/(m² sr)); a point light counts as the
+    /// irradiance it gives at one scene unit (`world`) from it.
+    fn light_scale(&self) -> f64 {
+        let mut l = self.sky.unwrap_or(0.0).max(self.point.map_or(0.0, |p| p.1));
+        for s in &self.shapes {
+            l = l.max(s.emission.unwrap_or(0.0));
+        }
+        f64::from(l)
     }
 
     fn desc(&self) -> SceneDesc {
@@ -425,7 +475,12 @@ fn random_scenes_every_integrator_finite_and_near_the_path_tracer() {
         // The mean's noise at `SPP` samples, bounded by the pixels' spread (which also holds
         // the image's own contrast, so it over-estimates the noise).
         let sigma = reference.std / f64::from(RES * RES).sqrt() * f64::from(SPP_PATH / SPP).sqrt();
-        let slack = Z_NOISE * sigma;
+        // Floors for black references (light that reaches the camera's side through a seam,
+        // e.g. a photon offset across the line where a plane cuts a sphere): a fraction of
+        // the brightest emitted radiance.
+        let light = spec.light_scale();
+        let slack = (Z_NOISE * sigma).max(FLOOR_MEAN * light);
+        let ref_max = ref_max.max(FLOOR_MAX * light);
         let kinds: Vec<_> = spec.shapes.iter().map(|s| format!("{:?}", s.kind)).collect();
         println!(
             "seed {seed}: world {:.3}, {}, {}, path mean {:.4e} max {ref_max:.4e} slack {slack:.3e}",
@@ -447,9 +502,11 @@ fn random_scenes_every_integrator_finite_and_near_the_path_tracer() {
                 got.max,
                 if known { " (known leak)" } else { "" }
             );
-            if mean_ok && max_ok && known {
+            let within = mean_ok && max_ok;
+            if within && known {
                 failures.push(format!("seed {seed}, {name}: listed in KNOWN_LEAKS but within the bounds now: remove it"));
-            } else if !(mean_ok && max_ok) && !known {
+            }
+            if !within && !known {
                 failures.push(format!(
                     "seed {seed}, {name}: mean {:.4e} (path {:.4e} ± {slack:.2e}), max {:.4e} (path {ref_max:.4e})\n{spec:#?}",
                     got.mean, reference.mean, got.max
