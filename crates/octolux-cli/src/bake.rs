@@ -3,7 +3,8 @@
 //! `bake` resolves the `octree` integrator's settings as `render` does (defaults, the scene's
 //! `max_depth`, `--seed` for the photons, `--settings`, flags, `--set`), traces the photons,
 //! builds both octrees and writes them with the scene's lighting fingerprint
-//! ([`octolux_io::cache`]; staged and renamed like every output). `render --cache` reads and
+//! ([`octolux_io::cache`]; staged and renamed like every output, so an interrupt, which exits
+//! at once as before `render`'s loop, never leaves a half-written cache under the final name). `render --cache` reads and
 //! checks the file before the scene is even loaded, takes the cache's settings as the base of
 //! its own (so only the render-time keys `view` and `gather` may change; a key that shaped the
 //! octrees is refused), and compares the fingerprints once the scene is prepared.
@@ -47,6 +48,9 @@ pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
         bail!("--cache-scene does not apply to bake: bake that scene itself");
     }
     output::check_file(&args.output)?;
+    // As before `render`'s loop: a signal exits at once (status 130), removing the staged
+    // cache file; a cache under the final name is the previous run's, untouched.
+    crate::interrupt::install()?;
     let loaded = load(&args.scene)?;
     let desc = loaded.desc;
     let mut flags = args.octree.settings();

@@ -8,6 +8,8 @@
 //!   pass: nothing to save yet), exits at once with that status, after removing this process's
 //!   staged output files ([`crate::output::remove_staged`]); the outputs under their final
 //!   names are those of the previous run, untouched.
+//! - `bake` installs the same handler and never starts a render loop: any signal exits at once
+//!   that way (its cache file is staged and renamed like the render outputs).
 
 use anyhow::{Context, Result};
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -318,6 +318,21 @@ fn a_signal_before_the_render_loop_exits_at_once_and_writes_nothing() {
 }
 
 #[test]
+fn an_interrupted_bake_exits_at_once_and_keeps_the_previous_cache() {
+    // 20M photons take far longer than the wait: the signal comes during the photon pass.
+    let dir = TempDir::new("sigbake");
+    let out = dir.path.join("x.oxc");
+    std::fs::write(&out, b"the previous cache").expect("write");
+    let args = ["bake", "cornell-box", "--photons", "20000000", "-o", &path_str(&out)];
+    let (o, took) = interrupt(&args, "octree: tracing", Duration::from_millis(200), &["INT"]);
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(took < Duration::from_secs(2), "took {took:?} to exit");
+    assert!(stderr(&o).ends_with("octolux: interrupted; exiting without writing\n"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&out).expect("read"), b"the previous cache");
+    assert_eq!(dir.files(), vec!["x.oxc"]);
+}
+
+#[test]
 fn compare_refuses_non_finite_values_and_counts_them() {
     let dir = TempDir::new("compare");
     let px = |v: f32| octolux::math::Color::new(v, v, v);

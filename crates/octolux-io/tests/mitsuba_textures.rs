@@ -198,3 +198,21 @@ fn raw_bitmaps_keep_their_stored_values() {
     assert_eq!(value(2), value(0));
     assert_eq!(s.desc.images.len(), 2, "one image per (file, raw)");
 }
+
+/// Mitsuba 3.9.1 refuses a scene whose scene-level bitmap texture names a missing file, used
+/// or not ("At scene.xml (line 2, col 4): failed to instantiate texture plugin of type
+/// \"bitmap\": ... No such file or directory"); so does octolux, naming file and line, while an
+/// unused texture whose file exists loads without reading it into the scene.
+#[test]
+fn an_unused_bitmap_with_a_missing_file_is_refused_like_mitsuba() {
+    let dir = tmp_dir("unused");
+    checker_file(&dir);
+    let body = "<texture type=\"bitmap\" id=\"unused\">\n  <string name=\"filename\" value=\"missing.png\"/>\n</texture>\n\
+                <shape type=\"sphere\"/>";
+    let xml = format!("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n{body}\n</scene>");
+    let e = load_str(&xml, &dir.join("scene.xml"), &[]).err().unwrap_or_else(|| panic!("accepted")).to_string();
+    assert!(e.contains("scene.xml:3") && e.contains("image file \"missing.png\" not found"), "{e}");
+    let s = load(&dir, "<texture type=\"bitmap\" id=\"unused\">\n  <string name=\"filename\" value=\"checker.exr\"/>\n</texture>\n<shape type=\"sphere\"/>", "3.0.0");
+    assert!(s.desc.images.is_empty(), "an unused texture's image is not loaded");
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}

@@ -220,8 +220,9 @@ impl<'t> Builder<'t> {
                 }
                 "shape" => self.shape(c)?,
                 "emitter" => self.emitter(c)?,
-                // Instantiated when referenced.
-                "texture" | "alias" => {}
+                // Instantiated when referenced; a bitmap's file must exist even when unused.
+                "texture" => self.scene_level_texture(c)?,
+                "alias" => {}
                 "ref" => self.warn(c, "a reference at scene level does nothing; ignored"),
                 "medium" | "phase" | "volume" => self.warn(c, "participating media are not supported; ignored"),
                 t if props::is_value(c) => self.warn(c, format!("<{t}> at scene level is not a scene parameter; ignored")),

@@ -46,6 +46,22 @@ impl<'t> Builder<'t> {
         filter
     }
 
+    /// A texture declared at scene level, before (or without) a reference: Mitsuba 3
+    /// instantiates every scene-level object, so a `bitmap` whose file is missing fails the
+    /// scene even when nothing uses it ("failed to instantiate texture plugin of type
+    /// \"bitmap\"", probed with Mitsuba 3.9.1). The same error here, naming file and line;
+    /// the image itself is read only when a material references it.
+    pub(super) fn scene_level_texture(&mut self, e: &'t Elem) -> Result<(), IoError> {
+        if e.attr("type") != Some("bitmap") {
+            return Ok(());
+        }
+        let p = self.props(e)?;
+        let name = p.string("filename")?.ok_or_else(|| e.loc.error(format!("{} needs a \"filename\"", e.describe())))?;
+        resolve_file(&e.loc, name, &self.main_dir, self.search_dirs)
+            .ok_or_else(|| e.loc.error(format!("{}: image file \"{name}\" not found", e.describe())))?;
+        Ok(())
+    }
+
     pub(super) fn texture(&mut self, e: &'t Elem) -> Result<Texture, IoError> {
         let ty = e.req_attr("type")?;
         let p = self.props(e)?;

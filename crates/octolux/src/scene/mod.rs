@@ -123,11 +123,23 @@ impl SurfaceHit {
         }
     }
 
-    /// A segment from this surface towards a point at distance `dist` along unit `d`,
-    /// stopping short of the end point (for shadow rays).
+    /// A segment from this surface towards the point at distance `dist` along unit `d`,
+    /// stopping short of it by a thousandth (for shadow rays). As Mitsuba 3's `spawn_ray_to`,
+    /// the segment aims from the offset origin at the end point itself: parallel to `d`, its
+    /// end would be shifted by the origin's offset (`1e-4 (1 + max |p_i|)`, not relative to
+    /// the scene), which in a scene a few centimetres across goes through the face of a thin
+    /// emitter before the end and occludes most light samples (the random-scene property test,
+    /// seed 165: direct light 50x too dark at 2 cm, right at 1 m).
     #[inline]
     pub fn spawn_to(&self, d: Vec3, dist: f32) -> Ray {
         let o = offset_origin(self.p, self.ng, d);
+        if dist.is_finite() {
+            let v = self.p + d * dist - o;
+            let len = v.length();
+            if len > 0.0 && len.is_finite() {
+                return Ray::segment(o, v / len, len * (1.0 - 1e-3));
+            }
+        }
         Ray::segment(o, d, dist * (1.0 - 1e-3))
     }
     /// The factor Mitsuba 3's `bumpmap` and `normalmap` apply to the nested BSDF's value and
