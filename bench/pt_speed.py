@@ -29,7 +29,9 @@ Each (case, thread count) runs octolux then each Mitsuba variant, alternately. R
               render_s/total_s; Mitsuba: process_time() around the render);
   TTFS        time to first sample: octolux's load + prepare (acceleration build) + integrator
               build from out.json, against Mitsuba's `mi.load_file` (parse, meshes, Embree
-              build) from render.py; both at the largest thread count.
+              build) from render.py; both at the largest thread count. Wall seconds, and CPU
+              seconds (user+sys): octolux's from a separate 4x4-pixel, 1-spp run of the same
+              scene (nearly all of it loading), Mitsuba's from process_time() around load_file.
 Needs tools/mitsuba/setup.sh for the Mitsuba half and `cargo build --release -p octolux-cli` for
 octolux (or --build).
 """
@@ -126,11 +128,11 @@ def write_mesh_scene(folder: str) -> str:
 
 
 def octolux_speed(binary: str, scene: str, spp: int, res: str, depth: int, threads: int, tmp: str,
-                  verbose: bool) -> dict:
+                  verbose: bool, sampler: str) -> dict:
     out = os.path.join(tmp, "x.exr")
     c0 = children_cpu()
     p = run([binary, "render", scene, "--integrator", "path", "--spp", str(spp), "--resolution", res,
-             "--max-depth", str(depth), "--threads", str(threads), "--quiet", "-o", out],
+             "--max-depth", str(depth), "--threads", str(threads), "--sampler", sampler, "--quiet", "-o", out],
             stderr=None if verbose else subprocess.DEVNULL)
     cpu = children_cpu() - c0
     if p.returncode != 0:
@@ -147,6 +149,15 @@ def octolux_speed(binary: str, scene: str, spp: int, res: str, depth: int, threa
             "ttfs_s": ttfs, "timings": t}
 
 
+def octolux_ttfs_cpu(binary: str, scene: str, depth: int, threads: int, tmp: str) -> float | None:
+    """CPU seconds (user+sys) of a 4x4-pixel, 1-spp render: the scene's load and preparation."""
+    c0 = children_cpu()
+    p = run([binary, "render", scene, "--integrator", "path", "--spp", "1", "--resolution", "4x4",
+             "--max-depth", str(depth), "--threads", str(threads), "--quiet", "-o", os.path.join(tmp, "ttfs.exr")],
+            stderr=subprocess.DEVNULL)
+    return children_cpu() - c0 if p.returncode == 0 else None
+
+
 def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, threads: int, verbose: bool) -> dict:
     cmd = [MI_PY, MI_RENDER, xml, "--variant", variant, "--spp", str(spp), "--resolution", res,
            "--max-depth", str(depth), "--threads", str(threads), "--sampler", "independent", "--quiet",
@@ -158,6 +169,7 @@ def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, thread
         raise RuntimeError(f"render.py ({variant}) exited with {p.returncode}")
     r = json.loads(p.stdout.strip().splitlines()[-1])
     r["ttfs_s"] = r.get("load_s")
+    r["ttfs_cpu_s"] = r.get("load_cpu_s")
     return r
 
 
@@ -186,6 +198,8 @@ def main(argv=None) -> int:
     ap.add_argument("--spp", type=int, default=16, help="spp of every render (default 16)")
     ap.add_argument("--resolution", default="512x512", help="for the cases without a reference resolution")
     ap.add_argument("--threads", default="1,2", help="comma-separated thread counts (default 1,2)")
+    ap.add_argument("--sampler", default="independent", choices=["independent", "sobol"],
+                    help="octolux's sampler (default independent, as Mitsuba's here)")
     ap.add_argument("--repeat", type=int, default=1, help="runs per measurement; the median is reported")
     ap.add_argument("--variants", default=",".join(VARIANTS), help="Mitsuba variants (default llvm_ad_rgb)")
     ap.add_argument("--octolux", default=os.path.join(REPO, "target", "release", "octolux"))
@@ -266,12 +280,14 @@ def main(argv=None) -> int:
             for t in threads:
                 if not args.skip_octolux:
                     try:
-                        runs = [octolux_speed(args.octolux, ours, args.spp, res, depth, t, tmp, args.verbose)
+                        runs = [octolux_speed(args.octolux, ours, args.spp, res, depth, t, tmp, args.verbose, args.sampler)
                                 for _ in range(args.repeat)]
                         row[f"octolux@{t}"] = {"samples_per_second": med(r["samples_per_second"] for r in runs),
                                                "samples_per_cpu_second": med(r["samples_per_cpu_second"] for r in runs),
                                                "ttfs_s": med(r["ttfs_s"] for r in runs),
                                                "all": runs}
+                        if t == max(threads):
+                            row[f"octolux@{t}"]["ttfs_cpu_s"] = octolux_ttfs_cpu(args.octolux, ours, depth, t, tmp)
                     except Exception as e:  # keep going: report what worked
                         log(f"octolux {scene}:{depth} failed: {e}")
                         row[f"octolux@{t}"] = {"error": str(e)}
@@ -281,6 +297,7 @@ def main(argv=None) -> int:
                         row[f"{v}@{t}"] = {"samples_per_second": med(r["samples_per_second"] for r in runs),
                                            "samples_per_cpu_second": med(r.get("samples_per_cpu_second") for r in runs),
                                            "ttfs_s": med(r["ttfs_s"] for r in runs),
+                                           "ttfs_cpu_s": med(r["ttfs_cpu_s"] for r in runs),
                                            "mean_rgb": runs[0]["mean_rgb"], "mitsuba_version": runs[0]["mitsuba_version"],
                                            "all": runs}
                     except Exception as e:
@@ -307,7 +324,8 @@ def main(argv=None) -> int:
             cols += [f"oct@{t}", f"{short}@{t}", f"ratio@{t}"]
         if len(threads) > 1:
             cols += [f"oct x{threads[0]}->{tmax}", f"{short} x{threads[0]}->{tmax}"]
-        cols += [f"cpu ratio@{tmax}", "TTFS oct s", f"TTFS {short} s", "TTFS ratio"]
+        cols += [f"cpu ratio@{tmax}", "TTFS oct s", f"TTFS {short} s", "TTFS ratio", "TTFS oct cpu s",
+                 f"TTFS {short} cpu s", "TTFS cpu ratio"]
         lines = [cols]
         for row in results:
             line = [row["scene"], str(row["max_depth"]), row["resolution"]]
@@ -320,6 +338,8 @@ def main(argv=None) -> int:
             oc, mc = get(row, "octolux", tmax, "samples_per_cpu_second"), get(row, v, tmax, "samples_per_cpu_second")
             to, tm = get(row, "octolux", tmax, "ttfs_s"), get(row, v, tmax, "ttfs_s")
             line += [ratio(oc, mc), fmt(to, ".3f"), fmt(tm, ".3f"), ratio(tm, to)]
+            to, tm = get(row, "octolux", tmax, "ttfs_cpu_s"), get(row, v, tmax, "ttfs_cpu_s")
+            line += [fmt(to, ".3f"), fmt(tm, ".3f"), ratio(tm, to)]
             lines.append(line)
         widths = [max(len(r[i]) for r in lines) for i in range(len(cols))]
         print(f"# octolux vs Mitsuba 3 {v} (ratio = octolux / Mitsuba speed; TTFS ratio = Mitsuba / octolux time)")

@@ -35,9 +35,7 @@ fn bench_filter(c: &mut Criterion) {
     let n = 4096;
     g.throughput(Throughput::Elements(n as u64));
     let w = FilterWeights::new(PixelFilter::Gaussian { stddev: 0.5 });
-    g.bench_function("gaussian_taps", |b| {
-        b.iter(|| (0..n).map(|i| w.at(black_box(i as f32 * (4.0 / n as f32) - 2.0))).sum::<f32>())
-    });
+    g.bench_function("gaussian_taps", |b| b.iter(|| (0..n).map(|i| w.at(black_box(i as f32 * (4.0 / n as f32) - 2.0))).sum::<f32>()));
     g.finish();
 }
 

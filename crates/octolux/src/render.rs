@@ -59,7 +59,14 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { spp: 64, seed: 0, time_budget_s: None, tile: 16, reconstruction: Reconstruction::Splat, sampler: SamplerKind::Independent }
+        RenderSettings {
+            spp: 64,
+            seed: 0,
+            time_budget_s: None,
+            tile: 16,
+            reconstruction: Reconstruction::Splat,
+            sampler: SamplerKind::Independent,
+        }
     }
 }
 
@@ -177,7 +184,8 @@ where
                         let pixel = Pixel { x, y, width: w };
                         for s in 0..spp {
                             let sample_index = pass as u64 * spp as u64 + s as u64;
-                            let (mut sampler, pos) = camera_sample(settings.sampler, settings.seed, pixel, sample_index, filter, reconstruction);
+                            let (mut sampler, pos) =
+                                camera_sample(settings.sampler, settings.seed, pixel, sample_index, filter, reconstruction);
                             let l = li(pos, &mut sampler, &mut buf.counters);
                             // A non-finite sample is a bug; drop it rather than poison pixels.
                             if !l.is_finite() {

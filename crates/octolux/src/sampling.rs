@@ -51,9 +51,16 @@ pub struct Sampler {
 
 #[derive(Clone, Debug)]
 enum Inner {
-    Pcg { state: u64, inc: u64 },
+    Pcg {
+        state: u64,
+        inc: u64,
+    },
     /// `key`: hash of (seed, index); `sample`: the Sobol' index; `slot`: draws so far.
-    Sobol { key: u64, sample: u32, slot: u32 },
+    Sobol {
+        key: u64,
+        sample: u32,
+        slot: u32,
+    },
 }
 
 impl Sampler {

@@ -135,9 +135,6 @@ fn image_is_bit_identical_for_one_and_two_threads() {
         };
         let a = run(1);
         let b = run(2);
-        assert!(
-            a.data.iter().zip(&b.data).all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits)),
-            "{sampler:?}"
-        );
+        assert!(a.data.iter().zip(&b.data).all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits)), "{sampler:?}");
     }
 }
