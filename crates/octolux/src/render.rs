@@ -65,7 +65,7 @@ impl Default for RenderSettings {
             time_budget_s: None,
             tile: 16,
             reconstruction: Reconstruction::Splat,
-            sampler: SamplerKind::Independent,
+            sampler: SamplerKind::default(),
         }
     }
 }
@@ -336,7 +336,9 @@ mod tests {
     use super::*;
 
     fn film(filter: PixelFilter, rec: Reconstruction, n: u32, spp: u32, f: impl Fn(Vec2, &mut Sampler) -> Color + Sync) -> Image {
-        let settings = RenderSettings { spp, seed: 3, reconstruction: rec, tile: 5, ..Default::default() };
+        // Independent numbers: the variance test below counts on them.
+        let settings =
+            RenderSettings { spp, seed: 3, reconstruction: rec, tile: 5, sampler: SamplerKind::Independent, ..Default::default() };
         render_film(n, n, filter, &settings, &|_, _| {}, |p, s, _| f(p, s)).0
     }
 

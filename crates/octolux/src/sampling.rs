@@ -35,10 +35,12 @@ pub fn mix64(mut x: u64) -> u64 {
 #[serde(rename_all = "snake_case")]
 pub enum SamplerKind {
     /// Independent uniform numbers (PCG32), as Mitsuba's `independent` sampler.
-    #[default]
     Independent,
     /// Owen-scrambled Sobol' points, padded per 2D slot ([`sobol`]): stratified in every
-    /// slot over each power-of-two run of samples of a pixel.
+    /// slot over each power-of-two run of samples of a pixel. The default: 1.2–1.7x lower
+    /// relMSE than independent numbers at equal spp for `path`, 1.4–2.5x for `octree`
+    /// (docs/performance.md).
+    #[default]
     Sobol,
 }
 
