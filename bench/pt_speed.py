@@ -1,22 +1,37 @@
 #!/usr/bin/env python3
-"""Path-tracer speed: octolux vs Mitsuba 3 (llvm_ad_rgb and scalar_rgb), samples per second.
+"""Path-tracer speed: octolux vs Mitsuba 3 (llvm_ad_rgb, optionally scalar_rgb), samples per
+second at 1 and 2 threads, and time to first sample, in one table of ratios.
 
-    python3 bench/pt_speed.py                      # default cases, 2 threads, 512x512
-    python3 bench/pt_speed.py --skip-octolux       # Mitsuba half only
-    python3 bench/pt_speed.py --case bitterli:65 --spp 64 --json target/pt_speed.json
+    python3 bench/pt_speed.py                       # every case below, threads 1 and 2
+    python3 bench/pt_speed.py --case bitterli:65 --case box --threads 2 --json target/pt_speed.json
+    python3 bench/pt_speed.py --variants llvm_ad_rgb,scalar_rgb --skip-octolux
 
-Cases are SCENE:MAX_DEPTH with SCENE one of
-  cornell-box  octolux's built-in scene (octolux renders it by name; Mitsuba renders the XML that
-               `octolux export cornell-box` writes),
-  bitterli     ../shared/scenes/bitterli-cornell-box/scene_mitsuba.xml (both read the same file;
-               tools/mitsuba/render.py patches the Mitsuba 0.5 dialect for Mitsuba 3).
-Defaults: cornell-box:-1, bitterli:-1, bitterli:65.
+Cases are SCENE[:MAX_DEPTH] with SCENE one of
+  cornell-box, cornell-spheres  octolux's built-in scenes (Mitsuba renders the XML that
+               `octolux export SCENE` writes), at --resolution;
+  bitterli     ../shared/scenes/bitterli-cornell-box/scene_mitsuba.xml, at --resolution;
+  cbox         ../shared/scenes/mitsuba-tutorials-cbox/cbox.xml, at --resolution;
+  box, classroom, dining-room, sponza, torus, veach-lamp
+               ../shared/scenes/bitterli-collection/SCENE/scene.xml at the resolution and
+               max_depth of its reference (tests/refs/collection/manifest.json: 320 wide, the
+               file's maxDepth);
+  mesh1m       a generated height field of 1 002 528 triangles (binary PLY written to a temporary
+               folder, never committed) under an area light and a constant sky, at --resolution.
+Without MAX_DEPTH a case takes its default (the reference's, or -1 for the built-in boxes).
 
-octolux:  target/release/octolux render <scene> --integrator path --spp N --resolution WxH
-          --max-depth D --threads T -o <tmp>/x.exr   (samples/s from <tmp>/x.json, `samples_per_second`)
-Mitsuba:  .venv-mitsuba/bin/python tools/mitsuba/render.py <xml> --variant V --spp N --resolution WxH
-          --max-depth D --threads T --warmup  (JIT variants: one untimed warm-up pass so that kernel
-          compilation is not counted; samples/s = W*H*spp / render time)
+Each (case, thread count) runs octolux then each Mitsuba variant, alternately. Reported:
+  samples/s   wall-clock samples per second of the render phase (octolux: out.json
+              `samples_per_second`; Mitsuba: tools/mitsuba/render.py, JIT variants after one
+              untimed 1-spp warm-up pass so that kernel compilation is not counted);
+  x           the speed-up from 1 to 2 threads (wall);
+  cpu         samples per CPU-second (user+sys of the child process) x threads, less sensitive
+              to other load on a shared machine (octolux: the process's CPU time scaled by
+              render_s/total_s; Mitsuba: process_time() around the render);
+  TTFS        time to first sample: octolux's load + prepare (acceleration build) + integrator
+              build from out.json, against Mitsuba's `mi.load_file` (parse, meshes, Embree
+              build) from render.py; both at the largest thread count. Wall seconds, and CPU
+              seconds (user+sys): octolux's from a separate 4x4-pixel, 1-spp run of the same
+              scene (nearly all of it loading), Mitsuba's from process_time() around load_file.
 Needs tools/mitsuba/setup.sh for the Mitsuba half and `cargo build --release -p octolux-cli` for
 octolux (or --build).
 """
@@ -24,9 +39,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import resource
 import statistics
+import struct
 import subprocess
 import sys
 import tempfile
@@ -36,11 +53,16 @@ sys.path.insert(0, os.path.join(REPO, "tools", "mitsuba"))
 import locations  # noqa: E402  (tools/mitsuba/locations.py: $OCTOLUX_SHARED or <repo>/../shared)
 
 SHARED = locations.scenes_dir()
-BITTERLI = os.path.join(SHARED, "bitterli-cornell-box", "scene_mitsuba.xml")
 MI_PY = locations.mitsuba_python()
 MI_RENDER = os.path.join(REPO, "tools", "mitsuba", "render.py")
-DEFAULT_CASES = ["cornell-box:-1", "bitterli:-1", "bitterli:65"]
-VARIANTS = ["llvm_ad_rgb", "scalar_rgb"]
+COLLECTION_MANIFEST = os.path.join(REPO, "tests", "refs", "collection", "manifest.json")
+BUILTIN = {"cornell-box": -1, "cornell-spheres": 8}
+FILES = {"bitterli": (os.path.join(SHARED, "bitterli-cornell-box", "scene_mitsuba.xml"), -1),
+         "cbox": (os.path.join(SHARED, "mitsuba-tutorials-cbox", "cbox.xml"), 6)}
+COLLECTION = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"]
+DEFAULT_CASES = ["cornell-box", "cornell-spheres", "bitterli", "bitterli:65", "cbox"] + COLLECTION + ["mesh1m"]
+VARIANTS = ["llvm_ad_rgb"]
+MESH_N = 709  # vertices per side: 2 * 708^2 = 1 002 528 triangles
 
 
 def log(msg: str) -> None:
@@ -57,12 +79,60 @@ def children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
+def write_mesh_scene(folder: str) -> str:
+    """A 1M-triangle height field (binary PLY), an area light and a constant sky (Mitsuba 3 XML)."""
+    n = MESH_N
+    ply = os.path.join(folder, "terrain.ply")
+    with open(ply, "wb") as f:
+        f.write((f"ply\nformat binary_little_endian 1.0\nelement vertex {n * n}\nproperty float x\n"
+                 f"property float y\nproperty float z\nelement face {2 * (n - 1) ** 2}\n"
+                 "property list uchar int vertex_indices\nend_header\n").encode())
+        verts = bytearray()
+        for j in range(n):
+            z = -1.0 + 2.0 * j / (n - 1)
+            for i in range(n):
+                x = -1.0 + 2.0 * i / (n - 1)
+                y = 0.08 * math.sin(9.0 * x) * math.cos(7.0 * z) + 0.03 * math.sin(31.0 * (x + z))
+                verts += struct.pack("<fff", x, y, z)
+        f.write(verts)
+        tri = struct.Struct("<Biii")
+        faces = bytearray()
+        for j in range(n - 1):
+            for i in range(n - 1):
+                a = j * n + i
+                faces += tri.pack(3, a, a + n, a + 1)
+                faces += tri.pack(3, a + 1, a + n, a + n + 1)
+        f.write(faces)
+    xml = os.path.join(folder, "mesh1m.xml")
+    with open(xml, "w") as f:
+        f.write("""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="-1"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 1.6, -2.6" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="512"/><integer name="height" value="512"/></film>
+  </sensor>
+  <shape type="ply">
+    <string name="filename" value="terrain.ply"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.55, 0.5"/></bsdf>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="0.4"/><rotate x="1" angle="90"/><translate value="0.5, 1.5, 0.3"/></transform>
+    <emitter type="area"><rgb name="radiance" value="20, 19, 17"/></emitter>
+  </shape>
+  <emitter type="constant"><rgb name="radiance" value="0.3, 0.35, 0.45"/></emitter>
+</scene>
+""")
+    return xml
+
+
 def octolux_speed(binary: str, scene: str, spp: int, res: str, depth: int, threads: int, tmp: str,
-                  verbose: bool) -> dict:
+                  verbose: bool, sampler: str) -> dict:
     out = os.path.join(tmp, "x.exr")
     c0 = children_cpu()
     p = run([binary, "render", scene, "--integrator", "path", "--spp", str(spp), "--resolution", res,
-             "--max-depth", str(depth), "--threads", str(threads), "--quiet", "-o", out],
+             "--max-depth", str(depth), "--threads", str(threads), "--sampler", sampler, "--quiet", "-o", out],
             stderr=None if verbose else subprocess.DEVNULL)
     cpu = children_cpu() - c0
     if p.returncode != 0:
@@ -74,8 +144,18 @@ def octolux_speed(binary: str, scene: str, spp: int, res: str, depth: int, threa
     # CPU time of the render phase, estimated as the process's CPU time scaled by render_s / total_s.
     cpu_render = cpu * t["render_s"] / t["total_s"] if t.get("total_s") else cpu
     samples = sps * t["render_s"] if t.get("render_s") else None
+    ttfs = sum(t.get(k) or 0.0 for k in ("load_s", "prepare_s", "build_s"))
     return {"samples_per_second": sps, "samples_per_cpu_second": samples / cpu_render if samples and cpu_render > 0 else None,
-            "stats": stats}
+            "ttfs_s": ttfs, "timings": t}
+
+
+def octolux_ttfs_cpu(binary: str, scene: str, depth: int, threads: int, tmp: str) -> float | None:
+    """CPU seconds (user+sys) of a 4x4-pixel, 1-spp render: the scene's load and preparation."""
+    c0 = children_cpu()
+    p = run([binary, "render", scene, "--integrator", "path", "--spp", "1", "--resolution", "4x4",
+             "--max-depth", str(depth), "--threads", str(threads), "--quiet", "-o", os.path.join(tmp, "ttfs.exr")],
+            stderr=subprocess.DEVNULL)
+    return children_cpu() - c0 if p.returncode == 0 else None
 
 
 def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, threads: int, verbose: bool) -> dict:
@@ -87,7 +167,10 @@ def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, thread
     p = run(cmd, stderr=None if verbose else subprocess.DEVNULL)
     if p.returncode != 0:
         raise RuntimeError(f"render.py ({variant}) exited with {p.returncode}")
-    return json.loads(p.stdout.strip().splitlines()[-1])
+    r = json.loads(p.stdout.strip().splitlines()[-1])
+    r["ttfs_s"] = r.get("load_s")
+    r["ttfs_cpu_s"] = r.get("load_cpu_s")
+    return r
 
 
 def med(values):
@@ -95,15 +178,30 @@ def med(values):
     return statistics.median(v) if v else None
 
 
+def collection_setup() -> dict:
+    try:
+        with open(COLLECTION_MANIFEST) as f:
+            refs = json.load(f)["references"]
+    except (OSError, KeyError, ValueError):
+        refs = {}
+    out = {}
+    for name in COLLECTION:
+        r = refs.get(name, {})
+        res = r.get("resolution") or [320, 240]
+        out[name] = (f"{res[0]}x{res[1]}", int(r.get("max_depth", -1)))
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--case", action="append", help="SCENE:MAX_DEPTH (repeatable; default: %s)" % ", ".join(DEFAULT_CASES))
-    ap.add_argument("--spp", type=int, default=32, help="spp for octolux and Mitsuba llvm (default 32)")
-    ap.add_argument("--spp-scalar", type=int, default=None, help="spp for Mitsuba scalar_rgb (default: --spp)")
-    ap.add_argument("--resolution", default="512x512")
-    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--case", action="append", help="SCENE[:MAX_DEPTH] (repeatable; default: %s)" % ", ".join(DEFAULT_CASES))
+    ap.add_argument("--spp", type=int, default=16, help="spp of every render (default 16)")
+    ap.add_argument("--resolution", default="512x512", help="for the cases without a reference resolution")
+    ap.add_argument("--threads", default="1,2", help="comma-separated thread counts (default 1,2)")
+    ap.add_argument("--sampler", default="independent", choices=["independent", "sobol"],
+                    help="octolux's sampler (default independent, as Mitsuba's here)")
     ap.add_argument("--repeat", type=int, default=1, help="runs per measurement; the median is reported")
-    ap.add_argument("--variants", default=",".join(VARIANTS))
+    ap.add_argument("--variants", default=",".join(VARIANTS), help="Mitsuba variants (default llvm_ad_rgb)")
     ap.add_argument("--octolux", default=os.path.join(REPO, "target", "release", "octolux"))
     ap.add_argument("--build", action="store_true", help="cargo build --release -p octolux-cli first")
     ap.add_argument("--skip-octolux", action="store_true")
@@ -112,18 +210,27 @@ def main(argv=None) -> int:
     ap.add_argument("--verbose", action="store_true", help="show the renderers' stderr")
     args = ap.parse_args(argv)
 
+    coll = collection_setup()
     cases = []
     for c in args.case or DEFAULT_CASES:
-        scene, depth = c.rsplit(":", 1)
-        if scene not in ("cornell-box", "bitterli"):
-            ap.error(f"unknown scene '{scene}' (cornell-box or bitterli)")
-        cases.append((scene, int(depth)))
+        scene, _, depth = c.partition(":")
+        if scene in BUILTIN:
+            res, d = args.resolution, BUILTIN[scene]
+        elif scene in FILES:
+            res, d = args.resolution, FILES[scene][1]
+        elif scene in coll:
+            res, d = coll[scene]
+        elif scene == "mesh1m":
+            res, d = args.resolution, -1
+        else:
+            ap.error(f"unknown scene '{scene}'")
+        cases.append((scene, int(depth) if depth else d, res))
+    threads = [int(t) for t in args.threads.split(",") if t]
     variants = [v for v in args.variants.split(",") if v] if not args.skip_mitsuba else []
-    spp_scalar = args.spp_scalar or args.spp
 
     if args.build and not args.skip_octolux:
         subprocess.run(["cargo", "build", "--release", "-p", "octolux-cli"], cwd=REPO, check=True)
-    need_octolux_bin = not args.skip_octolux or any(s == "cornell-box" for s, _ in cases) and variants
+    need_octolux_bin = not args.skip_octolux or (variants and any(s in BUILTIN for s, _, _ in cases))
     if need_octolux_bin and not os.path.exists(args.octolux):
         sys.exit(f"octolux binary not found: {args.octolux} (cargo build --release -p octolux-cli, or --build)")
     if variants and not os.path.exists(MI_PY):
@@ -132,84 +239,116 @@ def main(argv=None) -> int:
     results = []
     load0 = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="octolux-ptspeed-") as tmp:
-        exported: dict[int, str] = {}
+        exported: dict[tuple, str] = {}
+        mesh: list[str] = []
 
-        def mitsuba_xml(scene: str, depth: int) -> str:
-            if scene == "bitterli":
-                return BITTERLI
-            if depth not in exported:
-                d = os.path.join(tmp, f"export-{depth}")
-                os.makedirs(d, exist_ok=True)
-                xml = os.path.join(d, "scene.xml")
-                p = run([args.octolux, "export", "cornell-box", "-o", xml, "--max-depth", str(depth)])
-                if p.returncode != 0:
-                    raise RuntimeError("octolux export failed")
-                exported[depth] = xml
-            return exported[depth]
+        def scene_files(scene: str, depth: int) -> tuple[str, str]:
+            """(what octolux renders, the XML Mitsuba renders)."""
+            if scene in BUILTIN:
+                key = (scene, depth)
+                if key not in exported and variants:
+                    d = os.path.join(tmp, f"export-{scene}-{depth}")
+                    os.makedirs(d, exist_ok=True)
+                    xml = os.path.join(d, "scene.xml")
+                    p = run([args.octolux, "export", scene, "-o", xml, "--max-depth", str(depth)])
+                    if p.returncode != 0:
+                        raise RuntimeError("octolux export failed")
+                    exported[key] = xml
+                return scene, exported.get(key, "")
+            if scene in FILES:
+                return FILES[scene][0], FILES[scene][0]
+            if scene == "mesh1m":
+                if not mesh:
+                    log(f"writing the {2 * (MESH_N - 1) ** 2}-triangle mesh")
+                    mesh.append(write_mesh_scene(tmp))
+                return mesh[0], mesh[0]
+            f = os.path.join(SHARED, "bitterli-collection", scene, "scene.xml")
+            return f, f
 
-        for scene, depth in cases:
-            row = {"scene": scene, "max_depth": depth, "resolution": args.resolution, "threads": args.threads}
-            if not args.skip_octolux:
-                try:
-                    runs = [octolux_speed(args.octolux, "cornell-box" if scene == "cornell-box" else BITTERLI,
-                                          args.spp, args.resolution, depth, args.threads, tmp, args.verbose)
-                            for _ in range(args.repeat)]
-                    row["octolux"] = {"spp": args.spp,
-                                      "samples_per_second": statistics.median(r["samples_per_second"] for r in runs),
-                                      "samples_per_cpu_second": med(r["samples_per_cpu_second"] for r in runs),
-                                      "all_samples_per_second": [r["samples_per_second"] for r in runs]}
-                except Exception as e:  # keep going: report what worked
-                    log(f"octolux {scene}:{depth} failed: {e}")
-                    row["octolux"] = {"error": str(e)}
-            for v in variants:
-                spp = spp_scalar if v.startswith("scalar") else args.spp
-                try:
-                    xml = mitsuba_xml(scene, depth)
-                    runs = [mitsuba_speed(xml, v, spp, args.resolution, depth, args.threads, args.verbose)
-                            for _ in range(args.repeat)]
-                    row[v] = {"spp": spp,
-                              "samples_per_second": statistics.median(r["samples_per_second"] for r in runs),
-                              "samples_per_cpu_second": med(r.get("samples_per_cpu_second") for r in runs),
-                              "all_samples_per_second": [r["samples_per_second"] for r in runs],
-                              "mean_rgb": runs[0]["mean_rgb"], "threads": runs[0]["threads"],
-                              "mitsuba_version": runs[0]["mitsuba_version"]}
-                except Exception as e:
-                    log(f"mitsuba {v} {scene}:{depth} failed: {e}")
-                    row[v] = {"error": str(e)}
+        for scene, depth, res in cases:
+            row = {"scene": scene, "max_depth": depth, "resolution": res, "spp": args.spp}
+            try:
+                ours, theirs = scene_files(scene, depth)
+            except Exception as e:
+                log(f"{scene}: {e}")
+                row["error"] = str(e)
+                results.append(row)
+                continue
+            if not os.path.exists(ours) and scene not in BUILTIN:
+                print(f"skip: {ours} missing", file=sys.stderr)
+                continue
+            for t in threads:
+                if not args.skip_octolux:
+                    try:
+                        runs = [octolux_speed(args.octolux, ours, args.spp, res, depth, t, tmp, args.verbose, args.sampler)
+                                for _ in range(args.repeat)]
+                        row[f"octolux@{t}"] = {"samples_per_second": med(r["samples_per_second"] for r in runs),
+                                               "samples_per_cpu_second": med(r["samples_per_cpu_second"] for r in runs),
+                                               "ttfs_s": med(r["ttfs_s"] for r in runs),
+                                               "all": runs}
+                        if t == max(threads):
+                            row[f"octolux@{t}"]["ttfs_cpu_s"] = octolux_ttfs_cpu(args.octolux, ours, depth, t, tmp)
+                    except Exception as e:  # keep going: report what worked
+                        log(f"octolux {scene}:{depth} failed: {e}")
+                        row[f"octolux@{t}"] = {"error": str(e)}
+                for v in variants:
+                    try:
+                        runs = [mitsuba_speed(theirs, v, args.spp, res, depth, t, args.verbose) for _ in range(args.repeat)]
+                        row[f"{v}@{t}"] = {"samples_per_second": med(r["samples_per_second"] for r in runs),
+                                           "samples_per_cpu_second": med(r.get("samples_per_cpu_second") for r in runs),
+                                           "ttfs_s": med(r["ttfs_s"] for r in runs),
+                                           "ttfs_cpu_s": med(r["ttfs_cpu_s"] for r in runs),
+                                           "mean_rgb": runs[0]["mean_rgb"], "mitsuba_version": runs[0]["mitsuba_version"],
+                                           "all": runs}
+                    except Exception as e:
+                        log(f"mitsuba {v} {scene}:{depth} failed: {e}")
+                        row[f"{v}@{t}"] = {"error": str(e)}
             results.append(row)
 
-    # Table.
-    def sps(row, key):
-        r = row.get(key) or {}
-        return r.get("samples_per_second")
+    def get(row, key, t, field="samples_per_second"):
+        return (row.get(f"{key}@{t}") or {}).get(field)
 
-    head = f"{'scene':12s} {'depth':>5s} {'octolux MS/s':>13s}"
+    def fmt(x, spec=".2f", unit=""):
+        return f"{x:{spec}}{unit}" if x else "-"
+
+    def ratio(a, b):
+        return f"{a / b:.2f}x" if (a and b) else "-"
+
+    tmax = max(threads)
+    print(f"# path tracer, {args.spp} spp; MS/s = 1e6 samples per wall second; cpu = per CPU-second x threads;"
+          f" load average {load0[0]:.2f} at start, {os.getloadavg()[0]:.2f} at end")
     for v in variants:
-        head += f" {v + ' MS/s':>17s} {'oct/' + v.split('_')[0]:>11s}"
-    print(f"# {args.resolution}, {args.threads} threads, spp: octolux/llvm {args.spp}, scalar {spp_scalar}")
-    print(head)
-    for row in results:
-        o = sps(row, "octolux")
-        line = f"{row['scene']:12s} {row['max_depth']:5d} {(f'{o / 1e6:.3f}' if o else '-'):>13s}"
-        for v in variants:
-            m = sps(row, v)
-            ratio = f"{o / m:.2f}x" if (o and m) else "-"
-            line += f" {(f'{m / 1e6:.3f}' if m else 'failed'):>17s} {ratio:>11s}"
-        print(line)
-    # The same per CPU-second of the render (x threads): less sensitive to other load on the machine.
-    print(f"# per CPU-second x {args.threads} (estimate of an otherwise idle machine; load average was "
-          f"{load0[0]:.2f} at start, {os.getloadavg()[0]:.2f} at end)")
-    print(head)
-    for row in results:
-        o = (row.get("octolux") or {}).get("samples_per_cpu_second")
-        o = o * args.threads if o else None
-        line = f"{row['scene']:12s} {row['max_depth']:5d} {(f'{o / 1e6:.3f}' if o else '-'):>13s}"
-        for v in variants:
-            m = (row.get(v) or {}).get("samples_per_cpu_second")
-            m = m * args.threads if m else None
-            ratio = f"{o / m:.2f}x" if (o and m) else "-"
-            line += f" {(f'{m / 1e6:.3f}' if m else 'failed'):>17s} {ratio:>11s}"
-        print(line)
+        short = v.split("_")[0]
+        cols = ["scene", "depth", "res"]
+        for t in threads:
+            cols += [f"oct@{t}", f"{short}@{t}", f"ratio@{t}"]
+        if len(threads) > 1:
+            cols += [f"oct x{threads[0]}->{tmax}", f"{short} x{threads[0]}->{tmax}"]
+        cols += [f"cpu ratio@{tmax}", "TTFS oct s", f"TTFS {short} s", "TTFS ratio", "TTFS oct cpu s",
+                 f"TTFS {short} cpu s", "TTFS cpu ratio"]
+        lines = [cols]
+        for row in results:
+            line = [row["scene"], str(row["max_depth"]), row["resolution"]]
+            for t in threads:
+                o, m = get(row, "octolux", t), get(row, v, t)
+                line += [fmt(o and o / 1e6, ".3f"), fmt(m and m / 1e6, ".3f"), ratio(o, m)]
+            if len(threads) > 1:
+                line += [ratio(get(row, "octolux", tmax), get(row, "octolux", threads[0])),
+                         ratio(get(row, v, tmax), get(row, v, threads[0]))]
+            oc, mc = get(row, "octolux", tmax, "samples_per_cpu_second"), get(row, v, tmax, "samples_per_cpu_second")
+            to, tm = get(row, "octolux", tmax, "ttfs_s"), get(row, v, tmax, "ttfs_s")
+            line += [ratio(oc, mc), fmt(to, ".3f"), fmt(tm, ".3f"), ratio(tm, to)]
+            to, tm = get(row, "octolux", tmax, "ttfs_cpu_s"), get(row, v, tmax, "ttfs_cpu_s")
+            line += [fmt(to, ".3f"), fmt(tm, ".3f"), ratio(tm, to)]
+            lines.append(line)
+        widths = [max(len(r[i]) for r in lines) for i in range(len(cols))]
+        print(f"# octolux vs Mitsuba 3 {v} (ratio = octolux / Mitsuba speed; TTFS ratio = Mitsuba / octolux time)")
+        for r in lines:
+            print("| " + " | ".join(c.rjust(w) for c, w in zip(r, widths)) + " |")
+    if not variants:
+        for row in results:
+            print(row["scene"], row["max_depth"], row["resolution"],
+                  " ".join(f"{t}T {fmt(get(row, 'octolux', t), '.0f')}" for t in threads))
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"args": vars(args), "loadavg_start": load0, "loadavg_end": os.getloadavg(),

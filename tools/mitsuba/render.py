@@ -318,9 +318,9 @@ def main(argv=None) -> int:
         tmp = os.path.join(td, "scene.xml")
         with open(tmp, "w") as f:
             f.write(xml)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         scene = mi.load_file(tmp)
-        load_s = time.perf_counter() - t0
+        load_s, load_cpu_s = time.perf_counter() - t0, time.process_time() - c0
 
     w, h, spp = info["width"], info["height"], info["spp"]
     jit = not variant.startswith("scalar")
@@ -381,6 +381,7 @@ def main(argv=None) -> int:
         "rfilter": info["rfilter"],
         "sampler": info["sampler"],
         "load_s": round(load_s, 4),
+        "load_cpu_s": round(load_cpu_s, 4),
         "warmup_s": None if warm_s is None else round(warm_s, 4),
         "render_s": round(render_s, 4),
         "render_cpu_s": round(render_cpu_s, 4),

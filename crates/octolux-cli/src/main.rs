@@ -30,7 +30,7 @@ mod settings;
 mod stats;
 
 use anyhow::{bail, Context, Result};
-use args::{keys, BackendArg, Cli, Command, ExportArgs, ReconstructionArg, RenderArgs, SceneArgs};
+use args::{keys, BackendArg, Cli, Command, ExportArgs, ReconstructionArg, RenderArgs, SamplerArg, SceneArgs};
 use clap::Parser;
 use frames::FrameInfo;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -39,6 +39,7 @@ use octolux::budget;
 use octolux::film::Reconstruction;
 use octolux::integrators::{build, Integrator, IntegratorSettings};
 use octolux::render::{render_cancellable, RenderSettings};
+use octolux::sampling::SamplerKind;
 use octolux::scene::camera::Camera;
 use octolux::scene::Scene;
 use serde_json::json;
@@ -250,7 +251,12 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         ReconstructionArg::Splat => Reconstruction::Splat,
         ReconstructionArg::Importance => Reconstruction::ImportanceSampled,
     };
-    let render_settings = RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, reconstruction, ..Default::default() };
+    let sampler = match args.sampler {
+        SamplerArg::Independent => SamplerKind::Independent,
+        SamplerArg::Sobol => SamplerKind::Sobol,
+    };
+    let render_settings =
+        RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, reconstruction, sampler, ..Default::default() };
 
     // One job per image: the single one, or each frame of the plan.
     let jobs: Vec<(output::Outputs, Option<(frames::Frame, FrameInfo)>)> = match &plan {

@@ -12,7 +12,7 @@
 //! Units: film positions and filter offsets are in pixels, x right, y down, pixel `(x, y)`
 //! covering `[x, x+1) × [y, y+1)`.
 
-use crate::sampling::Sampler;
+use crate::sampling::{Sampler, SamplerKind};
 use crate::scene::PixelFilter;
 use glam::Vec2;
 use serde::{Deserialize, Serialize};
@@ -51,13 +51,20 @@ impl Pixel {
     }
 }
 
-/// The sampler of sample `sample` of `pixel` under `seed`, having drawn the film position, and
-/// that position (pixels). With [`Reconstruction::Splat`] the position is uniform in the pixel;
+/// The sampler (of `kind`) of sample `sample` of `pixel` under `seed`, having drawn the film
+/// position, and that position (pixels). With [`Reconstruction::Splat`] the position is uniform in the pixel;
 /// with [`Reconstruction::ImportanceSampled`] it is the centre plus a filter sample. Either way
 /// the position takes the sampler's first two dimensions, the integrator the rest.
 #[inline]
-pub fn camera_sample(seed: u64, pixel: Pixel, sample: u64, filter: PixelFilter, reconstruction: Reconstruction) -> (Sampler, Vec2) {
-    let mut sampler = Sampler::new(seed, pixel.index(), sample);
+pub fn camera_sample(
+    kind: SamplerKind,
+    seed: u64,
+    pixel: Pixel,
+    sample: u64,
+    filter: PixelFilter,
+    reconstruction: Reconstruction,
+) -> (Sampler, Vec2) {
+    let mut sampler = Sampler::with_kind(kind, seed, pixel.index(), sample);
     let offset = match reconstruction {
         Reconstruction::Splat => sampler.next_2d() - Vec2::splat(0.5),
         Reconstruction::ImportanceSampled => sample_filter(filter, &mut sampler),
@@ -119,19 +126,46 @@ pub fn filter_radius(filter: PixelFilter) -> f32 {
 /// shifted down to reach 0 at its radius, as Mitsuba 3's `gaussian` rfilter is.
 #[inline]
 pub fn filter_weight(filter: PixelFilter, x: f32) -> f32 {
-    match filter {
-        PixelFilter::Box => {
-            if x.abs() <= 0.5 {
-                1.0
-            } else {
-                0.0
+    FilterWeights::new(filter).at(x)
+}
+
+/// [`filter_weight`] with the filter's constants computed once (the splatting loop evaluates
+/// it at every tap of every sample): the same values, bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct FilterWeights {
+    filter: PixelFilter,
+    /// Gaussian: `-1 / (2 stddev²)` and the weight at the radius, `exp(alpha (4 stddev)²)`.
+    alpha: f32,
+    floor: f32,
+}
+
+impl FilterWeights {
+    #[inline]
+    pub fn new(filter: PixelFilter) -> Self {
+        let (alpha, floor) = match filter {
+            PixelFilter::Gaussian { stddev } => {
+                let alpha = -1.0 / (2.0 * stddev * stddev);
+                let r = 4.0 * stddev;
+                (alpha, (alpha * r * r).exp())
             }
-        }
-        PixelFilter::Tent => (1.0 - x.abs()).max(0.0),
-        PixelFilter::Gaussian { stddev } => {
-            let alpha = -1.0 / (2.0 * stddev * stddev);
-            let r = 4.0 * stddev;
-            ((alpha * x * x).exp() - (alpha * r * r).exp()).max(0.0)
+            _ => (0.0, 0.0),
+        };
+        FilterWeights { filter, alpha, floor }
+    }
+
+    /// The weight at offset `x` pixels.
+    #[inline]
+    pub fn at(&self, x: f32) -> f32 {
+        match self.filter {
+            PixelFilter::Box => {
+                if x.abs() <= 0.5 {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            PixelFilter::Tent => (1.0 - x.abs()).max(0.0),
+            PixelFilter::Gaussian { .. } => ((self.alpha * x * x).exp() - self.floor).max(0.0),
         }
     }
 }
@@ -174,9 +208,9 @@ mod tests {
         assert_eq!(px.index(), 53);
         let (mut inside, mut outside) = (0, 0);
         for s in 0..4000 {
-            let (_, p) = camera_sample(1, px, s, PixelFilter::Tent, Reconstruction::Splat);
+            let (_, p) = camera_sample(SamplerKind::Independent, 1, px, s, PixelFilter::Tent, Reconstruction::Splat);
             assert!((3.0..4.0).contains(&p.x) && (5.0..6.0).contains(&p.y), "{p}");
-            let (_, q) = camera_sample(1, px, s, PixelFilter::Tent, Reconstruction::ImportanceSampled);
+            let (_, q) = camera_sample(SamplerKind::Independent, 1, px, s, PixelFilter::Tent, Reconstruction::ImportanceSampled);
             assert!((q - px.centre()).abs().max_element() <= 1.0);
             if (3.0..4.0).contains(&q.x) && (5.0..6.0).contains(&q.y) {
                 inside += 1;

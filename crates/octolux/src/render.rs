@@ -15,9 +15,10 @@
 //! Positions and samplers come from [`crate::film::camera_sample`], the rule the priming
 //! passes of the irradiance-cache baselines replay.
 //!
-//! Determinism: pixel `(x, y)` sample `s` uses `Sampler::new(seed, y·width + x, s)`; each tile
-//! splats into its own buffer (the tile plus a margin of the filter's radius) and the buffers
-//! are added to the image in tile order, so the image is bit-identical for any thread count.
+//! Determinism: pixel `(x, y)` sample `s` uses `Sampler::with_kind(kind, seed, y·width + x, s)`
+//! (`kind` from [`RenderSettings::sampler`]); each tile splats into its own buffer (the tile
+//! plus a margin of the filter's radius) and the buffers are added to the image in tile order,
+//! so the image is bit-identical for any thread count.
 //! With a time budget, whole passes of `spp` samples are added until the budget is spent (the
 //! result then depends on the machine's speed).
 //!
@@ -26,11 +27,11 @@
 //! image holds the whole passes done so far ([`RenderStats::interrupted`], `passes`, `spp`).
 
 use crate::film::{camera_sample, Pixel};
-use crate::film::{filter_radius, filter_weight, Reconstruction};
+use crate::film::{filter_radius, FilterWeights, Reconstruction};
 use crate::image::Image;
 use crate::integrators::{Integrator, RayCounters};
 use crate::math::{Color, Ray};
-use crate::sampling::Sampler;
+use crate::sampling::{Sampler, SamplerKind};
 use crate::scene::PixelFilter;
 use crate::scene::Scene;
 use glam::Vec2;
@@ -52,11 +53,20 @@ pub struct RenderSettings {
     /// Tile edge in pixels.
     pub tile: u32,
     pub reconstruction: Reconstruction,
+    /// Independent numbers or padded Sobol' points for every sample's dimensions.
+    pub sampler: SamplerKind,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { spp: 64, seed: 0, time_budget_s: None, tile: 16, reconstruction: Reconstruction::Splat }
+        RenderSettings {
+            spp: 64,
+            seed: 0,
+            time_budget_s: None,
+            tile: 16,
+            reconstruction: Reconstruction::Splat,
+            sampler: SamplerKind::default(),
+        }
     }
 }
 
@@ -138,6 +148,7 @@ where
     let splat = settings.reconstruction == Reconstruction::Splat && filter != PixelFilter::Box;
     let reconstruction = settings.reconstruction;
     let radius = filter_radius(filter);
+    let weights = FilterWeights::new(filter);
     let margin = if splat { ((radius + 0.5).ceil() as i32 - 1).clamp(0, MAX_MARGIN) } else { 0 };
     let mut accum = vec![[0.0f64; 4]; (w * h) as usize];
     let mut counters = RayCounters::default();
@@ -173,7 +184,8 @@ where
                         let pixel = Pixel { x, y, width: w };
                         for s in 0..spp {
                             let sample_index = pass as u64 * spp as u64 + s as u64;
-                            let (mut sampler, pos) = camera_sample(settings.seed, pixel, sample_index, filter, reconstruction);
+                            let (mut sampler, pos) =
+                                camera_sample(settings.sampler, settings.seed, pixel, sample_index, filter, reconstruction);
                             let l = li(pos, &mut sampler, &mut buf.counters);
                             // A non-finite sample is a bug; drop it rather than poison pixels.
                             if !l.is_finite() {
@@ -195,10 +207,10 @@ where
                             let lo_y = (py - margin).max(0);
                             let hi_y = (py + margin).min(h as i32 - 1);
                             for i in lo_x..=hi_x {
-                                wx[(i - lo_x) as usize] = filter_weight(filter, i as f32 + 0.5 - pos.x);
+                                wx[(i - lo_x) as usize] = weights.at(i as f32 + 0.5 - pos.x);
                             }
                             for j in lo_y..=hi_y {
-                                wy[(j - lo_y) as usize] = filter_weight(filter, j as f32 + 0.5 - pos.y);
+                                wy[(j - lo_y) as usize] = weights.at(j as f32 + 0.5 - pos.y);
                             }
                             for j in lo_y..=hi_y {
                                 let fy = wy[(j - lo_y) as usize];
@@ -324,7 +336,9 @@ mod tests {
     use super::*;
 
     fn film(filter: PixelFilter, rec: Reconstruction, n: u32, spp: u32, f: impl Fn(Vec2, &mut Sampler) -> Color + Sync) -> Image {
-        let settings = RenderSettings { spp, seed: 3, reconstruction: rec, tile: 5, ..Default::default() };
+        // Independent numbers: the variance test below counts on them.
+        let settings =
+            RenderSettings { spp, seed: 3, reconstruction: rec, tile: 5, sampler: SamplerKind::Independent, ..Default::default() };
         render_film(n, n, filter, &settings, &|_, _| {}, |p, s, _| f(p, s)).0
     }
 

@@ -20,7 +20,7 @@ use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache};
 use crate::film::{camera_sample, Pixel, Reconstruction};
 use crate::integrators::common::{walk_specular, RayCounters};
 use crate::math::{Color, Ray};
-use crate::sampling::Sampler;
+use crate::sampling::{Sampler, SamplerKind};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -166,6 +166,9 @@ pub enum PrimePoints {
         seed: u64,
         #[serde(default)]
         reconstruction: Reconstruction,
+        /// The render's sampler kind (default: independent).
+        #[serde(default)]
+        sampler: SamplerKind,
     },
 }
 
@@ -231,8 +234,8 @@ impl<'a> Primer<'a> {
                 (Sampler::new(self.photon_seed, pixel.index(), PRIME_STREAM), Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy))
             }
             // The render's own rule: uniform positions with splatting, filter samples otherwise.
-            PrimePoints::RenderSamples { seed, reconstruction, .. } => {
-                camera_sample(seed, pixel, sample, self.scene.film.filter, reconstruction)
+            PrimePoints::RenderSamples { seed, reconstruction, sampler, .. } => {
+                camera_sample(sampler, seed, pixel, sample, self.scene.film.filter, reconstruction)
             }
         };
         let (o, d, tmin) = self.scene.camera.generate_ray(film);

@@ -349,7 +349,7 @@ mod tests {
             let scene = box_scene_with(32, filter);
             let mut s = small(20_000);
             s.cache.a = Some(0.5);
-            s.cache.prime = PrimePoints::RenderSamples { spp: 2, seed: 7, reconstruction };
+            s.cache.prime = PrimePoints::RenderSamples { spp: 2, seed: 7, reconstruction, sampler: Default::default() };
             let integ = Integrator::Ward(Box::new(WardIntegrator::build(&scene, s).unwrap()));
             let Integrator::Ward(w) = &integ else { unreachable!() };
             assert_eq!(w.stats.prime_points, 2 * 32 * 32);
