@@ -16,7 +16,7 @@ use anyhow::{bail, Context, Result};
 use octolux::budget;
 use octolux::integrators::octree::OctreeIntegrator;
 use octolux::integrators::IntegratorSettings;
-use octolux::scene::{LightingFingerprint, Scene};
+use octolux::scene::Scene;
 use octolux_io::cache::{self, CacheFile, CacheInfo, LoadedCache};
 use serde_json::{json, Value};
 use std::path::Path;
@@ -125,18 +125,6 @@ pub fn base_settings(c: &LoadedCache) -> Result<Value> {
 /// Refuse resolved settings that differ from the cache's in a key that shaped the octrees.
 pub fn check_settings(path: &Path, c: &LoadedCache, resolved: &IntegratorSettings) -> Result<()> {
     Ok(settings::check_cache_settings(path, c, resolved)?)
-}
-
-/// Compare the scene's lighting fingerprint with the bake's: an error naming what changed,
-/// or with `allow_stale` a warning (returned, and printed by the caller).
-pub fn check_fingerprint(
-    path: &Path,
-    c: &LoadedCache,
-    scene: &LightingFingerprint,
-    scene_name: &str,
-    allow_stale: bool,
-) -> Result<Option<String>> {
-    cache::check_fingerprint(path, c, scene, scene_name, allow_stale).map_err(anyhow::Error::msg)
 }
 
 /// What `OUT.json` says of the cache.

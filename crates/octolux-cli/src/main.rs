@@ -201,7 +201,9 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let t_build = Instant::now();
     let (integrator, cache_report) = match (cache, &args.cache) {
         (Some((c, load_s)), Some(path)) => {
-            let stale = bake::check_fingerprint(path, &c, &scene.lighting_fingerprint(), &args.scene.scene, args.allow_stale_cache)?;
+            let stale =
+                octolux_io::cache::check_fingerprint(path, &c, &scene.lighting_fingerprint(), &args.scene.scene, args.allow_stale_cache)
+                    .map_err(anyhow::Error::msg)?;
             if let Some(w) = &stale {
                 eprintln!("warning: {w}");
                 warnings.push(w.clone());

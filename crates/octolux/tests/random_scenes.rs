@@ -24,11 +24,7 @@
 
 use octolux::accel::BackendKind;
 use octolux::glam::{Mat4, Quat, Vec2, Vec3};
-use octolux::integrators::octree::OctreeIntegratorSettings;
 use octolux::integrators::path::PathSettings;
-use octolux::integrators::photon::christensen::ChristensenSettings;
-use octolux::integrators::photon::photonmap::PhotonMapSettings;
-use octolux::integrators::photon::ward::WardSettings;
 use octolux::integrators::{build, IntegratorSettings};
 use octolux::render::{render, RenderSettings};
 use octolux::scene::camera::{look_at, CameraDesc, FovAxis};
@@ -391,29 +387,9 @@ impl Spec {
     }
 }
 
-/// Every integrator, with test-sized photon counts.
+/// Every cache integrator, with test-sized photon counts.
 fn integrators() -> Vec<(&'static str, IntegratorSettings)> {
-    let mut octree = OctreeIntegratorSettings::default();
-    octree.photons.photons = 100_000;
-    let gather = OctreeIntegratorSettings { gather: true, ..octree.clone() };
-    let mut pm = PhotonMapSettings { gather_rays: 4, ..Default::default() };
-    pm.photons.photons = 20_000;
-    pm.global.n_max = 50;
-    let mut ward = WardSettings::default();
-    ward.photons.photons = 20_000;
-    ward.density.n_max = 50;
-    ward.caustic.n_max = 50;
-    let mut chr = ChristensenSettings::default();
-    chr.photons.photons = 20_000;
-    chr.density.n_max = 50;
-    chr.caustic.n_max = 50;
-    vec![
-        ("octree", IntegratorSettings::Octree(octree)),
-        ("octree --gather", IntegratorSettings::Octree(gather)),
-        ("photonmap", IntegratorSettings::Photonmap(pm)),
-        ("ward", IntegratorSettings::Ward(ward)),
-        ("christensen", IntegratorSettings::Christensen(chr)),
-    ]
+    octolux::testing::cache_integrators(100_000, 20_000, 4)
 }
 
 /// What the test reads of a render.

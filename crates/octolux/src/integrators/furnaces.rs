@@ -7,10 +7,6 @@
 //! constant sky L the shape sees only the sky: radiance `ρ L`, all of it direct, so the caches
 //! must add nothing (and must not blow up).
 
-use super::octree::OctreeIntegratorSettings;
-use super::photon::christensen::ChristensenSettings;
-use super::photon::photonmap::PhotonMapSettings;
-use super::photon::ward::WardSettings;
 use super::test_scenes::{furnace_box_scene, furnace_scene, image_mean};
 use super::{build, IntegratorSettings};
 use crate::accel::BackendKind;
@@ -24,27 +20,7 @@ use glam::{Mat4, Vec3};
 /// The cache integrators with test-sized photon counts (the same as their own furnace
 /// tests use), `octree` twice (direct read and `gather`).
 fn cache_integrators() -> Vec<(&'static str, IntegratorSettings)> {
-    let mut octree = OctreeIntegratorSettings::default();
-    octree.photons.photons = 400_000;
-    let gather = OctreeIntegratorSettings { gather: true, ..octree.clone() };
-    let mut pm = PhotonMapSettings { gather_rays: 8, ..Default::default() };
-    pm.photons.photons = 100_000;
-    pm.global.n_max = 50;
-    let mut ward = WardSettings::default();
-    ward.photons.photons = 100_000;
-    ward.density.n_max = 50;
-    ward.caustic.n_max = 50;
-    let mut chr = ChristensenSettings::default();
-    chr.photons.photons = 100_000;
-    chr.density.n_max = 50;
-    chr.caustic.n_max = 50;
-    vec![
-        ("octree", IntegratorSettings::Octree(octree)),
-        ("octree --gather", IntegratorSettings::Octree(gather)),
-        ("photonmap", IntegratorSettings::Photonmap(pm)),
-        ("ward", IntegratorSettings::Ward(ward)),
-        ("christensen", IntegratorSettings::Christensen(chr)),
-    ]
+    crate::testing::cache_integrators(400_000, 100_000, 8)
 }
 
 /// Mean and largest pixel channel of a render (every pixel finite and non-negative).
