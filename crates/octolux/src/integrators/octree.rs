@@ -24,7 +24,7 @@
 //! box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
-use crate::caches::octree::{AnalyticSphere, Depth, OctreeParts, PartsError, QueryLeaf, Surfaces};
+use crate::caches::octree::{AnalyticSphere, Depth, LeafPlanes, ANCHOR_SAMPLES, OctreeParts, PartsError, QueryLeaf, Surfaces};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
 use crate::math::{Color, Frame, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonError, PhotonSettings};
@@ -69,8 +69,16 @@ pub enum LeakTest {
     /// ([`crate::caches::octree::LeafAnchors`]), each lifted by [`ANCHOR_LIFT`] cell edges along
     /// its own normal. One to four shadow rays per valid leaf met (the first visible one
     /// ends the test).
-    #[default]
     VisibleSample,
+    /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
+    /// light that can reach the query point: of the sampled photons that are visible and whose
+    /// light arrived on the query's side, the fraction whose incident direction is open from
+    /// the query point over one cell edge. A point in a gap (above a light fixture hung under
+    /// the ceiling) sees lit ceiling photons through the gap's opening, but the light they
+    /// received came from below, where the fixture closes the gap. Up to eight rays per leaf,
+    /// none where the scene around the leaf is one plane ([`LeafPlanes`]).
+    #[default]
+    VisibleLight,
     /// [`LeakTest::Visibility`], and a second ray from the query point along the leaf's mean
     /// incident direction must travel one cell edge unblocked: a point in a gap (above a light
     /// fixture hung under the ceiling) sees its anchor through the gap's opening, but the
@@ -85,6 +93,10 @@ pub enum LeakTest {
 /// sphere of radius `R`), and a thin wall must lie between the query point and the lifted
 /// anchor, not behind it.
 pub const ANCHOR_LIFT: f32 = 0.25;
+
+/// Length of the direction rays of [`LeakTest::VisibleLight`], in cell edges of the leaf: the
+/// occluders that matter are those near the query point that were not near the photons.
+pub const DIRECTION_REACH: f32 = 1.0;
 
 /// Settings of the `octree` integrator.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -185,6 +197,9 @@ pub struct OctreeIntegrator {
     pub global: Octree,
     pub caustic: Option<Octree>,
     pub stats: OctreeBuildStats,
+    /// [`LeafPlanes`] of the global and the caustic tree for the leak test, computed from the
+    /// scene at the first query (or by [`OctreeIntegrator::prepare_leak`]).
+    planes: [std::sync::OnceLock<LeafPlanes>; 2],
 }
 
 /// A built `octree` integrator as plain data: what a cache file holds (docs/baking.md).
@@ -225,7 +240,33 @@ impl OctreeIntegrator {
         stats.global = global.stats().clone();
         stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
         stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
-        Ok(OctreeIntegrator { settings, global, caustic, stats })
+        Ok(OctreeIntegrator { settings, global, caustic, stats, planes: Default::default() })
+    }
+
+    /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
+    /// instead of at the first query; the scene must be the one the octrees were built for.
+    pub fn prepare_leak(&self, scene: &Scene) {
+        if matches!(self.settings.leak, LeakTest::VisibleSample | LeakTest::VisibleLight) {
+            self.planes_of(scene, &self.global);
+        }
+    }
+
+    /// What the leak test found (for out.json's `render_report`): per tree that computed them,
+    /// the valid leaves around which the scene is one plane ([`LeafPlanes`], tested without a
+    /// ray) and all valid leaves.
+    pub fn leak_report(&self) -> serde_json::Value {
+        let count = |p: &std::sync::OnceLock<LeafPlanes>| p.get().map(|p| serde_json::json!({ "planar": p.planar(), "valid": p.len() }));
+        serde_json::json!({ "leak_planes_global": count(&self.planes[0]), "leak_planes_caustic": count(&self.planes[1]) })
+    }
+
+    /// The [`LeafPlanes`] of `tree` (one of this integrator's octrees) for `scene`.
+    fn planes_of(&self, scene: &Scene, tree: &Octree) -> &LeafPlanes {
+        let i = if std::ptr::eq(tree, &self.global) { 0 } else { 1 };
+        self.planes[i].get_or_init(|| {
+            let tris = scene.mesh_triangles_where(|_| true);
+            let spheres: Vec<_> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
+            tree.leaf_planes(&tris, &spheres, DIRECTION_REACH.max(ANCHOR_LIFT))
+        })
     }
 
     /// Trace the photons and build both octrees over the scene's bounds.
@@ -276,7 +317,9 @@ impl OctreeIntegrator {
             caustic: caustic.as_ref().map(|c| c.stats().clone()),
             bytes: global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes),
         };
-        Ok(OctreeIntegrator { settings, global, caustic, stats })
+        let o = OctreeIntegrator { settings, global, caustic, stats, planes: Default::default() };
+        o.prepare_leak(scene);
+        Ok(o)
     }
 
     /// Radiance along a primary ray.
@@ -322,12 +365,21 @@ impl OctreeIntegrator {
         self.incident_matrix(scene, tree, &v.hit, v.n, counters).map_or(Color::ZERO, |m| m.transpose() * v.n)
     }
 
+    /// The planes the leak test `leak` uses for `tree` (none for the tests that do not use them).
+    #[inline]
+    fn leak_planes(&self, scene: &Scene, tree: &Octree, leak: LeakTest) -> Option<&LeafPlanes> {
+        matches!(leak, LeakTest::VisibleSample | LeakTest::VisibleLight).then(|| self.planes_of(scene, tree))
+    }
+
     /// `tree`'s irradiance at `hit` for normal `n` (on the viewer's side), leak control applied.
     pub fn irradiance_at(&self, scene: &Scene, tree: &Octree, hit: &SurfaceHit, n: Vec3, counters: &mut RayCounters) -> Option<Color> {
         let mut rays = 0u64;
         let e = counters.time_query(|| match self.settings.leak {
             LeakTest::None => tree.irradiance(hit.p, n),
-            leak => tree.irradiance_where(hit.p, n, &mut |q| keep_leaf(scene, hit, n, leak, q, &mut rays)),
+            leak => {
+                let planes = self.leak_planes(scene, tree, leak);
+                tree.irradiance_where(hit.p, n, &mut |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+            }
         });
         counters.shadow_rays += rays;
         e
@@ -338,7 +390,10 @@ impl OctreeIntegrator {
         let mut rays = 0u64;
         let m = counters.time_query(|| match self.settings.leak {
             LeakTest::None => tree.incident_matrix(hit.p, n),
-            leak => tree.incident_matrix_where(hit.p, n, &mut |q| keep_leaf(scene, hit, n, leak, q, &mut rays)),
+            leak => {
+                let planes = self.leak_planes(scene, tree, leak);
+                tree.incident_matrix_where(hit.p, n, &mut |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+            }
         });
         counters.shadow_rays += rays;
         m
@@ -485,48 +540,91 @@ fn hsv(h: f32, s: f32, v: f32) -> Color {
 }
 
 /// Whether the light of a leaf met by a query at `hit` (normal `n`, on the viewer's side) can
-/// reach it ([`LeakTest`]); `rays` counts the visibility rays cast.
-fn keep_leaf(scene: &Scene, hit: &SurfaceHit, n: Vec3, leak: LeakTest, q: QueryLeaf, rays: &mut u64) -> bool {
-    match leak {
-        LeakTest::None => true,
-        LeakTest::Plane => (q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size,
-        LeakTest::Visibility => {
-            let target = q.position + q.normal * (ANCHOR_LIFT * q.cell_size);
-            let d = target - hit.p;
-            let dist = d.length();
-            if !(dist > 1e-4 * q.cell_size) {
-                return true;
-            }
-            *rays += 1;
-            // leave from the viewer's side of the surface, whatever side the anchor is on
-            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), n);
-            let od = target - o;
-            let len = od.length();
-            len > 0.0 && !scene.occluded(&Ray::segment(o, od / len, len))
+/// reach it ([`LeakTest`]): `None` drops the leaf, `Some(f)` keeps it with its value scaled by
+/// `f`. `planes`: the [`LeafPlanes`] of `tree` for the tests that use them; `rays` counts the
+/// visibility rays cast.
+#[allow(clippy::too_many_arguments)]
+fn keep_leaf(
+    scene: &Scene,
+    tree: &Octree,
+    planes: Option<&LeafPlanes>,
+    hit: &SurfaceHit,
+    n: Vec3,
+    leak: LeakTest,
+    q: QueryLeaf,
+    rays: &mut u64,
+) -> Option<f32> {
+    let keep = |b: bool| b.then_some(1.0);
+    // leave from the viewer's side of the surface, whatever side the target is on
+    let ngf = crate::math::facing(hit.ng, n);
+    let o = crate::math::offset_origin(hit.p, ngf, ngf);
+    // a ray from the query point to `target` is unblocked
+    let visible = |target: Vec3, rays: &mut u64| {
+        let od = target - o;
+        let len = od.length();
+        if !(len > 1e-4 * q.cell_size) {
+            return true;
         }
-        LeakTest::VisibleSample => {
-            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), n);
-            q.samples.iter().any(|&(p, nrm)| {
-                let target = p + nrm * (ANCHOR_LIFT * q.cell_size);
-                let od = target - o;
-                let len = od.length();
-                if !(len > 1e-4 * q.cell_size) {
-                    return true;
+        *rays += 1;
+        !scene.occluded(&Ray::segment(o, od / len, len))
+    };
+    // where the scene around the leaf is one plane, a ray between two points off it is blocked
+    // exactly when they lie on opposite sides of it (`caches::octree::planes`)
+    let plane = planes.and_then(|p| p.get(q.index));
+    let same_side = |pl: &crate::caches::octree::LeafPlane, w: Vec3| (w.dot(pl.normal) > 0.0) == (ngf.dot(pl.normal) > 0.0);
+    match leak {
+        LeakTest::None => Some(1.0),
+        LeakTest::Plane => keep((q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size),
+        LeakTest::Visibility => keep(visible(q.position + q.normal * (ANCHOR_LIFT * q.cell_size), rays)),
+        LeakTest::VisibleSample => keep(match plane {
+            Some(pl) => q.samples.iter().any(|&(_, w)| same_side(&pl, w)),
+            None => q.samples.iter().any(|&(p, w)| visible(p + w * (ANCHOR_LIFT * q.cell_size), rays)),
+        }),
+        LeakTest::VisibleLight => {
+            if let Some(pl) = plane {
+                // visible samples are those on the query's side; their directions are open
+                return keep(q.samples.iter().any(|&(_, w)| same_side(&pl, w)));
+            }
+            // the share of the leaf's light (in the matrices the query reads: light arriving
+            // on the query's side of its tangent plane) that reaches the query point: of the
+            // samples whose light arrived on that side, those visible whose direction is open
+            let mut tested = [false; ANCHOR_SAMPLES];
+            let (mut any, mut facing, mut open) = (false, 0u32, 0u32);
+            for (k, &(p, w)) in q.samples.iter().enumerate() {
+                if w.dot(n) <= 0.0 {
+                    continue;
                 }
+                facing += 1;
                 *rays += 1;
-                !scene.occluded(&Ray::segment(o, od / len, len))
-            })
+                if scene.occluded(&Ray::segment(o, w, DIRECTION_REACH * q.cell_size)) {
+                    continue;
+                }
+                tested[k] = true;
+                if visible(p + w * (ANCHOR_LIFT * q.cell_size), rays) {
+                    any = true;
+                    open += 1;
+                }
+            }
+            // the leaf keeps its weight when the query point sees any of its photons
+            if !any {
+                any = q.samples.iter().zip(tested).any(|(&(p, w), t)| !t && visible(p + w * (ANCHOR_LIFT * q.cell_size), rays));
+            }
+            if !any {
+                None
+            } else if facing == 0 {
+                Some(1.0)
+            } else {
+                Some(open as f32 / facing as f32)
+            }
         }
         LeakTest::VisibilityAndDirection => {
-            if !keep_leaf(scene, hit, n, LeakTest::Visibility, q, rays) {
-                return false;
-            }
-            if q.direction.dot(n) <= 0.0 {
-                return true;
+            keep_leaf(scene, tree, None, hit, n, LeakTest::Visibility, q, rays)?;
+            let d = tree.leaf_direction(q.index, n);
+            if d.dot(n) <= 0.0 {
+                return Some(1.0);
             }
             *rays += 1;
-            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), q.direction);
-            !scene.occluded(&Ray::segment(o, q.direction, q.cell_size))
+            keep(!scene.occluded(&Ray::segment(o, d, q.cell_size)))
         }
     }
 }
