@@ -24,7 +24,7 @@
 //! box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
-use crate::caches::octree::{AnalyticSphere, Depth, LeafPlanes, ANCHOR_SAMPLES, OctreeParts, PartsError, QueryLeaf, Surfaces};
+use crate::caches::octree::{AnalyticSphere, Depth, LeafPlanes, Segment, ANCHOR_SAMPLES, OctreeParts, PartsError, QueryLeaf, Surfaces};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
 use crate::math::{Color, Frame, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonError, PhotonSettings};
@@ -76,7 +76,7 @@ pub enum LeakTest {
     /// the query point over one cell edge. A point in a gap (above a light fixture hung under
     /// the ceiling) sees lit ceiling photons through the gap's opening, but the light they
     /// received came from below, where the fixture closes the gap. Up to eight rays per leaf,
-    /// none where the scene around the leaf is one plane ([`LeafPlanes`]).
+    /// fewer where the planes around the leaf answer them ([`LeafPlanes`]).
     #[default]
     VisibleLight,
     /// [`LeakTest::Visibility`], and a second ray from the query point along the leaf's mean
@@ -246,7 +246,7 @@ impl OctreeIntegrator {
     /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
     /// instead of at the first query; the scene must be the one the octrees were built for.
     pub fn prepare_leak(&self, scene: &Scene) {
-        if matches!(self.settings.leak, LeakTest::VisibleSample | LeakTest::VisibleLight) {
+        if matches!(self.settings.leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight) {
             self.planes_of(scene, &self.global);
         }
     }
@@ -368,7 +368,7 @@ impl OctreeIntegrator {
     /// The planes the leak test `leak` uses for `tree` (none for the tests that do not use them).
     #[inline]
     fn leak_planes(&self, scene: &Scene, tree: &Octree, leak: LeakTest) -> Option<&LeafPlanes> {
-        matches!(leak, LeakTest::VisibleSample | LeakTest::VisibleLight).then(|| self.planes_of(scene, tree))
+        matches!(leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight).then(|| self.planes_of(scene, tree))
     }
 
     /// `tree`'s irradiance at `hit` for normal `n` (on the viewer's side), leak control applied.
@@ -558,8 +558,16 @@ fn keep_leaf(
     // leave from the viewer's side of the surface, whatever side the target is on
     let ngf = crate::math::facing(hit.ng, n);
     let o = crate::math::offset_origin(hit.p, ngf, ngf);
-    // a ray from the query point to `target` is unblocked
-    let visible = |target: Vec3, rays: &mut u64| {
+    // the segment from the query point to `target` is unblocked: from the planes around the
+    // leaf when they tell (`caches::octree::planes`), else by a ray
+    let free = |target: Vec3, rays: &mut u64| {
+        if let Some(p) = planes {
+            match p.segment(q.index, o, target) {
+                Segment::Free => return true,
+                Segment::Blocked => return false,
+                Segment::Unknown => {}
+            }
+        }
         let od = target - o;
         let len = od.length();
         if !(len > 1e-4 * q.cell_size) {
@@ -568,26 +576,17 @@ fn keep_leaf(
         *rays += 1;
         !scene.occluded(&Ray::segment(o, od / len, len))
     };
-    // where the scene around the leaf is one plane, a ray between two points off it is blocked
-    // exactly when they lie on opposite sides of it (`caches::octree::planes`)
-    let plane = planes.and_then(|p| p.get(q.index));
-    let same_side = |pl: &crate::caches::octree::LeafPlane, w: Vec3| (w.dot(pl.normal) > 0.0) == (ngf.dot(pl.normal) > 0.0);
+    let lift = ANCHOR_LIFT * q.cell_size;
     match leak {
         LeakTest::None => Some(1.0),
         LeakTest::Plane => keep((q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size),
-        LeakTest::Visibility => keep(visible(q.position + q.normal * (ANCHOR_LIFT * q.cell_size), rays)),
-        LeakTest::VisibleSample => keep(match plane {
-            Some(pl) => q.samples.iter().any(|&(_, w)| same_side(&pl, w)),
-            None => q.samples.iter().any(|&(p, w)| visible(p + w * (ANCHOR_LIFT * q.cell_size), rays)),
-        }),
+        LeakTest::Visibility => keep(free(q.position + q.normal * lift, rays)),
+        LeakTest::VisibleSample => keep(q.samples.iter().any(|&(p, w)| free(p + w * lift, rays))),
         LeakTest::VisibleLight => {
-            if let Some(pl) = plane {
-                // visible samples are those on the query's side; their directions are open
-                return keep(q.samples.iter().any(|&(_, w)| same_side(&pl, w)));
-            }
             // the share of the leaf's light (in the matrices the query reads: light arriving
             // on the query's side of its tangent plane) that reaches the query point: of the
             // samples whose light arrived on that side, those visible whose direction is open
+            let reach = DIRECTION_REACH * q.cell_size;
             let mut tested = [false; ANCHOR_SAMPLES];
             let (mut any, mut facing, mut open) = (false, 0u32, 0u32);
             for (k, &(p, w)) in q.samples.iter().enumerate() {
@@ -595,19 +594,18 @@ fn keep_leaf(
                     continue;
                 }
                 facing += 1;
-                *rays += 1;
-                if scene.occluded(&Ray::segment(o, w, DIRECTION_REACH * q.cell_size)) {
+                if !free(o + w * reach, rays) {
                     continue;
                 }
                 tested[k] = true;
-                if visible(p + w * (ANCHOR_LIFT * q.cell_size), rays) {
+                if free(p + w * lift, rays) {
                     any = true;
                     open += 1;
                 }
             }
             // the leaf keeps its weight when the query point sees any of its photons
             if !any {
-                any = q.samples.iter().zip(tested).any(|(&(p, w), t)| !t && visible(p + w * (ANCHOR_LIFT * q.cell_size), rays));
+                any = q.samples.iter().zip(tested).any(|(&(p, w), t)| !t && free(p + w * lift, rays));
             }
             if !any {
                 None

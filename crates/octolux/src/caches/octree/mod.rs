@@ -72,8 +72,8 @@
 //! incident directions), and [`Octree::irradiance_where`] lets the caller drop the leaves it
 //! cannot see from the query point, or scale down the light it cannot receive (the `octree`
 //! integrator casts rays to and along the sampled photons, `docs/octree.md`). [`LeafPlanes`]
-//! (`planes.rs`) marks the leaves around which the scene is one plane: there the answer of
-//! those rays is known without casting them.
+//! (`planes.rs`) keeps, per leaf, the few planes that hold every surface within reach of
+//! those rays, when there are such planes: most rays are then answered without casting them.
 
 mod build;
 mod cells;
@@ -92,7 +92,7 @@ mod tests;
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
 pub use geometry::AnalyticSphere;
-pub use planes::{LeafPlane, LeafPlanes};
+pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
 pub use parts::{LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
 

@@ -6,10 +6,10 @@
 //! cell, and every ray the test casts stays within `reach` of `P` or of the cell: all of them
 //! lie in the cell grown by `h + reach` (a convex box holding `P`, the photons, the lifted
 //! targets and the short direction rays). When every surface of the scene that meets that box
-//! lies in one plane (the middle of a wall, a floor away from objects), `P` and the photons lie
-//! on that plane, and a ray between two points off the plane is blocked exactly when they lie
-//! on opposite sides of it: the answer of every ray is known from signs, and none is cast.
-//! On the Cornell boxes most of the walls' area is such a leaf (measured in `docs/octree.md`).
+//! lies on a few planes (the middle of a wall: one; a room's edge or corner: two or three), a
+//! segment whose ends lie on the same side of every plane crosses none, so no surface: it is
+//! free without a ray. With a single plane, `P` lies on it, and a segment from `P` to the other
+//! side crosses it at `P`, on its surface: blocked. Other segments are left to a ray.
 //!
 //! Built once per octree from all the scene's surfaces (specular and emitting ones included:
 //! they block rays too): the triangles are binned into the leaves their bounding boxes meet
@@ -21,39 +21,88 @@ use super::{Octree, NO_VALUE};
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// The plane `normal · x = d` (unit `normal`) that holds every surface within reach of a valid
-/// leaf's leak test.
+/// A plane `normal · x = d` (unit `normal`) holding surfaces within reach of a valid leaf's
+/// leak test.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LeafPlane {
     pub normal: Vec3,
     pub d: f32,
 }
 
-/// Per valid leaf (by index): the plane holding every surface within reach, if there is one.
+/// Most planes kept per leaf; a leaf with more surfaces within reach is tested by rays.
+pub const MAX_PLANES: usize = 4;
+
+/// Per valid leaf (by index): the planes (at most [`MAX_PLANES`]) that hold every surface
+/// within reach of its leak test, when there are such planes.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LeafPlanes {
-    planes: Vec<Option<LeafPlane>>,
+    /// Per valid leaf: the planes' range in `planes`, or `u32::MAX` (unknown: a sphere or more
+    /// than [`MAX_PLANES`] planes within reach).
+    first: Vec<(u32, u32)>,
+    planes: Vec<LeafPlane>,
+    /// Per valid leaf: the distance within which a point counts as on a plane (the
+    /// coplanarity tolerance of its triangles).
+    tol: Vec<f32>,
+}
+
+/// What the planes of a leaf say about a segment ([`LeafPlanes::segment`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Segment {
+    /// No surface within reach can block it.
+    Free,
+    /// A surface within reach blocks it.
+    Blocked,
+    /// Cast a ray.
+    Unknown,
 }
 
 impl LeafPlanes {
-    /// The plane of valid leaf `index` (`None`: several surfaces, or a sphere, within reach).
+    /// The planes of valid leaf `index` (`None`: unknown, cast rays).
     #[inline]
-    pub fn get(&self, index: u32) -> Option<LeafPlane> {
-        self.planes.get(index as usize).copied().flatten()
+    pub fn get(&self, index: u32) -> Option<&[LeafPlane]> {
+        let &(a, b) = self.first.get(index as usize)?;
+        (a != u32::MAX).then(|| &self.planes[a as usize..b as usize])
     }
 
-    /// Valid leaves with a plane.
+    /// Whether the segment from `a` to `b` (both within reach of valid leaf `index`) meets a
+    /// surface, from the leaf's planes alone. [`Segment::Free`] when `a` and `b` lie on the
+    /// same side of every plane, farther than the tolerance (the segment crosses no plane, so
+    /// no surface); [`Segment::Blocked`] when the leaf has one plane and they lie on opposite
+    /// sides of it (the query point `a` lies on that plane, lifted off it by the ray offset:
+    /// the segment crosses it where `a` is, on its surface); [`Segment::Unknown`] otherwise.
+    #[inline]
+    pub fn segment(&self, index: u32, a: Vec3, b: Vec3) -> Segment {
+        let Some(planes) = self.get(index) else { return Segment::Unknown };
+        let tol = self.tol[index as usize];
+        let mut crossed = 0;
+        for pl in planes {
+            let (da, db) = (pl.normal.dot(a) - pl.d, pl.normal.dot(b) - pl.d);
+            if da.abs() <= tol || db.abs() <= tol || !(da.is_finite() && db.is_finite()) {
+                return Segment::Unknown;
+            }
+            if (da > 0.0) != (db > 0.0) {
+                crossed += 1;
+            }
+        }
+        match (crossed, planes.len()) {
+            (0, _) => Segment::Free,
+            (1, 1) => Segment::Blocked,
+            _ => Segment::Unknown,
+        }
+    }
+
+    /// Valid leaves whose planes are known.
     pub fn planar(&self) -> usize {
-        self.planes.iter().filter(|p| p.is_some()).count()
+        self.first.iter().filter(|p| p.0 != u32::MAX).count()
     }
 
     /// Valid leaves.
     pub fn len(&self) -> usize {
-        self.planes.len()
+        self.first.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.planes.is_empty()
+        self.first.is_empty()
     }
 }
 
@@ -101,63 +150,69 @@ impl Octree {
                 leaves[v as usize] = (depth, ijk);
             }
         });
-        let planes = leaves
+        let found: Vec<(Option<Vec<LeafPlane>>, f32)> = leaves
             .par_iter()
             .map(|&(depth, ijk)| {
                 let s = self.cell_size[depth as usize];
                 let grow = Vec3::splat(self.query_half + reach_cells * s + eps);
                 let cmin = view.cell_min(depth, ijk);
                 let tol = 1e-3 * s;
-                let mut plane: Option<LeafPlane> = None;
-                let mut single = true;
+                let mut planes: Vec<LeafPlane> = Vec::new();
+                let mut known = true;
                 view.visit(cmin - grow, cmin + Vec3::splat(s) + grow, |node, _, _, _| {
-                    if !single {
+                    if !known {
                         return;
                     }
                     for &k in &items[start[node as usize] as usize..start[node as usize + 1] as usize] {
                         if k >= n_tri {
-                            single = false;
+                            known = false;
                             return;
                         }
                         let t = &triangles[k as usize];
-                        match &plane {
-                            Some(pl) => {
-                                if !on_plane(pl, t, tol) {
-                                    single = false;
-                                    return;
-                                }
-                            }
-                            None => {
-                                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
-                                if n != Vec3::ZERO && n.is_finite() {
-                                    let pl = LeafPlane { normal: n, d: n.dot(t[0]) };
-                                    if on_plane(&pl, t, tol) {
-                                        plane = Some(pl);
-                                    }
-                                }
-                            }
+                        if planes.iter().any(|pl| on_plane(pl, t, tol)) {
+                            continue;
                         }
+                        let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+                        let pl = LeafPlane { normal: n, d: n.dot(t[0]) };
+                        if n == Vec3::ZERO || !n.is_finite() || !on_plane(&pl, t, tol) || planes.len() == MAX_PLANES {
+                            known = false;
+                            return;
+                        }
+                        planes.push(pl);
                     }
                 });
-                plane.filter(|_| single)
+                (known.then_some(planes), tol)
             })
             .collect();
-        LeafPlanes { planes }
+        let mut out = LeafPlanes::default();
+        for (p, tol) in found {
+            out.tol.push(tol);
+            match p {
+                Some(p) if !p.is_empty() => {
+                    let a = out.planes.len() as u32;
+                    out.planes.extend(p);
+                    out.first.push((a, out.planes.len() as u32));
+                }
+                _ => out.first.push((u32::MAX, u32::MAX)),
+            }
+        }
+        out
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::Segment;
     use crate::caches::octree::{Depth, Octree, OctreeSettings};
     use crate::math::{Bounds3, Color};
     use crate::photon::Photon;
     use glam::Vec3;
 
-    /// Photons on the floor `y = 0` of a unit box and on a small block standing on it: leaves
-    /// far from the block (more than their reach) are planar with the floor's plane, leaves
-    /// near it are not, and a degenerate triangle away from the floor breaks nothing.
+    /// Photons on the floor `y = 0` of a unit box, a wall piece standing on it and a sphere:
+    /// each leaf gets the planes of the surfaces its grown box meets (one, or two near the wall
+    /// piece), none (rays) near the sphere; the segments' answers follow the sides.
     #[test]
-    fn leaves_are_planar_only_away_from_other_surfaces() {
+    fn leaves_get_the_planes_within_reach() {
         let mut photons = Vec::new();
         let mut s = crate::sampling::Sampler::new(3, 0, 0);
         for _ in 0..20_000 {
@@ -173,30 +228,38 @@ mod tests {
         ];
         let only_floor = tree.leaf_planes(&floor, &[], 1.0);
         assert_eq!(only_floor.planar(), only_floor.len(), "a floor alone is one plane everywhere");
-        let p = only_floor.get(0).unwrap();
-        assert!((p.normal.y.abs() - 1.0).abs() < 1e-6 && p.d.abs() < 1e-6, "{p:?}");
+        for i in 0..only_floor.len() as u32 {
+            let p = only_floor.get(i).unwrap();
+            assert!(p.len() == 1 && (p[0].normal.y.abs() - 1.0).abs() < 1e-6 && p[0].d.abs() < 1e-6, "{p:?}");
+        }
+        let (above, below, above2) = (Vec3::new(0.5, 0.01, 0.5), Vec3::new(0.52, -0.01, 0.5), Vec3::new(0.45, 0.02, 0.52));
+        assert_eq!(only_floor.segment(0, above, above2), Segment::Free);
+        assert_eq!(only_floor.segment(0, above, below), Segment::Blocked);
+        assert_eq!(only_floor.segment(0, above, Vec3::new(0.5, 0.0, 0.5)), Segment::Unknown, "on the plane");
         // a wall piece standing at x = 0.5 (a triangle in the plane x = 0.5)
         let mut tris = floor.to_vec();
         tris.push([Vec3::new(0.5, 0.0, 0.4), Vec3::new(0.5, 0.1, 0.5), Vec3::new(0.5, 0.0, 0.6)]);
         let with_wall = tree.leaf_planes(&tris, &[], 1.0);
-        assert!(with_wall.planar() < with_wall.len() && with_wall.planar() > 0, "{} of {}", with_wall.planar(), with_wall.len());
-        // a leaf is planar exactly when its grown box misses the other surface's bounding box
+        assert_eq!(with_wall.planar(), with_wall.len(), "two planes are known");
+        // a leaf has the wall's plane exactly when its grown box meets the wall piece's box
         let q = tree.query_size() / 2.0;
-        let expected = |lo_o: Vec3, hi_o: Vec3| {
-            tree.leaf_infos()
-                .iter()
-                .filter(|l| l.valid)
-                .filter(|l| {
-                    let g = Vec3::splat(q + (l.bounds.max.x - l.bounds.min.x));
-                    let (lo, hi) = (l.bounds.min - g, l.bounds.max + g);
-                    !(lo.cmplt(hi_o).all() && hi.cmpgt(lo_o).all())
-                })
-                .count()
+        let meets = |l: &crate::caches::octree::LeafInfo, lo_o: Vec3, hi_o: Vec3| {
+            let g = Vec3::splat(q + (l.bounds.max.x - l.bounds.min.x));
+            let (lo, hi) = (l.bounds.min - g, l.bounds.max + g);
+            lo.cmplt(hi_o).all() && hi.cmpgt(lo_o).all()
         };
-        assert_eq!(with_wall.planar(), expected(Vec3::new(0.5, 0.0, 0.4), Vec3::new(0.5, 0.1, 0.6)));
-        // a sphere near the floor makes its leaves non-planar
+        let valid: Vec<_> = tree.leaf_infos().into_iter().filter(|l| l.valid).collect();
+        let near_wall = valid.iter().filter(|l| meets(l, Vec3::new(0.5, 0.0, 0.4), Vec3::new(0.5, 0.1, 0.6))).count();
+        let two = (0..with_wall.len() as u32).filter(|&i| with_wall.get(i).unwrap().len() == 2).count();
+        assert_eq!(two, near_wall);
+        assert!(two > 0 && two < valid.len());
+        let i = (0..with_wall.len() as u32).find(|&i| with_wall.get(i).unwrap().len() == 2).unwrap();
+        assert_eq!(with_wall.segment(i, Vec3::new(0.45, 0.01, 0.5), Vec3::new(0.55, 0.01, 0.5)), Segment::Unknown, "crosses the wall's plane");
+        assert_eq!(with_wall.segment(i, Vec3::new(0.45, 0.01, 0.5), Vec3::new(0.4, 0.05, 0.45)), Segment::Free);
+        // a sphere near the floor leaves its leaves to the rays
         let with_sphere = tree.leaf_planes(&floor, &[(Vec3::new(0.3, 0.05, 0.3), 0.05)], 1.0);
-        assert_eq!(with_sphere.planar(), expected(Vec3::new(0.25, 0.0, 0.25), Vec3::new(0.35, 0.1, 0.35)));
-        assert!(with_sphere.planar() < with_sphere.len() && with_sphere.planar() > 0);
+        let near_sphere = valid.iter().filter(|l| meets(l, Vec3::new(0.25, 0.0, 0.25), Vec3::new(0.35, 0.1, 0.35))).count();
+        assert_eq!(with_sphere.len() - with_sphere.planar(), near_sphere);
+        assert!(near_sphere > 0 && near_sphere < valid.len());
     }
 }
