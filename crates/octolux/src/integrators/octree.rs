@@ -70,15 +70,23 @@ pub enum LeakTest {
     /// its own normal. One to four shadow rays per valid leaf met (the first visible one
     /// ends the test).
     VisibleSample,
-    /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
-    /// light that can reach the query point: of the sampled photons that are visible and whose
-    /// light arrived on the query's side, the fraction whose incident direction is open from
-    /// the query point over one cell edge. A point in a gap (above a light fixture hung under
-    /// the ceiling) sees lit ceiling photons through the gap's opening, but the light they
-    /// received came from below, where the fixture closes the gap. Up to eight rays per leaf,
-    /// fewer where the planes around the leaf answer them ([`LeafPlanes`]).
+    /// [`LeakTest::VisibleSample`] with each sampled photon's target lifted by [`LIGHT_LIFT`]
+    /// cell edges along its incident direction (towards where its light came from) instead of
+    /// [`ANCHOR_LIFT`]: the query point must see where the light of one of the leaf's photons
+    /// came from, not only the photon. A point in a gap (above a light fixture hung under the
+    /// ceiling) sees the lit ceiling photons outside through the gap's opening, but not the
+    /// room below them, where their light came from. One to four rays per leaf, fewer where the
+    /// planes around the leaf answer them ([`LeafPlanes`]).
     #[default]
     VisibleLight,
+    /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
+    /// light that reaches the query point: of the sampled photons whose light arrived on the
+    /// query's side, the fraction visible whose incident direction is open from the query point
+    /// over [`DIRECTION_REACH`] cell edges. Removes the fixture gap's leak, but an occluder is
+    /// not a dark one: near every corner and object the blocked directions bring light
+    /// reflected by the occluder, and the image darkens (measured in `docs/octree.md`). Up to
+    /// eight rays per leaf.
+    OpenDirections,
     /// [`LeakTest::Visibility`], and a second ray from the query point along the leaf's mean
     /// incident direction must travel one cell edge unblocked: a point in a gap (above a light
     /// fixture hung under the ceiling) sees its anchor through the gap's opening, but the
@@ -94,7 +102,12 @@ pub enum LeakTest {
 /// anchor, not behind it.
 pub const ANCHOR_LIFT: f32 = 0.25;
 
-/// Length of the direction rays of [`LeakTest::VisibleLight`], in cell edges of the leaf: the
+/// How far (in cell edges) [`LeakTest::VisibleLight`] lifts a sampled photon's target along its
+/// incident direction: far enough to leave a slit narrower than a leaf (the fixture gap of
+/// Bitterli's box: 0.02 under leaves of 0.03–0.07), no farther than the planes' reach.
+pub const LIGHT_LIFT: f32 = 1.0;
+
+/// Length of the direction rays of [`LeakTest::OpenDirections`], in cell edges of the leaf: the
 /// occluders that matter are those near the query point that were not near the photons.
 pub const DIRECTION_REACH: f32 = 1.0;
 
@@ -246,7 +259,7 @@ impl OctreeIntegrator {
     /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
     /// instead of at the first query; the scene must be the one the octrees were built for.
     pub fn prepare_leak(&self, scene: &Scene) {
-        if matches!(self.settings.leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight) {
+        if matches!(self.settings.leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections) {
             self.planes_of(scene, &self.global);
         }
     }
@@ -265,7 +278,7 @@ impl OctreeIntegrator {
         self.planes[i].get_or_init(|| {
             let tris = scene.mesh_triangles_where(|_| true);
             let spheres: Vec<_> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
-            tree.leaf_planes(&tris, &spheres, DIRECTION_REACH.max(ANCHOR_LIFT))
+            tree.leaf_planes(&tris, &spheres, DIRECTION_REACH.max(ANCHOR_LIFT).max(LIGHT_LIFT))
         })
     }
 
@@ -368,7 +381,7 @@ impl OctreeIntegrator {
     /// The planes the leak test `leak` uses for `tree` (none for the tests that do not use them).
     #[inline]
     fn leak_planes(&self, scene: &Scene, tree: &Octree, leak: LeakTest) -> Option<&LeafPlanes> {
-        matches!(leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight).then(|| self.planes_of(scene, tree))
+        matches!(leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections).then(|| self.planes_of(scene, tree))
     }
 
     /// `tree`'s irradiance at `hit` for normal `n` (on the viewer's side), leak control applied.
@@ -582,7 +595,8 @@ fn keep_leaf(
         LeakTest::Plane => keep((q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size),
         LeakTest::Visibility => keep(free(q.position + q.normal * lift, rays)),
         LeakTest::VisibleSample => keep(q.samples.iter().any(|&(p, w)| free(p + w * lift, rays))),
-        LeakTest::VisibleLight => {
+        LeakTest::VisibleLight => keep(q.samples.iter().any(|&(p, w)| free(p + w * (LIGHT_LIFT * q.cell_size), rays))),
+        LeakTest::OpenDirections => {
             // the share of the leaf's light (in the matrices the query reads: light arriving
             // on the query's side of its tangent plane) that reaches the query point: of the
             // samples whose light arrived on that side, those visible whose direction is open
