@@ -70,13 +70,14 @@ pub enum LeakTest {
     /// its own normal. One to four shadow rays per valid leaf met (the first visible one
     /// ends the test).
     VisibleSample,
-    /// [`LeakTest::VisibleSample`] with each sampled photon's target lifted by [`LIGHT_LIFT`]
-    /// cell edges along its incident direction (towards where its light came from) instead of
-    /// [`ANCHOR_LIFT`]: the query point must see where the light of one of the leaf's photons
-    /// came from, not only the photon. A point in a gap (above a light fixture hung under the
-    /// ceiling) sees the lit ceiling photons outside through the gap's opening, but not the
-    /// room below them, where their light came from. One to four rays per leaf, fewer where the
-    /// planes around the leaf answer them ([`LeafPlanes`]).
+    /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
+    /// light whose origin the query point sees: of the sampled photons whose light arrived on
+    /// the query's side, the fraction whose target lifted by [`LIGHT_LIFT`] cell edges along
+    /// the incident direction (towards where the light came from) is visible. A point in a gap
+    /// (above a light fixture hung under the ceiling) sees the lit ceiling photons outside
+    /// through the gap's opening, but not the room below them, where their light came from.
+    /// One to eight rays per leaf, fewer where the planes around the leaf answer them
+    /// ([`LeafPlanes`]).
     #[default]
     VisibleLight,
     /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
@@ -595,7 +596,24 @@ fn keep_leaf(
         LeakTest::Plane => keep((q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size),
         LeakTest::Visibility => keep(free(q.position + q.normal * lift, rays)),
         LeakTest::VisibleSample => keep(q.samples.iter().any(|&(p, w)| free(p + w * lift, rays))),
-        LeakTest::VisibleLight => keep(q.samples.iter().any(|&(p, w)| free(p + w * (LIGHT_LIFT * q.cell_size), rays))),
+        LeakTest::VisibleLight => {
+            // the leaf keeps its weight when the query point sees any of its photons
+            // (`VisibleSample`); its value is scaled by the share of its sampled photons whose
+            // light arrived on the query's side and whose light's origin the query point sees
+            let (mut facing, mut seen) = (0u32, 0u32);
+            for &(p, w) in &q.samples {
+                if w.dot(n) > 0.0 {
+                    facing += 1;
+                    if free(p + w * (LIGHT_LIFT * q.cell_size), rays) {
+                        seen += 1;
+                    }
+                }
+            }
+            if seen == 0 && !q.samples.iter().any(|&(p, w)| free(p + w * lift, rays)) {
+                return None;
+            }
+            Some(if facing == 0 { 1.0 } else { seen as f32 / facing as f32 })
+        }
         LeakTest::OpenDirections => {
             // the share of the leaf's light (in the matrices the query reads: light arriving
             // on the query's side of its tangent plane) that reaches the query point: of the
