@@ -72,11 +72,12 @@ pub enum LeakTest {
     VisibleSample,
     /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
     /// light whose origin the query point sees: of the sampled photons whose light arrived on
-    /// the query's side, the fraction whose target lifted by [`LIGHT_LIFT`] cell edges along
-    /// the incident direction (towards where the light came from) is visible. A point in a gap
+    /// the query's side and that see their light's origin (the photon moved [`LIGHT_LIFT`] cell
+    /// edges along its incident direction, towards where its light came from), the fraction
+    /// whose origin the query point sees. A point in a gap
     /// (above a light fixture hung under the ceiling) sees the lit ceiling photons outside
     /// through the gap's opening, but not the room below them, where their light came from.
-    /// One to eight rays per leaf, fewer where the planes around the leaf answer them
+    /// One to twelve rays per leaf, fewer where the planes around the leaf answer them
     /// ([`LeafPlanes`]).
     #[default]
     VisibleLight,
@@ -572,24 +573,26 @@ fn keep_leaf(
     // leave from the viewer's side of the surface, whatever side the target is on
     let ngf = crate::math::facing(hit.ng, n);
     let o = crate::math::offset_origin(hit.p, ngf, ngf);
-    // the segment from the query point to `target` is unblocked: from the planes around the
-    // leaf when they tell (`caches::octree::planes`), else by a ray
-    let free = |target: Vec3, rays: &mut u64| {
+    // the segment from `a` to `b` is unblocked: from the planes around the leaf when they
+    // tell (`caches::octree::planes`), else by a ray
+    let clear = |a: Vec3, b: Vec3, rays: &mut u64| {
         if let Some(p) = planes {
-            match p.segment(q.index, o, target) {
+            match p.segment(q.index, a, b) {
                 Segment::Free => return true,
                 Segment::Blocked => return false,
                 Segment::Unknown => {}
             }
         }
-        let od = target - o;
-        let len = od.length();
+        let d = b - a;
+        let len = d.length();
         if !(len > 1e-4 * q.cell_size) {
             return true;
         }
         *rays += 1;
-        !scene.occluded(&Ray::segment(o, od / len, len))
+        !scene.occluded(&Ray::segment(a, d / len, len))
     };
+    // the query point sees `target`
+    let free = |target: Vec3, rays: &mut u64| clear(o, target, rays);
     let lift = ANCHOR_LIFT * q.cell_size;
     match leak {
         LeakTest::None => Some(1.0),
@@ -599,20 +602,26 @@ fn keep_leaf(
         LeakTest::VisibleLight => {
             // the leaf keeps its weight when the query point sees any of its photons
             // (`VisibleSample`); its value is scaled by the share of its sampled photons whose
-            // light arrived on the query's side and whose light's origin the query point sees
-            let (mut facing, mut seen) = (0u32, 0u32);
+            // light arrived on the query's side and whose light's origin (LIGHT_LIFT cells back
+            // along the incident direction) the query point sees, among those whose light's
+            // origin the photon itself sees (a photon lit by a surface closer than that says
+            // nothing: its origin lies behind the surface)
+            let (mut told, mut seen) = (0u32, 0u32);
             for &(p, w) in &q.samples {
                 if w.dot(n) > 0.0 {
-                    facing += 1;
-                    if free(p + w * (LIGHT_LIFT * q.cell_size), rays) {
-                        seen += 1;
+                    let origin = p + w * (LIGHT_LIFT * q.cell_size);
+                    if clear(p + w * lift, origin, rays) {
+                        told += 1;
+                        if free(origin, rays) {
+                            seen += 1;
+                        }
                     }
                 }
             }
             if seen == 0 && !q.samples.iter().any(|&(p, w)| free(p + w * lift, rays)) {
                 return None;
             }
-            Some(if facing == 0 { 1.0 } else { seen as f32 / facing as f32 })
+            Some(if told == 0 { 1.0 } else { seen as f32 / told as f32 })
         }
         LeakTest::OpenDirections => {
             // the share of the leaf's light (in the matrices the query reads: light arriving

@@ -15,7 +15,9 @@
 //! they block rays too): the triangles are binned into the leaves their bounding boxes meet
 //! (compressed lists), then each valid leaf reads the lists of the leaves its grown box meets.
 //! A surface meeting the grown box meets one of those leaves, and its bounding box does, so it
-//! is seen (extra surfaces only make a leaf "not a plane": the test then casts its rays).
+//! is seen; of the surfaces listed, those whose bounding box misses the grown box are skipped
+//! (a large atmospheric leaf lists every surface crossing it). An extra surface only adds a
+//! plane (or makes the leaf's planes unknown): the test then casts more rays, never fewer.
 
 use super::{Octree, NO_VALUE};
 use glam::Vec3;
@@ -159,11 +161,18 @@ impl Octree {
                 let tol = 1e-3 * s;
                 let mut planes: Vec<LeafPlane> = Vec::new();
                 let mut known = true;
-                view.visit(cmin - grow, cmin + Vec3::splat(s) + grow, |node, _, _, _| {
+                let (glo, ghi) = (cmin - grow, cmin + Vec3::splat(s) + grow);
+                view.visit(glo, ghi, |node, _, _, _| {
                     if !known {
                         return;
                     }
                     for &k in &items[start[node as usize] as usize..start[node as usize + 1] as usize] {
+                        // a large atmospheric leaf lists every surface in it: keep those whose
+                        // bounding box meets the grown box
+                        let (lo, hi) = if k < n_tri { tri_box(&triangles[k as usize]) } else { sph_box(&spheres[(k - n_tri) as usize]) };
+                        if !(lo.cmple(ghi).all() && hi.cmpge(glo).all()) {
+                            continue;
+                        }
                         if k >= n_tri {
                             known = false;
                             return;
