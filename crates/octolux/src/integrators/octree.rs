@@ -20,11 +20,12 @@
 //!
 //! **Leak control** ([`LeakTest`], `docs/octree.md` "Leak control"): every octree read drops
 //! the leaves whose photons the shading point cannot see (default: none of four sampled
-//! photons per leaf is visible), so light does not pass through walls thinner than the query
+//! photons per leaf is visible; `visible_light` also scales a leaf by the share of its light
+//! whose origin the point sees), so light does not pass through walls thinner than the query
 //! box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
-use crate::caches::octree::{AnalyticSphere, Depth, LeafPlanes, Segment, ANCHOR_SAMPLES, OctreeParts, PartsError, QueryLeaf, Surfaces};
+use crate::caches::octree::{AnalyticSphere, Depth, LeafPlanes, OctreeParts, PartsError, QueryLeaf, Segment, Surfaces, ANCHOR_SAMPLES};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
 use crate::math::{Color, Frame, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonError, PhotonSettings};
@@ -68,7 +69,9 @@ pub enum LeakTest {
     /// A leaf counts when a ray from the query point reaches any of its sampled photons
     /// ([`crate::caches::octree::LeafAnchors`]), each lifted by [`ANCHOR_LIFT`] cell edges along
     /// its own normal. One to four shadow rays per valid leaf met (the first visible one
-    /// ends the test).
+    /// ends the test). The default: `VisibleLight` removes the light-fixture leak but costs
+    /// relMSE elsewhere (`docs/octree.md`).
+    #[default]
     VisibleSample,
     /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
     /// light whose origin the query point sees: of the sampled photons whose light arrived on
@@ -79,7 +82,6 @@ pub enum LeakTest {
     /// through the gap's opening, but not the room below them, where their light came from.
     /// One to twelve rays per leaf, fewer where the planes around the leaf answer them
     /// ([`LeafPlanes`]).
-    #[default]
     VisibleLight,
     /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
     /// light that reaches the query point: of the sampled photons whose light arrived on the
@@ -261,7 +263,8 @@ impl OctreeIntegrator {
     /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
     /// instead of at the first query; the scene must be the one the octrees were built for.
     pub fn prepare_leak(&self, scene: &Scene) {
-        if matches!(self.settings.leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections) {
+        if matches!(self.settings.leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections)
+        {
             self.planes_of(scene, &self.global);
         }
     }
@@ -383,7 +386,8 @@ impl OctreeIntegrator {
     /// The planes the leak test `leak` uses for `tree` (none for the tests that do not use them).
     #[inline]
     fn leak_planes(&self, scene: &Scene, tree: &Octree, leak: LeakTest) -> Option<&LeafPlanes> {
-        matches!(leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections).then(|| self.planes_of(scene, tree))
+        matches!(leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections)
+            .then(|| self.planes_of(scene, tree))
     }
 
     /// `tree`'s irradiance at `hit` for normal `n` (on the viewer's side), leak control applied.

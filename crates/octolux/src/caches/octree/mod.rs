@@ -92,8 +92,8 @@ mod tests;
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
 pub use geometry::AnalyticSphere;
-pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
 pub use parts::{LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
+pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
 pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
 
 /// The surfaces the geometry-area estimator clips to each gathering box (world space).

@@ -263,7 +263,11 @@ mod tests {
         assert_eq!(two, near_wall);
         assert!(two > 0 && two < valid.len());
         let i = (0..with_wall.len() as u32).find(|&i| with_wall.get(i).unwrap().len() == 2).unwrap();
-        assert_eq!(with_wall.segment(i, Vec3::new(0.45, 0.01, 0.5), Vec3::new(0.55, 0.01, 0.5)), Segment::Unknown, "crosses the wall's plane");
+        assert_eq!(
+            with_wall.segment(i, Vec3::new(0.45, 0.01, 0.5), Vec3::new(0.55, 0.01, 0.5)),
+            Segment::Unknown,
+            "crosses the wall's plane"
+        );
         assert_eq!(with_wall.segment(i, Vec3::new(0.45, 0.01, 0.5), Vec3::new(0.4, 0.05, 0.45)), Segment::Free);
         // a sphere near the floor leaves its leaves to the rays
         let with_sphere = tree.leaf_planes(&floor, &[(Vec3::new(0.3, 0.05, 0.3), 0.05)], 1.0);
