@@ -12,7 +12,9 @@
 //!            storage u8 (0 compressed, 1 full), value count u32, values
 //!              (36 bytes, or 54 f32: six column-major 3x3 matrices);
 //!            facing count u32, facing bytes;
-//!            anchor count u32, anchors (per valid leaf 5 x (position 3 x u8, normal 3 x i8))
+//!            anchor count u32, anchors (per valid leaf: the mean (position 3 x u8, normal
+//!              3 x i8), then 4 x (position 3 x u8, incident direction 3 x i8); version 2
+//!              stored the sampled photons' normals instead of their directions)
 //! trailer  CRC-32 (IEEE, zlib's) of every byte before it, u32
 //! ```
 //!
@@ -42,7 +44,7 @@ const ANCHORS_BYTES: usize = 6 * (1 + ANCHOR_SAMPLES);
 /// The first 8 bytes of a cache file.
 pub const MAGIC: [u8; 8] = *b"OXCACHE\0";
 /// The format version this octolux writes and reads.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 /// Header bytes: magic, version, reserved, body length.
 pub const HEADER_BYTES: usize = 24;
 /// Trailer bytes: the CRC-32.

@@ -172,7 +172,8 @@ impl Integrator {
         match self {
             Integrator::Ward(o) => serde_json::json!({ "temporaries": o.temporary_samples() }),
             Integrator::Christensen(o) => serde_json::json!({ "misses": o.misses() }),
-            Integrator::Path(_) | Integrator::Octree(_) | Integrator::PhotonMap(_) => serde_json::json!({}),
+            Integrator::Octree(o) => o.leak_report(),
+            Integrator::Path(_) | Integrator::PhotonMap(_) => serde_json::json!({}),
         }
     }
 

@@ -20,11 +20,12 @@
 //!
 //! **Leak control** ([`LeakTest`], `docs/octree.md` "Leak control"): every octree read drops
 //! the leaves whose photons the shading point cannot see (default: none of four sampled
-//! photons per leaf is visible), so light does not pass through walls thinner than the query
+//! photons per leaf is visible; `visible_light` also scales a leaf by the share of its light
+//! whose origin the point sees), so light does not pass through walls thinner than the query
 //! box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
-use crate::caches::octree::{AnalyticSphere, Depth, OctreeParts, PartsError, QueryLeaf, Surfaces};
+use crate::caches::octree::{AnalyticSphere, Depth, LeafPlanes, OctreeParts, PartsError, QueryLeaf, Segment, Surfaces, ANCHOR_SAMPLES};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
 use crate::math::{Color, Frame, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonError, PhotonSettings};
@@ -68,9 +69,28 @@ pub enum LeakTest {
     /// A leaf counts when a ray from the query point reaches any of its sampled photons
     /// ([`crate::caches::octree::LeafAnchors`]), each lifted by [`ANCHOR_LIFT`] cell edges along
     /// its own normal. One to four shadow rays per valid leaf met (the first visible one
-    /// ends the test).
+    /// ends the test). The default: `VisibleLight` removes the light-fixture leak but costs
+    /// relMSE elsewhere (`docs/octree.md`).
     #[default]
     VisibleSample,
+    /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
+    /// light whose origin the query point sees: of the sampled photons whose light arrived on
+    /// the query's side and that see their light's origin (the photon moved [`LIGHT_LIFT`] cell
+    /// edges along its incident direction, towards where its light came from), the fraction
+    /// whose origin the query point sees. A point in a gap
+    /// (above a light fixture hung under the ceiling) sees the lit ceiling photons outside
+    /// through the gap's opening, but not the room below them, where their light came from.
+    /// One to twelve rays per leaf, fewer where the planes around the leaf answer them
+    /// ([`LeafPlanes`]).
+    VisibleLight,
+    /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
+    /// light that reaches the query point: of the sampled photons whose light arrived on the
+    /// query's side, the fraction visible whose incident direction is open from the query point
+    /// over [`DIRECTION_REACH`] cell edges. Removes the fixture gap's leak, but an occluder is
+    /// not a dark one: near every corner and object the blocked directions bring light
+    /// reflected by the occluder, and the image darkens (measured in `docs/octree.md`). Up to
+    /// eight rays per leaf.
+    OpenDirections,
     /// [`LeakTest::Visibility`], and a second ray from the query point along the leaf's mean
     /// incident direction must travel one cell edge unblocked: a point in a gap (above a light
     /// fixture hung under the ceiling) sees its anchor through the gap's opening, but the
@@ -85,6 +105,15 @@ pub enum LeakTest {
 /// sphere of radius `R`), and a thin wall must lie between the query point and the lifted
 /// anchor, not behind it.
 pub const ANCHOR_LIFT: f32 = 0.25;
+
+/// How far (in cell edges) [`LeakTest::VisibleLight`] lifts a sampled photon's target along its
+/// incident direction: far enough to leave a slit narrower than a leaf (the fixture gap of
+/// Bitterli's box: 0.02 under leaves of 0.03–0.07), no farther than the planes' reach.
+pub const LIGHT_LIFT: f32 = 1.0;
+
+/// Length of the direction rays of [`LeakTest::OpenDirections`], in cell edges of the leaf: the
+/// occluders that matter are those near the query point that were not near the photons.
+pub const DIRECTION_REACH: f32 = 1.0;
 
 /// Settings of the `octree` integrator.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
@@ -185,6 +214,9 @@ pub struct OctreeIntegrator {
     pub global: Octree,
     pub caustic: Option<Octree>,
     pub stats: OctreeBuildStats,
+    /// [`LeafPlanes`] of the global and the caustic tree for the leak test, computed from the
+    /// scene at the first query (or by [`OctreeIntegrator::prepare_leak`]).
+    planes: [std::sync::OnceLock<LeafPlanes>; 2],
 }
 
 /// A built `octree` integrator as plain data: what a cache file holds (docs/baking.md).
@@ -225,7 +257,34 @@ impl OctreeIntegrator {
         stats.global = global.stats().clone();
         stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
         stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
-        Ok(OctreeIntegrator { settings, global, caustic, stats })
+        Ok(OctreeIntegrator { settings, global, caustic, stats, planes: Default::default() })
+    }
+
+    /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
+    /// instead of at the first query; the scene must be the one the octrees were built for.
+    pub fn prepare_leak(&self, scene: &Scene) {
+        if matches!(self.settings.leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections)
+        {
+            self.planes_of(scene, &self.global);
+        }
+    }
+
+    /// What the leak test found (for out.json's `render_report`): per tree that computed them,
+    /// the valid leaves around which the scene is one plane ([`LeafPlanes`], tested without a
+    /// ray) and all valid leaves.
+    pub fn leak_report(&self) -> serde_json::Value {
+        let count = |p: &std::sync::OnceLock<LeafPlanes>| p.get().map(|p| serde_json::json!({ "planar": p.planar(), "valid": p.len() }));
+        serde_json::json!({ "leak_planes_global": count(&self.planes[0]), "leak_planes_caustic": count(&self.planes[1]) })
+    }
+
+    /// The [`LeafPlanes`] of `tree` (one of this integrator's octrees) for `scene`.
+    fn planes_of(&self, scene: &Scene, tree: &Octree) -> &LeafPlanes {
+        let i = if std::ptr::eq(tree, &self.global) { 0 } else { 1 };
+        self.planes[i].get_or_init(|| {
+            let tris = scene.mesh_triangles_where(|_| true);
+            let spheres: Vec<_> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
+            tree.leaf_planes(&tris, &spheres, DIRECTION_REACH.max(ANCHOR_LIFT).max(LIGHT_LIFT))
+        })
     }
 
     /// Trace the photons and build both octrees over the scene's bounds.
@@ -276,7 +335,9 @@ impl OctreeIntegrator {
             caustic: caustic.as_ref().map(|c| c.stats().clone()),
             bytes: global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes),
         };
-        Ok(OctreeIntegrator { settings, global, caustic, stats })
+        let o = OctreeIntegrator { settings, global, caustic, stats, planes: Default::default() };
+        o.prepare_leak(scene);
+        Ok(o)
     }
 
     /// Radiance along a primary ray.
@@ -322,12 +383,22 @@ impl OctreeIntegrator {
         self.incident_matrix(scene, tree, &v.hit, v.n, counters).map_or(Color::ZERO, |m| m.transpose() * v.n)
     }
 
+    /// The planes the leak test `leak` uses for `tree` (none for the tests that do not use them).
+    #[inline]
+    fn leak_planes(&self, scene: &Scene, tree: &Octree, leak: LeakTest) -> Option<&LeafPlanes> {
+        matches!(leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections)
+            .then(|| self.planes_of(scene, tree))
+    }
+
     /// `tree`'s irradiance at `hit` for normal `n` (on the viewer's side), leak control applied.
     pub fn irradiance_at(&self, scene: &Scene, tree: &Octree, hit: &SurfaceHit, n: Vec3, counters: &mut RayCounters) -> Option<Color> {
         let mut rays = 0u64;
         let e = counters.time_query(|| match self.settings.leak {
             LeakTest::None => tree.irradiance(hit.p, n),
-            leak => tree.irradiance_where(hit.p, n, &mut |q| keep_leaf(scene, hit, n, leak, q, &mut rays)),
+            leak => {
+                let planes = self.leak_planes(scene, tree, leak);
+                tree.irradiance_where(hit.p, n, &mut |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+            }
         });
         counters.shadow_rays += rays;
         e
@@ -338,7 +409,10 @@ impl OctreeIntegrator {
         let mut rays = 0u64;
         let m = counters.time_query(|| match self.settings.leak {
             LeakTest::None => tree.incident_matrix(hit.p, n),
-            leak => tree.incident_matrix_where(hit.p, n, &mut |q| keep_leaf(scene, hit, n, leak, q, &mut rays)),
+            leak => {
+                let planes = self.leak_planes(scene, tree, leak);
+                tree.incident_matrix_where(hit.p, n, &mut |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+            }
         });
         counters.shadow_rays += rays;
         m
@@ -485,48 +559,115 @@ fn hsv(h: f32, s: f32, v: f32) -> Color {
 }
 
 /// Whether the light of a leaf met by a query at `hit` (normal `n`, on the viewer's side) can
-/// reach it ([`LeakTest`]); `rays` counts the visibility rays cast.
-fn keep_leaf(scene: &Scene, hit: &SurfaceHit, n: Vec3, leak: LeakTest, q: QueryLeaf, rays: &mut u64) -> bool {
-    match leak {
-        LeakTest::None => true,
-        LeakTest::Plane => (q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size,
-        LeakTest::Visibility => {
-            let target = q.position + q.normal * (ANCHOR_LIFT * q.cell_size);
-            let d = target - hit.p;
-            let dist = d.length();
-            if !(dist > 1e-4 * q.cell_size) {
-                return true;
+/// reach it ([`LeakTest`]): `None` drops the leaf, `Some(f)` keeps it with its value scaled by
+/// `f`. `planes`: the [`LeafPlanes`] of `tree` for the tests that use them; `rays` counts the
+/// visibility rays cast.
+#[allow(clippy::too_many_arguments)]
+fn keep_leaf(
+    scene: &Scene,
+    tree: &Octree,
+    planes: Option<&LeafPlanes>,
+    hit: &SurfaceHit,
+    n: Vec3,
+    leak: LeakTest,
+    q: QueryLeaf,
+    rays: &mut u64,
+) -> Option<f32> {
+    let keep = |b: bool| b.then_some(1.0);
+    // leave from the viewer's side of the surface, whatever side the target is on
+    let ngf = crate::math::facing(hit.ng, n);
+    let o = crate::math::offset_origin(hit.p, ngf, ngf);
+    // the segment from `a` to `b` is unblocked: from the planes around the leaf when they
+    // tell (`caches::octree::planes`), else by a ray
+    let clear = |a: Vec3, b: Vec3, rays: &mut u64| {
+        if let Some(p) = planes {
+            match p.segment(q.index, a, b) {
+                Segment::Free => return true,
+                Segment::Blocked => return false,
+                Segment::Unknown => {}
             }
-            *rays += 1;
-            // leave from the viewer's side of the surface, whatever side the anchor is on
-            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), n);
-            let od = target - o;
-            let len = od.length();
-            len > 0.0 && !scene.occluded(&Ray::segment(o, od / len, len))
         }
-        LeakTest::VisibleSample => {
-            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), n);
-            q.samples.iter().any(|&(p, nrm)| {
-                let target = p + nrm * (ANCHOR_LIFT * q.cell_size);
-                let od = target - o;
-                let len = od.length();
-                if !(len > 1e-4 * q.cell_size) {
-                    return true;
+        let d = b - a;
+        let len = d.length();
+        if !(len > 1e-4 * q.cell_size) {
+            return true;
+        }
+        *rays += 1;
+        !scene.occluded(&Ray::segment(a, d / len, len))
+    };
+    // the query point sees `target`
+    let free = |target: Vec3, rays: &mut u64| clear(o, target, rays);
+    let lift = ANCHOR_LIFT * q.cell_size;
+    match leak {
+        LeakTest::None => Some(1.0),
+        LeakTest::Plane => keep((q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size),
+        LeakTest::Visibility => keep(free(q.position + q.normal * lift, rays)),
+        LeakTest::VisibleSample => keep(q.samples.iter().any(|&(p, w)| free(p + w * lift, rays))),
+        LeakTest::VisibleLight => {
+            // the leaf keeps its weight when the query point sees any of its photons
+            // (`VisibleSample`); its value is scaled by the share of its sampled photons whose
+            // light arrived on the query's side and whose light's origin (LIGHT_LIFT cells back
+            // along the incident direction) the query point sees, among those whose light's
+            // origin the photon itself sees (a photon lit by a surface closer than that says
+            // nothing: its origin lies behind the surface)
+            let (mut told, mut seen) = (0u32, 0u32);
+            for &(p, w) in &q.samples {
+                if w.dot(n) > 0.0 {
+                    let origin = p + w * (LIGHT_LIFT * q.cell_size);
+                    if clear(p + w * lift, origin, rays) {
+                        told += 1;
+                        if free(origin, rays) {
+                            seen += 1;
+                        }
+                    }
                 }
-                *rays += 1;
-                !scene.occluded(&Ray::segment(o, od / len, len))
-            })
+            }
+            if seen == 0 && !q.samples.iter().any(|&(p, w)| free(p + w * lift, rays)) {
+                return None;
+            }
+            Some(if told == 0 { 1.0 } else { seen as f32 / told as f32 })
+        }
+        LeakTest::OpenDirections => {
+            // the share of the leaf's light (in the matrices the query reads: light arriving
+            // on the query's side of its tangent plane) that reaches the query point: of the
+            // samples whose light arrived on that side, those visible whose direction is open
+            let reach = DIRECTION_REACH * q.cell_size;
+            let mut tested = [false; ANCHOR_SAMPLES];
+            let (mut any, mut facing, mut open) = (false, 0u32, 0u32);
+            for (k, &(p, w)) in q.samples.iter().enumerate() {
+                if w.dot(n) <= 0.0 {
+                    continue;
+                }
+                facing += 1;
+                if !free(o + w * reach, rays) {
+                    continue;
+                }
+                tested[k] = true;
+                if free(p + w * lift, rays) {
+                    any = true;
+                    open += 1;
+                }
+            }
+            // the leaf keeps its weight when the query point sees any of its photons
+            if !any {
+                any = q.samples.iter().zip(tested).any(|(&(p, w), t)| !t && free(p + w * lift, rays));
+            }
+            if !any {
+                None
+            } else if facing == 0 {
+                Some(1.0)
+            } else {
+                Some(open as f32 / facing as f32)
+            }
         }
         LeakTest::VisibilityAndDirection => {
-            if !keep_leaf(scene, hit, n, LeakTest::Visibility, q, rays) {
-                return false;
-            }
-            if q.direction.dot(n) <= 0.0 {
-                return true;
+            keep_leaf(scene, tree, None, hit, n, LeakTest::Visibility, q, rays)?;
+            let d = tree.leaf_direction(q.index, n);
+            if d.dot(n) <= 0.0 {
+                return Some(1.0);
             }
             *rays += 1;
-            let o = crate::math::offset_origin(hit.p, crate::math::facing(hit.ng, n), q.direction);
-            !scene.occluded(&Ray::segment(o, q.direction, q.cell_size))
+            keep(!scene.occluded(&Ray::segment(o, d, q.cell_size)))
         }
     }
 }

@@ -125,7 +125,15 @@ fn thin_wall_leaks_at_most_one_percent_with_the_visibility_test() {
         let mut lit_mean = 0.0;
         let mut line = format!("{t_leaves:>5}:");
         let mut res = Vec::new();
-        for leak in [LeakTest::None, LeakTest::Plane, LeakTest::Visibility, LeakTest::VisibilityAndDirection, LeakTest::VisibleSample] {
+        for leak in [
+            LeakTest::None,
+            LeakTest::Plane,
+            LeakTest::Visibility,
+            LeakTest::VisibilityAndDirection,
+            LeakTest::VisibleSample,
+            LeakTest::VisibleLight,
+            LeakTest::OpenDirections,
+        ] {
             o.settings.leak = leak;
             let (l, m) = measure(&o, &scene, x_lit, t, s, lit_mean);
             lit_mean = m;

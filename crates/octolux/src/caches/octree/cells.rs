@@ -128,14 +128,22 @@ impl TreeView<'_> {
         }
         // the centre, computed as the upper children's minimum corner
         let mid = self.cell_min(depth + 1, [2 * ijk[0] + 1, 2 * ijk[1] + 1, 2 * ijk[2] + 1]);
-        let lo = qmin.cmplt(mid);
-        let hi = qmax.cmpgt(mid);
-        let (lo, hi) = ([lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z]);
-        for c in 0..8u32 {
+        // children overlapping the box: per axis, the lower half (bit clear) when the box
+        // starts below the centre, the upper half (bit set) when it ends above it; one byte
+        // mask per axis over the 8 children
+        let lo = qmin.cmplt(mid).bitmask();
+        let hi = qmax.cmpgt(mid).bitmask();
+        const CLEAR: [u32; 3] = [0b0101_0101, 0b0011_0011, 0b0000_1111];
+        let mut mask = 0xffu32;
+        for (a, clear) in CLEAR.iter().enumerate() {
+            let below = if (lo >> a) & 1 != 0 { *clear } else { 0 };
+            let above = if (hi >> a) & 1 != 0 { !*clear & 0xff } else { 0 };
+            mask &= below | above;
+        }
+        while mask != 0 {
+            let c = mask.trailing_zeros();
+            mask &= mask - 1;
             let b = [c & 1, (c >> 1) & 1, (c >> 2) & 1];
-            if !(0..3).all(|a| if b[a] == 1 { hi[a] } else { lo[a] }) {
-                continue;
-            }
             let cijk = [2 * ijk[0] + b[0], 2 * ijk[1] + b[1], 2 * ijk[2] + b[2]];
             let ccmin = self.cell_min(depth + 1, cijk);
             self.visit_rec(n.link + c, depth + 1, cijk, ccmin, qmin, qmax, f);

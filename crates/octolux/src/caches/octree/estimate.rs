@@ -258,7 +258,8 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
     }
 
     /// Mean position and mean normal of the photons of the leaf's own cell (the incident
-    /// directions stand for the normal when the records carry none), summed in f64.
+    /// directions stand for the normal when the records carry none), summed in f64, and
+    /// [`super::ANCHOR_SAMPLES`] of its photons with their incident directions.
     fn anchor(&self, leaf: &LeafBuild) -> super::LeafAnchors {
         let normal = |i: u32| {
             let r = &self.recs[i as usize];
@@ -279,9 +280,11 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         let s = self.view.cell_size[leaf.depth as usize];
         let cmin = self.view.cell_min(leaf.depth, leaf.ijk);
         let mean = super::Anchor::encode((p / k).as_vec3(), (n / k).as_vec3(), cmin, s);
+        // the sampled photons keep their incident direction (the leak test looks from the
+        // query point where their light came from, docs/octree.md "Leak control")
         let samples = std::array::from_fn(|j| {
             let i = leaf.lo + ((count as u64 * (2 * j as u64 + 1)) / (2 * super::ANCHOR_SAMPLES as u64)) as u32;
-            super::Anchor::encode(self.pos[i as usize], normal(i), cmin, s)
+            super::Anchor::encode(self.pos[i as usize], self.recs[i as usize].w().normalize_or_zero(), cmin, s)
         });
         super::LeafAnchors { mean, samples }
     }

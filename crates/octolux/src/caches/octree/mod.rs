@@ -68,9 +68,12 @@
 //! # Leak control
 //! A leaf's value is light on the surfaces its photons landed on. Across a wall thinner than
 //! a leaf (or the query box), the blend would hand that light to the other side. Each valid
-//! leaf keeps an [`Anchor`] (mean photon position and normal), and
-//! [`Octree::irradiance_where`] lets the caller drop the leaves it cannot see from the query
-//! point (the `octree` integrator casts a ray to the anchor, `docs/octree.md`).
+//! leaf keeps [`LeafAnchors`] (mean photon position and normal, four photons with their
+//! incident directions), and [`Octree::irradiance_where`] lets the caller drop the leaves it
+//! cannot see from the query point, or scale down the light it cannot receive (the `octree`
+//! integrator casts rays to and along the sampled photons, `docs/octree.md`). [`LeafPlanes`]
+//! (`planes.rs`) keeps, per leaf, the few planes that hold every surface within reach of
+//! those rays, when there are such planes: most rays are then answered without casting them.
 
 mod build;
 mod cells;
@@ -78,6 +81,7 @@ pub mod compress;
 mod estimate;
 mod geometry;
 mod parts;
+mod planes;
 mod query;
 mod settings;
 mod sort;
@@ -89,6 +93,7 @@ pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
 pub use geometry::AnalyticSphere;
 pub use parts::{LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
+pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
 pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
 
 /// The surfaces the geometry-area estimator clips to each gathering box (world space).
@@ -211,8 +216,9 @@ pub const ANCHOR_SAMPLES: usize = 4;
 
 /// Where the photons of a valid leaf lie: their mean, and [`ANCHOR_SAMPLES`] of them spread
 /// over the cell (the photons at the middle of each quarter of the leaf's Morton-sorted range,
-/// so in different sub-cells when the photons allow it), each with its own normal.
-/// 30 bytes per valid leaf, plain data.
+/// so in different sub-cells when the photons allow it), each with its own incident direction
+/// (stored in [`Anchor::normal`]: unit, pointing away from the surface towards where the light
+/// came from). 30 bytes per valid leaf, plain data.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(C)]
 pub struct LeafAnchors {
@@ -229,11 +235,10 @@ pub struct QueryLeaf {
     pub normal: Vec3,
     /// Edge of the leaf's cell.
     pub cell_size: f32,
-    /// Mean direction the leaf's light arrives from (unit, pointing away from the surface;
-    /// zero when unknown), for the matrix of the query normal's dominant axis.
-    pub direction: Vec3,
-    /// Sampled photons of the leaf: position and normal (see [`LeafAnchors`]).
+    /// Sampled photons of the leaf: position and incident direction (see [`LeafAnchors`]).
     pub samples: [(Vec3, Vec3); ANCHOR_SAMPLES],
+    /// Index of the valid leaf (for per-leaf data the caller keeps, e.g. [`LeafPlanes`]).
+    pub index: u32,
 }
 
 /// High bit of `Node::link`: the node is a leaf.

@@ -43,19 +43,34 @@ impl Octree {
         });
     }
 
-    /// The anchor of valid leaf `v` (cell at `depth`, `ijk`) in world space.
+    /// The anchors of valid leaf `v` (cell at `depth`, `ijk`) in world space.
     #[inline]
-    fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3], k: usize) -> QueryLeaf {
+    fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3]) -> QueryLeaf {
         let view = self.view();
         let (cmin, s) = (view.cell_min(depth, ijk), self.cell_size[depth as usize]);
         let a = &self.anchors[v];
+        let samples = a.samples.map(|x| (x.position(cmin, s), x.normal().normalize_or_zero()));
+        QueryLeaf { position: a.mean.position(cmin, s), normal: a.mean.normal(), cell_size: s, samples, index: v as u32 }
+    }
+
+    /// Mean direction the light of valid leaf `index` arrives from, for the normal `n` (the
+    /// summed irradiance vectors of the matrix of `n`'s dominant axis; unit, pointing away from
+    /// the surface; zero when unknown or when `index` is not a valid leaf).
+    pub fn leaf_direction(&self, index: u32, n: Vec3) -> Vec3 {
+        let (v, sel) = (index as usize, selection(n));
+        let k = sel.0[if sel.1[0] >= sel.1[1] && sel.1[0] >= sel.1[2] {
+            0
+        } else if sel.1[1] >= sel.1[2] {
+            1
+        } else {
+            2
+        }];
         let m = match &self.values {
-            LeafValues::Compressed(c) => decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
-            LeafValues::Full(f) => f[v][k],
+            LeafValues::Compressed(c) if v < c.len() => decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
+            LeafValues::Full(f) if v < f.len() => f[v][k],
+            _ => return Vec3::ZERO,
         };
-        let direction = (m.x_axis + m.y_axis + m.z_axis).normalize_or_zero();
-        let samples = a.samples.map(|x| (x.position(cmin, s), x.normal()));
-        QueryLeaf { position: a.mean.position(cmin, s), normal: a.mean.normal(), cell_size: s, direction, samples }
+        (m.x_axis + m.y_axis + m.z_axis).normalize_or_zero()
     }
 
     /// `M_{k,a}^{s(N_a)ᵀ} N` of one leaf for the three axes (not yet weighted by `N_a²`).
@@ -102,14 +117,15 @@ impl Octree {
     /// over the valid leaves whose matrix `(a, s(N_a))` carries a value ([`Octree::facing`];
     /// all of them unless `Split::Normal` knows the geometry); the `N_a²` are renormalised
     /// over the axes that got any leaf. `None` when no leaf contributes.
-    /// `keep`, when given, sees every valid leaf met and may drop it (leak control).
+    /// `keep`, when given, sees every valid leaf met and may drop it (`None`: out of both
+    /// sums) or scale its value by a factor (leak control; see [`Octree::irradiance_where`]).
     #[inline]
     fn blend<T>(
         &self,
         p: Vec3,
         n: Vec3,
         zero: T,
-        mut keep: Option<&mut dyn FnMut(QueryLeaf) -> bool>,
+        mut keep: Option<&mut dyn FnMut(QueryLeaf) -> Option<f32>>,
         leaf: impl Fn(usize, &([usize; 3], [f32; 3])) -> [T; 3],
     ) -> Option<T>
     where
@@ -119,27 +135,21 @@ impl Octree {
             return None;
         }
         let sel = selection(n);
-        // the matrix of the dominant axis, for the leak test's direction
-        let dom = sel.0[if sel.1[0] >= sel.1[1] && sel.1[0] >= sel.1[2] {
-            0
-        } else if sel.1[1] >= sel.1[2] {
-            1
-        } else {
-            2
-        }];
         let mut sum = [zero; 3];
         let mut wsum = [0.0f32; 3];
         self.visit_query(p, |v, g, depth, ijk| {
-            if let Some(k) = keep.as_mut() {
-                if !k(self.query_leaf(v, depth, ijk, dom)) {
-                    return;
-                }
-            }
+            let f = match keep.as_mut() {
+                Some(k) => match k(self.query_leaf(v, depth, ijk)) {
+                    Some(f) => f,
+                    None => return,
+                },
+                None => 1.0,
+            };
             let bits = self.facing.get(v).copied().unwrap_or(ALL_FACING);
             let terms = leaf(v, &sel);
             for a in 0..3 {
                 if bits & (1 << sel.0[a]) != 0 {
-                    sum[a] += terms[a] * g;
+                    sum[a] += terms[a] * (g * f);
                     wsum[a] += g;
                 }
             }
@@ -176,16 +186,19 @@ impl Octree {
     }
 
     /// [`Octree::irradiance`] over the valid leaves that `keep` accepts: it sees each leaf's
-    /// anchor (where its photons lie) and says whether that light can reach `p`, e.g. by a
-    /// visibility ray (leak control, see the module docs). Where `keep` accepts every leaf the
-    /// result is [`Octree::irradiance`]'s, with the same continuity.
-    pub fn irradiance_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> bool) -> Option<Color> {
+    /// anchors (where its photons lie, where their light came from) and says whether that light
+    /// can reach `p`, e.g. by visibility rays (leak control, see the module docs): `None` drops
+    /// the leaf from the blend (out of both sums), `Some(f)` keeps its weight `γ_k` and scales
+    /// its value by `f` (the share of its light that reaches `p`, in [0, 1]). Where `keep`
+    /// answers `Some(1.0)` for every leaf the result is [`Octree::irradiance`]'s, with the same
+    /// continuity.
+    pub fn irradiance_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> Option<f32>) -> Option<Color> {
         self.blend(p, n, Vec3::ZERO, Some(keep), |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
     }
 
     /// [`Octree::incident_matrix`] over the valid leaves that `keep` accepts (see
     /// [`Octree::irradiance_where`]).
-    pub fn incident_matrix_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> bool) -> Option<Mat3> {
+    pub fn incident_matrix_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> Option<f32>) -> Option<Mat3> {
         self.blend(p, n, Mat3::ZERO, Some(keep), |v, sel| self.leaf_matrix(v, sel))
     }
 
