@@ -17,6 +17,7 @@ mod furnaces;
 pub mod octree;
 #[cfg(test)]
 mod octree_leak;
+pub mod octree_insert;
 pub mod path;
 pub mod photon;
 #[cfg(test)]

@@ -185,6 +185,8 @@ pub struct OctreeIntegrator {
     pub global: Octree,
     pub caustic: Option<Octree>,
     pub stats: OctreeBuildStats,
+    /// Objects inserted into the baked lighting (`octree_insert.rs`); none by default.
+    pub inserted: super::octree_insert::Inserted,
 }
 
 /// A built `octree` integrator as plain data: what a cache file holds (docs/baking.md).
@@ -225,7 +227,7 @@ impl OctreeIntegrator {
         stats.global = global.stats().clone();
         stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
         stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
-        Ok(OctreeIntegrator { settings, global, caustic, stats })
+        Ok(OctreeIntegrator { settings, global, caustic, stats, inserted: Default::default() })
     }
 
     /// Trace the photons and build both octrees over the scene's bounds.
@@ -276,7 +278,7 @@ impl OctreeIntegrator {
             caustic: caustic.as_ref().map(|c| c.stats().clone()),
             bytes: global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes),
         };
-        Ok(OctreeIntegrator { settings, global, caustic, stats })
+        Ok(OctreeIntegrator { settings, global, caustic, stats, inserted: Default::default() })
     }
 
     /// Radiance along a primary ray.
@@ -301,7 +303,7 @@ impl OctreeIntegrator {
             OctreeView::Render => {
                 result += v.throughput
                     * (direct_light(scene, &v.hit, material, v.wo, sampler, counters)
-                        + self.indirect_from(scene, &v, material, counters, true, true));
+                        + self.indirect_render(scene, &v, material, sampler, counters));
             }
             OctreeView::Irradiance | OctreeView::IrradianceAll => {
                 let mut e = self.irradiance(scene, &self.global, &v, counters);
@@ -345,7 +347,7 @@ impl OctreeIntegrator {
     }
 
     /// Reflected light from the global and/or the caustic octree at `v` (see the module docs).
-    fn indirect_from(
+    pub(super) fn indirect_from(
         &self,
         scene: &Scene,
         v: &Vertex,
@@ -453,7 +455,7 @@ impl OctreeIntegrator {
 
 /// `Σ_c f_c(wo, d_c) cos θ(d_c) |m_c|` with `m_c` the columns of the blended matrix.
 #[inline]
-fn shade_matrix(scene: &Scene, hit: &SurfaceHit, material: &Material, wo: Vec3, m: &Mat3) -> Color {
+pub(super) fn shade_matrix(scene: &Scene, hit: &SurfaceHit, material: &Material, wo: Vec3, m: &Mat3) -> Color {
     let frame: &Frame = &hit.frame;
     let mut out = Color::ZERO;
     for c in 0..3 {
@@ -486,7 +488,7 @@ fn hsv(h: f32, s: f32, v: f32) -> Color {
 
 /// Whether the light of a leaf met by a query at `hit` (normal `n`, on the viewer's side) can
 /// reach it ([`LeakTest`]); `rays` counts the visibility rays cast.
-fn keep_leaf(scene: &Scene, hit: &SurfaceHit, n: Vec3, leak: LeakTest, q: QueryLeaf, rays: &mut u64) -> bool {
+pub(super) fn keep_leaf(scene: &Scene, hit: &SurfaceHit, n: Vec3, leak: LeakTest, q: QueryLeaf, rays: &mut u64) -> bool {
     match leak {
         LeakTest::None => true,
         LeakTest::Plane => (q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size,

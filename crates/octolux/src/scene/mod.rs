@@ -18,6 +18,7 @@
 
 pub mod camera;
 pub mod camera_path;
+pub mod object_path;
 pub mod desc;
 pub mod environment;
 pub mod envmap;

@@ -72,6 +72,7 @@
 //! [`Octree::irradiance_where`] lets the caller drop the leaves it cannot see from the query
 //! point (the `octree` integrator casts a ray to the anchor, `docs/octree.md`).
 
+mod atmosphere;
 mod build;
 mod cells;
 pub mod compress;
@@ -87,8 +88,9 @@ mod tests;
 /// Every matrix of the leaf carries a value.
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
+pub use atmosphere::{AtmosphereStats, PROBE_LIFT, SMOOTHING_SWEEPS};
 pub use geometry::AnalyticSphere;
-pub use parts::{LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
+pub use parts::{AtmosphereParts, LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
 
 /// The surfaces the geometry-area estimator clips to each gathering box (world space).
@@ -303,6 +305,9 @@ pub struct Octree {
     anchors: Vec<LeafAnchors>,
     /// Half side of the query box: `alpha * min_leaf_size / 2`.
     query_half: f32,
+    /// Values diffused into the leaves that lack them (`atmosphere.rs`); none until
+    /// [`Octree::fill_atmosphere`].
+    atmosphere: Option<atmosphere::Atmosphere>,
     settings: OctreeSettings,
     stats: OctreeStats,
 }
