@@ -16,9 +16,9 @@ use crate::args::RenderArgs;
 use anyhow::{bail, Context, Result};
 use glam::{Mat4, Vec3};
 use octolux::integrators::octree_insert::{InsertAo, Inserted};
+use octolux::math::Ray;
 use octolux::scene::material::Material;
 use octolux::scene::object_path::ObjectPath;
-use octolux::math::Ray;
 use octolux::scene::{Geometry, Scene, SceneDesc, ShapeDesc};
 use std::path::Path;
 
@@ -99,7 +99,8 @@ impl Insertion {
         let mut d = base.clone();
         let offset = d.materials.len() as u32;
         d.materials.extend(self.materials.iter().cloned());
-        let scale = m.transform_vector3(Vec3::X).length().max(m.transform_vector3(Vec3::Y).length()).max(m.transform_vector3(Vec3::Z).length());
+        let scale =
+            m.transform_vector3(Vec3::X).length().max(m.transform_vector3(Vec3::Y).length()).max(m.transform_vector3(Vec3::Z).length());
         for s in &self.shapes {
             let mut s = s.clone();
             s.material += offset;
@@ -120,7 +121,8 @@ impl Insertion {
     /// [`Insertion::scene_desc`] from a base of `base_shapes` shapes.
     pub fn inserted(&self, base_shapes: usize, m: &Mat4) -> Inserted {
         let first = base_shapes as u32;
-        let ao = (self.ao_rays > 0).then(|| InsertAo { rays: self.ao_rays, distance: self.ao_distance.unwrap_or_else(|| self.diagonal(m)) });
+        let ao =
+            (self.ao_rays > 0).then(|| InsertAo { rays: self.ao_rays, distance: self.ao_distance.unwrap_or_else(|| self.diagonal(m)) });
         Inserted { shapes: first..first + self.shapes.len() as u32, ao }
     }
 

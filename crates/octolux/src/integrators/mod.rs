@@ -15,9 +15,9 @@ pub mod common;
 #[cfg(test)]
 mod furnaces;
 pub mod octree;
+pub mod octree_insert;
 #[cfg(test)]
 mod octree_leak;
-pub mod octree_insert;
 pub mod path;
 pub mod photon;
 #[cfg(test)]

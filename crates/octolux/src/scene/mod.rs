@@ -18,13 +18,13 @@
 
 pub mod camera;
 pub mod camera_path;
-pub mod object_path;
 pub mod desc;
 pub mod environment;
 pub mod envmap;
 pub mod fingerprint;
 pub mod lights;
 pub mod material;
+pub mod object_path;
 pub mod sunsky;
 
 pub use desc::{FilmDesc, Geometry, Light, PixelFilter, SceneDesc, SceneError, SceneHints, ShapeDesc, TriMesh};

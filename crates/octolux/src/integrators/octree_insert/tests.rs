@@ -102,7 +102,9 @@ fn free_space_irradiance_is_close_to_path_tracing() {
     }
     let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
     let (lo, hi) = ratios.iter().fold((f64::MAX, 0.0f64), |(a, b), &r| (a.min(r), b.max(r)));
-    eprintln!("octree volume / path-traced indirect irradiance (+X -X +Y -Y +Z -Z per point):{line}\nmean {mean:.3}, range {lo:.3}..{hi:.3}");
+    eprintln!(
+        "octree volume / path-traced indirect irradiance (+X -X +Y -Y +Z -Z per point):{line}\nmean {mean:.3}, range {lo:.3}..{hi:.3}"
+    );
     assert!((0.5..=1.6).contains(&lo) && (0.5..=1.6).contains(&hi), "a case out of 0.5..1.6: {lo:.3}..{hi:.3}");
     assert!((mean - 1.0).abs() <= 0.15, "mean ratio {mean:.3}");
 }
@@ -208,7 +210,13 @@ fn inserted_object_renders_from_the_bake() {
     desc.film.height = 24;
     let first = desc.shapes.len() as u32;
     let cube = glam::Mat4::from_translation(Vec3::new(0.1, 0.3, -0.2)) * glam::Mat4::from_scale(Vec3::new(0.3, 0.3, 0.3));
-    desc.shapes.push(ShapeDesc { name: "inserted".into(), geometry: Geometry::Mesh(TriMesh::cube(&cube)), material: 0, emission: None, flip_normals: false });
+    desc.shapes.push(ShapeDesc {
+        name: "inserted".into(),
+        geometry: Geometry::Mesh(TriMesh::cube(&cube)),
+        material: 0,
+        emission: None,
+        flip_normals: false,
+    });
     let scene = Scene::prepare(desc, crate::accel::BackendKind::Bvh).unwrap();
     o.inserted = Inserted { shapes: first..first + 1, ao: None };
     let rs = RenderSettings { spp: 16, ..Default::default() };
