@@ -56,6 +56,7 @@ def main() -> int:
     ap.add_argument("--ao-rays", type=int, default=16)
     ap.add_argument("--strip", default=str(ROOT / "docs" / "img" / "insert-strip.png"))
     ap.add_argument("--keep", help="folder for the renders (default: a temporary one)")
+    ap.add_argument("--reuse-truth", action="store_true", help="keep the path-traced renders already in --keep")
     a = ap.parse_args()
     import mitsuba as mi
 
@@ -68,8 +69,10 @@ def main() -> int:
     t_bake = run([a.bin, "bake", "cornell-box", "-o", str(tmp / "l.oxc"), "--photons", str(a.photons), "--quiet"])
     t_oct = run([a.bin, *common, "--cache", str(tmp / "l.oxc"), *ins, "--spp", str(a.spp), "-o", str(tmp / "oct.exr")])
     t_ao = run([a.bin, *common, "--cache", str(tmp / "l.oxc"), *ins, "--insert-ao", str(a.ao_rays), "--spp", str(a.spp), "-o", str(tmp / "ao.exr")])
-    t_pt = run([a.bin, *common, "--integrator", "path", *ins, "--spp", str(a.truth_spp), "-o", str(tmp / "pt.exr")])
-    run([a.bin, *common, "--integrator", "path", "--spp", str(a.truth_spp), "-o", str(tmp / "base.exr")])
+    t_pt = None
+    if not (a.reuse_truth and (tmp / "base.exr").exists()):
+        t_pt = run([a.bin, *common, "--integrator", "path", *ins, "--spp", str(a.truth_spp), "-o", str(tmp / "pt.exr")])
+        run([a.bin, *common, "--integrator", "path", "--spp", str(a.truth_spp), "-o", str(tmp / "base.exr")])
     frames = sorted(p.name[len("pt_") : -len(".exr")] for p in tmp.glob("pt_*.exr"))
     base = read(tmp / "base.exr")
     h, w = base.shape[:2]
@@ -91,6 +94,7 @@ def main() -> int:
                     "relmse": float(((x - r) ** 2 / (r**2 + 1e-2)).mean()) if m.any() else 0.0,
                     "bias": float(x.mean() / r.mean() - 1.0) if m.any() else 0.0,
                 }
+            row["object"]["frame_bias"] = row["object"]["bias"]
             rows[k].append(row)
     out = {"frames": len(frames), "times_s": {"bake": t_bake, "octree_frames": t_oct, "octree_ao_frames": t_ao, "path_frames": t_pt}}
     for k, rs in rows.items():
@@ -102,6 +106,7 @@ def main() -> int:
                 "bias_range": [float(bias.min()), float(bias.max())],
                 "flicker": float(np.sqrt(np.mean(np.diff(bias) ** 2))) if len(bias) > 1 else 0.0,
                 "pixels_mean": float(np.mean([r[name]["pixels"] for r in rs])),
+                "bias_per_frame": [round(float(b), 4) for b in bias],
             }
     print(json.dumps(out, indent=1))
     # the strip: every other frame, octolux (top) over the truth (bottom), sRGB 8-bit

@@ -9,7 +9,7 @@
 //! indirect light is the global octree's **volume query** ([`Octree::incident_matrix_volume`]:
 //! the leaves' own and diffused values, whatever the object's position) with the usual leak
 //! control (each leaf met must be visible from the point; an atmospheric leaf through its
-//! centre). The caustic octree is not read on the object (caustic light is not diffused).
+//! point nearest to it). The caustic octree is not read on the object (caustic light is not diffused).
 //!
 //! Not captured: the object's shadow in the baked indirect light of the scene (the floor under
 //! it keeps its baked value), the light it reflects onto the scene, and the change of the
