@@ -59,7 +59,7 @@ fn inserted_object_renders_from_a_cache_over_its_path() {
     assert!(r.status.success(), "{}", last_line(&r));
     let mut pixels = Vec::new();
     for i in 1..=3 {
-        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p(&format!("f_{i}.json"))).unwrap()).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p(&format!("f_{i:04}.json"))).unwrap()).unwrap();
         assert_eq!(json["frame"]["count"], 3, "{json}");
         assert!(json["cache"]["stale"].is_null(), "the object made the cache stale: {json}");
         let px = json["insert"]["pixels"].as_array().unwrap().len();
