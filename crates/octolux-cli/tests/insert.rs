@@ -68,11 +68,13 @@ fn inserted_object_renders_from_a_cache_over_its_path() {
     }
     assert_ne!(pixels[0], pixels[2], "the object moves");
     // a change of the scene itself is still refused
-    let stale = octolux(&[&["render", &p("scene.xml"), "-D", "mat=0.5", "--cache", &p("l.oxc"), "-q", "-o", &p("s.exr")][..], &ins[..]].concat());
+    let stale =
+        octolux(&[&["render", &p("scene.xml"), "-D", "mat=0.5", "--cache", &p("l.oxc"), "-q", "-o", &p("s.exr")][..], &ins[..]].concat());
     assert!(!stale.status.success() && last_line(&stale).contains("materials"), "{}", last_line(&stale));
     // bad inputs are named
     std::fs::write(p("bad.json"), r#"{"keyframes": [{"time": 0, "position": [0, 0, 0], "scale": -1}]}"#).unwrap();
-    let bad = octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert", &p("cube.obj"), "--insert-path", &p("bad.json")]);
+    let bad =
+        octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert", &p("cube.obj"), "--insert-path", &p("bad.json")]);
     assert!(!bad.status.success() && last_line(&bad).contains("bad.json") && last_line(&bad).contains("scale"), "{}", last_line(&bad));
     let missing = octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert", &p("none.obj")]);
     assert!(!missing.status.success() && last_line(&missing).contains("none.obj"), "{}", last_line(&missing));
