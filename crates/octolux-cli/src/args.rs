@@ -313,9 +313,26 @@ pub struct RenderArgs {
     /// Render every <sensor> of the scene file as a frame, OUT_0001.exr, ... from one cache.
     #[arg(long)]
     pub sensors: bool,
-    /// With --camera-path or --sensors: render frames A to B only (from 1, both included).
+    /// With --camera-path, --sensors or --insert-path: render frames A to B only (from 1, both
+    /// included).
     #[arg(long, value_name = "A..B", value_parser = parse_frames)]
     pub frames: Option<(u64, u64)>,
+    /// Insert an object absent from the lighting (OBJ, PLY, or the shapes of a Mitsuba XML
+    /// file): with the octree integrator its indirect light comes from the baked volume
+    /// (docs/baking.md); the cache's fingerprint is checked without it.
+    #[arg(long, value_name = "OBJECT")]
+    pub insert: Option<String>,
+    /// Move the inserted object over frames: JSON keyframes (time, position, rotate_y, scale;
+    /// fps). Without --camera-path or --sensors it makes the frames (the scene's camera).
+    #[arg(long, value_name = "PATH.json", requires = "insert")]
+    pub insert_path: Option<PathBuf>,
+    /// Ambient-occlusion correction of the baked indirect light around the inserted object:
+    /// rays per shading point (default 0: none).
+    #[arg(long, value_name = "RAYS", requires = "insert")]
+    pub insert_ao: Option<u32>,
+    /// Length of those rays (default: the object's bounding-box diagonal).
+    #[arg(long, value_name = "LENGTH", requires = "insert")]
+    pub insert_ao_distance: Option<f32>,
     /// Output image path; `.exr` (and `.png`, `.json` beside it).
     #[arg(short, long, default_value = "out.exr")]
     pub output: PathBuf,

@@ -2,9 +2,11 @@
 //!
 //! `bake` resolves the `octree` integrator's settings as `render` does (defaults, the scene's
 //! `max_depth`, `--seed` for the photons, `--settings`, flags, `--set`), traces the photons,
-//! builds both octrees and writes them with the scene's lighting fingerprint
-//! ([`octolux_io::cache`]; staged and renamed like every output, so an interrupt, which exits
-//! at once as before `render`'s loop, never leaves a half-written cache under the final name). `render --cache` reads and
+//! builds both octrees, diffuses the global one's values into its empty leaves (the volumetric
+//! values `render --insert` reads, `octolux::caches::octree` `atmosphere.rs`) and writes them
+//! with the scene's lighting fingerprint ([`octolux_io::cache`]; staged and renamed like every
+//! output, so an interrupt, which exits at once as before `render`'s loop, never leaves a
+//! half-written cache under the final name). `render --cache` reads and
 //! checks the file before the scene is even loaded, takes the cache's settings as the base of
 //! its own (so only the render-time keys `view` and `gather` may change; a key that shaped the
 //! octrees is refused), and compares the fingerprints once the scene is prepared.
@@ -80,10 +82,23 @@ pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
         eprintln!("octree: tracing {} photons and building the octrees ...", octree_settings.photons.photons);
     }
     let t3 = Instant::now();
-    let o = OctreeIntegrator::build(&scene, octree_settings).context("cannot build the octrees")?;
+    let mut o = OctreeIntegrator::build(&scene, octree_settings).context("cannot build the octrees")?;
     let bake_s = t3.elapsed().as_secs_f64();
+    // the volumetric values (`render --insert`): diffused into the global tree's empty leaves
+    let atmosphere = o.fill_atmosphere(&scene);
     if !args.quiet {
         stats::print_octree_stats(&o.stats);
+        eprintln!(
+            "octree: volumetric values: {} of {} leaves filled, {} empty leaves unreached, {} edges ({} blocked by surfaces), \
+             {} bytes, {:.3} s",
+            atmosphere.filled_leaves,
+            atmosphere.leaves,
+            atmosphere.unreached_leaves,
+            atmosphere.edges,
+            atmosphere.blocked_edges,
+            atmosphere.bytes,
+            atmosphere.t_s
+        );
     }
     let t4 = Instant::now();
     let info =

@@ -9,6 +9,7 @@ use crate::args::RenderArgs;
 use anyhow::{bail, Context, Result};
 use octolux::scene::camera::CameraDesc;
 use octolux::scene::camera_path::CameraPath;
+use octolux::scene::object_path::ObjectPath;
 use serde::Serialize;
 use std::path::Path;
 
@@ -29,7 +30,7 @@ pub struct FrameInfo {
     /// Frames of the whole animation.
     pub count: u64,
     pub time_s: Option<f64>,
-    /// `camera path FILE` or `sensors`.
+    /// `camera path FILE`, `sensors` or `object path FILE`.
     pub source: String,
 }
 
@@ -57,7 +58,7 @@ pub fn read_camera_path(path: &Path) -> Result<CameraPath> {
 /// The frames of `args` (`None`: a single image), checked before any long work. `sensors` are
 /// the scene file's cameras, `base` the scene's camera (its fov axis and near clip serve the
 /// path's cameras).
-pub fn plan(args: &RenderArgs, sensors: &[CameraDesc], base: &CameraDesc) -> Result<Option<Plan>> {
+pub fn plan(args: &RenderArgs, sensors: &[CameraDesc], base: &CameraDesc, object: Option<&ObjectPath>) -> Result<Option<Plan>> {
     let (count, source, camera_at): (u64, String, Box<dyn Fn(u64) -> Frame>) = if let Some(file) = &args.camera_path {
         let path = read_camera_path(file)?;
         let count = path.frame_count();
@@ -74,9 +75,13 @@ pub fn plan(args: &RenderArgs, sensors: &[CameraDesc], base: &CameraDesc) -> Res
         let cams = sensors.to_vec();
         let at = move |i: u64| Frame { index: i, camera: cams[(i - 1) as usize].clone(), time_s: None };
         (sensors.len() as u64, "sensors".to_string(), Box::new(at))
+    } else if let (Some(path), Some(file)) = (object, &args.insert_path) {
+        let (path, base) = (path.clone(), base.clone());
+        let at = move |i: u64| Frame { index: i, camera: base.clone(), time_s: Some(path.frame_time(i)) };
+        (object.map_or(1, ObjectPath::frame_count), format!("object path {}", file.display()), Box::new(at))
     } else {
         if args.frames.is_some() {
-            bail!("--frames needs --camera-path or --sensors");
+            bail!("--frames needs --camera-path, --sensors or --insert-path");
         }
         return Ok(None);
     };

@@ -13,7 +13,7 @@
 //! [`interrupt`] (SIGINT/SIGTERM: a partial render is written, a second signal exits),
 //! [`bake`] (`bake`, and the checks of `render --cache`), [`frames`] (camera paths, sensors),
 //! [`report`] (`report`: the HTML comparison page), [`flicker`] (the flicker measure of a frame
-//! folder).
+//! folder), [`insert`] (`--insert`: an object added to baked lighting, moved per frame).
 //!
 //! Hostile input (issue 12): sizes from the command line or the scene (film, photons) are
 //! checked against the memory budget ([`octolux::budget`]) and the output folder is checked
@@ -23,6 +23,7 @@ mod args;
 mod bake;
 mod flicker;
 mod frames;
+mod insert;
 mod interrupt;
 mod output;
 mod report;
@@ -113,12 +114,15 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     interrupt::install()?;
     let loaded = load(&args.scene)?;
     let load_s = t0.elapsed().as_secs_f64();
-    let plan = frames::plan(args, &loaded.sensors, &loaded.desc.camera)?;
+    let insertion = insert::read(args)?;
+    let plan = frames::plan(args, &loaded.sensors, &loaded.desc.camera, insertion.as_ref().and_then(|i| i.path.as_ref()))?;
     let mut desc = loaded.desc;
     if let Some((w, h)) = args.resolution {
         desc.film.width = w;
         desc.film.height = h;
     }
+    // the scene without the inserted object: the lighting's (its fingerprint, its photons)
+    let base_desc = insertion.as_ref().map(|_| desc.clone());
     // The loader checks a film it reads; a built-in scene's, or one set in code, is checked here.
     budget::check_film(desc.film.width as u64, desc.film.height as u64).with_context(|| format!("scene '{}'", args.scene.scene))?;
     let spp = args.spp.or(desc.hints.spp).unwrap_or(64);
@@ -199,7 +203,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let threads = rayon::current_num_threads();
 
     let t_build = Instant::now();
-    let (integrator, cache_report) = match (cache, &args.cache) {
+    let (mut integrator, cache_report) = match (cache, &args.cache) {
         (Some((c, load_s)), Some(path)) => {
             let stale =
                 octolux_io::cache::check_fingerprint(path, &c, &scene.lighting_fingerprint(), &args.scene.scene, args.allow_stale_cache)
@@ -226,6 +230,17 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
             (build(&integrator_settings, photon_scene).context("cannot build the integrator")?, None)
         }
     };
+    if let (Some(ins), Integrator::Octree(o)) = (&insertion, &mut integrator) {
+        if !o.global.has_atmosphere() {
+            let st = o.fill_atmosphere(&scene);
+            if !args.quiet {
+                eprintln!(
+                    "octree: volumetric values for --insert {}: {} leaves filled, {} unreached, {} edges ({} blocked) in {:.3} s",
+                    ins.file, st.filled_leaves, st.unreached_leaves, st.edges, st.blocked_edges, st.t_s
+                );
+            }
+        }
+    }
     let build_s = t_build.elapsed().as_secs_f64();
     let build_report = integrator.build_report();
     if !args.quiet {
@@ -278,9 +293,24 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     };
     for (outputs, frame) in jobs {
         let t_frame = Instant::now();
+        let mut placed = None;
+        if let (Some(ins), Some(base)) = (&insertion, &base_desc) {
+            let m = ins.transform_at(frame.as_ref().and_then(|(f, _)| f.time_s));
+            scene = Scene::prepare(ins.scene_desc(base, &m), backend)
+                .with_context(|| format!("cannot prepare scene '{}' with the inserted object {}", args.scene.scene, ins.file))?;
+            let inserted = ins.inserted(base.shapes.len(), &m);
+            placed = Some((m, inserted.shapes.clone()));
+            if let Integrator::Octree(o) = &mut integrator {
+                o.inserted = inserted;
+            }
+        }
         if let Some((f, _)) = &frame {
             scene.camera = Camera::new(&f.camera, scene.film.width, scene.film.height);
         }
+        let insert_report = match (&insertion, &placed) {
+            (Some(ins), Some((m, shapes))) => Some(insert::report(ins, &scene, m, shapes)),
+            _ => None,
+        };
         let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new((scene.film.width as u64) * (scene.film.height as u64)) };
         bar.set_style(
             ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
@@ -321,6 +351,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
             partial: rstats.interrupted.then(|| stats::Partial::interrupted(&rstats)),
             cache: cache_report.clone(),
             frame: frame.as_ref().map(|(_, info)| info.clone()),
+            insert: insert_report,
         };
         // The JSON's own write time is not in it; the images' is.
         outputs.write(&image, || {

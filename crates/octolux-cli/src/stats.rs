@@ -56,6 +56,8 @@ pub struct StatsFile<'a> {
     pub cache: Option<serde_json::Value>,
     /// For the frames of `--camera-path` / `--sensors`: which frame this is; null otherwise.
     pub frame: Option<crate::frames::FrameInfo>,
+    /// With `--insert`: the object, its transform and the pixels it covers (`insert.rs`).
+    pub insert: Option<serde_json::Value>,
 }
 
 /// What a partial image holds.

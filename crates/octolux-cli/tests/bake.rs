@@ -255,7 +255,7 @@ fn camera_paths_and_sensors_render_numbered_frames_and_a_part_equals_the_whole()
     // ranges outside the path, and --frames alone, are refused before any work
     let scene = t.s("scene.xml");
     assert!(refused(&["render", &scene, "--camera-path", &path, "--frames", "3..5"]).contains("makes 4 frames"));
-    assert!(refused(&["render", &scene, "--frames", "1..2"]).contains("--frames needs --camera-path or --sensors"));
+    assert!(refused(&["render", &scene, "--frames", "1..2"]).contains("--frames needs --camera-path, --sensors or --insert-path"));
     assert!(refused(&["render", "cornell-box", "--sensors"]).contains("has no <sensor>"));
     std::fs::write(t.p("bad.json"), r#"{"keyframes": [{"time": 0, "position": [0,1,2], "target": [0,1,2], "fov": 40}]}"#).unwrap();
     let bad = t.s("bad.json");

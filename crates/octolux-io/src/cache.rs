@@ -14,7 +14,10 @@
 //!            facing count u32, facing bytes;
 //!            anchor count u32, anchors (per valid leaf: the mean (position 3 x u8, normal
 //!              3 x i8), then 4 x (position 3 x u8, incident direction 3 x i8); version 2
-//!              stored the sampled photons' normals instead of their directions)
+//!              stored the sampled photons' normals instead of their directions);
+//!            atmosphere u8 (0: none, 1: diffused values follow, version 3):
+//!              filled count u32, filled bits (one byte per leaf, depth-first),
+//!              storage u8 (the tree's), value count u32, values (as the leaves')
 //! trailer  CRC-32 (IEEE, zlib's) of every byte before it, u32
 //! ```
 //!
@@ -30,7 +33,7 @@
 use crate::IoError;
 use glam::{Mat3, Vec3};
 use octolux::caches::octree::compress::{CompressedLeaf, FullLeaf, LEAF_BYTES};
-use octolux::caches::octree::{Anchor, LeafAnchors, LeafValueParts, OctreeParts, ANCHOR_SAMPLES};
+use octolux::caches::octree::{Anchor, AtmosphereParts, LeafAnchors, LeafValueParts, OctreeParts, ANCHOR_SAMPLES};
 use octolux::caches::OctreeStats;
 use octolux::integrators::octree::{OctreeBuildStats, OctreeIntegratorParts, OctreeIntegratorSettings};
 use octolux::integrators::{build_from_parts, Integrator};
@@ -132,7 +135,29 @@ fn put_tree(out: &mut Vec<u8>, t: &OctreeParts) {
         put_u32(out, *link);
         put_u32(out, *photons);
     }
-    match &t.values {
+    put_values(out, &t.values);
+    put_u32(out, count(t.facing.len()));
+    out.extend_from_slice(&t.facing);
+    put_u32(out, count(t.anchors.len()));
+    for a in &t.anchors {
+        for x in std::iter::once(&a.mean).chain(&a.samples) {
+            out.extend_from_slice(&x.pos);
+            out.extend(x.normal.map(|c| c as u8));
+        }
+    }
+    match &t.atmosphere {
+        None => out.push(0),
+        Some(a) => {
+            out.push(1);
+            put_u32(out, count(a.filled.len()));
+            out.extend_from_slice(&a.filled);
+            put_values(out, &a.values);
+        }
+    }
+}
+
+fn put_values(out: &mut Vec<u8>, values: &LeafValueParts) {
+    match values {
         LeafValueParts::Compressed(v) => {
             out.push(0);
             put_u32(out, count(v.len()));
@@ -144,15 +169,6 @@ fn put_tree(out: &mut Vec<u8>, t: &OctreeParts) {
             for m in v.iter().flatten() {
                 m.to_cols_array().iter().for_each(|&x| put_f32(out, x));
             }
-        }
-    }
-    put_u32(out, count(t.facing.len()));
-    out.extend_from_slice(&t.facing);
-    put_u32(out, count(t.anchors.len()));
-    for a in &t.anchors {
-        for x in std::iter::once(&a.mean).chain(&a.samples) {
-            out.extend_from_slice(&x.pos);
-            out.extend(x.normal.map(|c| c as u8));
         }
     }
 }
@@ -264,20 +280,7 @@ fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSetti
     let (_, nb) = r.array(8, &what("nodes"))?;
     let w: Vec<u32> = words(nb).collect();
     let nodes = w.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
-    let values = match r.u8(&what("storage"))? {
-        0 => {
-            let (_, b) = r.array(LEAF_BYTES, &what("compressed leaves"))?;
-            LeafValueParts::Compressed(b.chunks_exact(LEAF_BYTES).map(|l| CompressedLeaf::try_from(l).unwrap_or([0; LEAF_BYTES])).collect())
-        }
-        1 => {
-            let (_, b) = r.array(FULL_LEAF_BYTES, &what("full leaves"))?;
-            let f: Vec<f32> = words(b).map(f32::from_bits).collect();
-            LeafValueParts::Full(
-                f.chunks_exact(54).map(|l| -> FullLeaf { std::array::from_fn(|k| Mat3::from_cols_slice(&l[9 * k..9 * k + 9])) }).collect(),
-            )
-        }
-        s => return Err(what(&format!("unknown storage {s} (0: compressed, 1: full)"))),
-    };
+    let values = read_values(r, &what("storage"), &what("compressed leaves"), &what("full leaves"))?;
     let (_, facing) = r.array(1, &what("facing bits"))?;
     let (_, ab) = r.array(ANCHORS_BYTES, &what("leaf anchors"))?;
     let anchor = |b: &[u8]| Anchor { pos: [b[0], b[1], b[2]], normal: [b[3] as i8, b[4] as i8, b[5] as i8] };
@@ -285,7 +288,45 @@ fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSetti
         .chunks_exact(ANCHORS_BYTES)
         .map(|l| LeafAnchors { mean: anchor(&l[..6]), samples: std::array::from_fn(|k| anchor(&l[6 * (k + 1)..6 * (k + 2)])) })
         .collect();
-    Ok(OctreeParts { origin, size, h_max, settings: settings.clone(), nodes, values, facing: facing.to_vec(), anchors, stats: meta.stats })
+    let atmosphere = match r.u8(&what("atmosphere"))? {
+        0 => None,
+        1 => {
+            let (_, filled) = r.array(1, &what("atmosphere bits"))?;
+            let values =
+                read_values(r, &what("atmosphere storage"), &what("atmosphere compressed leaves"), &what("atmosphere full leaves"))?;
+            Some(AtmosphereParts { filled: filled.to_vec(), values })
+        }
+        a => return Err(what(&format!("atmosphere flag {a} (0: none, 1: present)"))),
+    };
+    Ok(OctreeParts {
+        origin,
+        size,
+        h_max,
+        settings: settings.clone(),
+        nodes,
+        values,
+        facing: facing.to_vec(),
+        anchors,
+        stats: meta.stats,
+        atmosphere,
+    })
+}
+
+fn read_values(r: &mut Reader, storage: &str, compressed: &str, full: &str) -> Result<LeafValueParts, String> {
+    Ok(match r.u8(storage)? {
+        0 => {
+            let (_, b) = r.array(LEAF_BYTES, compressed)?;
+            LeafValueParts::Compressed(b.chunks_exact(LEAF_BYTES).map(|l| CompressedLeaf::try_from(l).unwrap_or([0; LEAF_BYTES])).collect())
+        }
+        1 => {
+            let (_, b) = r.array(FULL_LEAF_BYTES, full)?;
+            let f: Vec<f32> = words(b).map(f32::from_bits).collect();
+            LeafValueParts::Full(
+                f.chunks_exact(54).map(|l| -> FullLeaf { std::array::from_fn(|k| Mat3::from_cols_slice(&l[9 * k..9 * k + 9])) }).collect(),
+            )
+        }
+        s => return Err(format!("{storage}: unknown storage {s} (0: compressed, 1: full)")),
+    })
 }
 
 /// Parse the bytes of a cache file (module docs for the order of the checks). The octrees'

@@ -21,8 +21,10 @@ fn baked(storage: Storage) -> (Scene, OctreeIntegrator, Vec<u8>) {
     s.photons.photons = 20_000;
     s.global.storage = storage;
     s.caustic.storage = storage;
-    let o = OctreeIntegrator::build(&scene, s).expect("octrees");
+    let mut o = OctreeIntegrator::build(&scene, s).expect("octrees");
     assert!(o.caustic.is_some(), "the glass sphere makes caustics");
+    // the volumetric values (format version 3) are part of every byte test below
+    assert!(o.fill_atmosphere(&scene).filled_leaves > 0);
     let info = CacheInfo { octolux_version: "test".into(), scene: "cornell-spheres".into(), backend: scene.backend_name() };
     let bytes = cache::encode(&CacheFile { fingerprint: scene.lighting_fingerprint(), info, parts: o.to_parts() });
     (scene, o, bytes)

@@ -217,6 +217,8 @@ pub struct OctreeIntegrator {
     /// [`LeafPlanes`] of the global and the caustic tree for the leak test, computed from the
     /// scene at the first query (or by [`OctreeIntegrator::prepare_leak`]).
     planes: [std::sync::OnceLock<LeafPlanes>; 2],
+    /// Objects inserted into the baked lighting (`octree_insert.rs`); none by default.
+    pub inserted: super::octree_insert::Inserted,
 }
 
 /// A built `octree` integrator as plain data: what a cache file holds (docs/baking.md).
@@ -257,7 +259,7 @@ impl OctreeIntegrator {
         stats.global = global.stats().clone();
         stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
         stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
-        Ok(OctreeIntegrator { settings, global, caustic, stats, planes: Default::default() })
+        Ok(OctreeIntegrator { settings, global, caustic, stats, planes: Default::default(), inserted: Default::default() })
     }
 
     /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
@@ -335,7 +337,7 @@ impl OctreeIntegrator {
             caustic: caustic.as_ref().map(|c| c.stats().clone()),
             bytes: global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes),
         };
-        let o = OctreeIntegrator { settings, global, caustic, stats, planes: Default::default() };
+        let o = OctreeIntegrator { settings, global, caustic, stats, planes: Default::default(), inserted: Default::default() };
         o.prepare_leak(scene);
         Ok(o)
     }
@@ -362,7 +364,7 @@ impl OctreeIntegrator {
             OctreeView::Render => {
                 result += v.throughput
                     * (direct_light(scene, &v.hit, material, v.wo, sampler, counters)
-                        + self.indirect_from(scene, &v, material, counters, true, true));
+                        + self.indirect_render(scene, &v, material, sampler, counters));
             }
             OctreeView::Irradiance | OctreeView::IrradianceAll => {
                 let mut e = self.irradiance(scene, &self.global, &v, counters);
@@ -419,7 +421,7 @@ impl OctreeIntegrator {
     }
 
     /// Reflected light from the global and/or the caustic octree at `v` (see the module docs).
-    fn indirect_from(
+    pub(super) fn indirect_from(
         &self,
         scene: &Scene,
         v: &Vertex,
@@ -527,7 +529,7 @@ impl OctreeIntegrator {
 
 /// `Σ_c f_c(wo, d_c) cos θ(d_c) |m_c|` with `m_c` the columns of the blended matrix.
 #[inline]
-fn shade_matrix(scene: &Scene, hit: &SurfaceHit, material: &Material, wo: Vec3, m: &Mat3) -> Color {
+pub(super) fn shade_matrix(scene: &Scene, hit: &SurfaceHit, material: &Material, wo: Vec3, m: &Mat3) -> Color {
     let frame: &Frame = &hit.frame;
     let mut out = Color::ZERO;
     for c in 0..3 {
@@ -563,7 +565,7 @@ fn hsv(h: f32, s: f32, v: f32) -> Color {
 /// `f`. `planes`: the [`LeafPlanes`] of `tree` for the tests that use them; `rays` counts the
 /// visibility rays cast.
 #[allow(clippy::too_many_arguments)]
-fn keep_leaf(
+pub(super) fn keep_leaf(
     scene: &Scene,
     tree: &Octree,
     planes: Option<&LeafPlanes>,

@@ -21,7 +21,7 @@ const DEPTH: u32 = 5;
 
 /// The rooms span x in [-1, 1], y and z in [0, 1]; the wall spans `[x_lit, x_lit + t]` and
 /// pokes out of the box, so that the rooms share no opening.
-fn two_rooms(x_lit: f32, t: f32) -> Scene {
+pub(super) fn two_rooms(x_lit: f32, t: f32) -> Scene {
     let mesh = |name: &str, centre: Vec3, half: Vec3, flip: bool| ShapeDesc {
         name: name.into(),
         geometry: Geometry::Mesh(TriMesh::cube(&(Mat4::from_translation(centre) * Mat4::from_scale(half)))),

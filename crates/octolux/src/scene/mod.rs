@@ -24,6 +24,7 @@ pub mod envmap;
 pub mod fingerprint;
 pub mod lights;
 pub mod material;
+pub mod object_path;
 pub mod sunsky;
 
 pub use desc::{FilmDesc, Geometry, Light, PixelFilter, SceneDesc, SceneError, SceneHints, ShapeDesc, TriMesh};

@@ -319,6 +319,7 @@ pub(super) fn build(
         facing,
         anchors,
         query_half: 0.5 * settings.alpha * min_leaf_size,
+        atmosphere: None,
         settings: settings.clone(),
         stats,
     };

@@ -75,6 +75,7 @@
 //! (`planes.rs`) keeps, per leaf, the few planes that hold every surface within reach of
 //! those rays, when there are such planes: most rays are then answered without casting them.
 
+mod atmosphere;
 mod build;
 mod cells;
 pub mod compress;
@@ -91,8 +92,9 @@ mod tests;
 /// Every matrix of the leaf carries a value.
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
+pub use atmosphere::{AtmosphereStats, PROBE_LIFT, SMOOTHING_SWEEPS};
 pub use geometry::AnalyticSphere;
-pub use parts::{LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
+pub use parts::{AtmosphereParts, LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
 pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
 
@@ -308,6 +310,9 @@ pub struct Octree {
     anchors: Vec<LeafAnchors>,
     /// Half side of the query box: `alpha * min_leaf_size / 2`.
     query_half: f32,
+    /// Values diffused into the leaves that lack them (`atmosphere.rs`); none until
+    /// [`Octree::fill_atmosphere`].
+    atmosphere: Option<atmosphere::Atmosphere>,
     settings: OctreeSettings,
     stats: OctreeStats,
 }

@@ -48,6 +48,17 @@ impl LeafValueParts {
     }
 }
 
+/// The values diffused into the leaves that lack them (`atmosphere.rs`), as plain data.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AtmosphereParts {
+    /// Per leaf (valid and atmospheric, depth-first order): which of the six matrices were
+    /// diffused into it.
+    pub filled: Vec<u8>,
+    /// One entry per leaf with any filled bit, in order, in the tree's storage (zero matrices
+    /// where not filled).
+    pub values: LeafValueParts,
+}
+
 /// A built octree as plain data (see the module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct OctreeParts {
@@ -70,6 +81,8 @@ pub struct OctreeParts {
     pub anchors: Vec<LeafAnchors>,
     /// The build's statistics (the structural ones are recomputed by `from_parts`).
     pub stats: OctreeStats,
+    /// Diffused values ([`Octree::fill_atmosphere`]), if filled.
+    pub atmosphere: Option<AtmosphereParts>,
 }
 
 /// High bit of a node's `link`: the node is a leaf.
@@ -173,13 +186,20 @@ impl Octree {
             facing: self.facing.clone(),
             anchors: self.anchors.clone(),
             stats: self.stats.clone(),
+            atmosphere: self.atmosphere.as_ref().map(|a| AtmosphereParts {
+                filled: a.filled.clone(),
+                values: match &a.values {
+                    LeafValues::Compressed(v) => LeafValueParts::Compressed(v.clone()),
+                    LeafValues::Full(v) => LeafValueParts::Full(v.clone()),
+                },
+            }),
         }
     }
 
     /// An octree from plain data, every invariant checked (module docs). Queries of the
     /// result are bit-identical to those of the octree the parts came from.
     pub fn from_parts(parts: OctreeParts) -> Result<Octree, PartsError> {
-        let OctreeParts { origin, size, h_max, settings, nodes, values, facing, anchors, stats } = parts;
+        let OctreeParts { origin, size, h_max, settings, nodes, values, facing, anchors, stats, atmosphere } = parts;
         let bad = |m: String| Err(PartsError(m));
         settings.validate().map_err(|e| PartsError(e.to_string()))?;
         if !(origin.is_finite() && size.is_finite() && size > 0.0) {
@@ -231,6 +251,26 @@ impl Octree {
         if anchors.len() != n_values {
             return bad(format!("{} leaf anchors for {n_values} valid leaves", anchors.len()));
         }
+        if let Some(a) = &atmosphere {
+            if a.filled.len() != walk.leaves {
+                return bad(format!("{} atmosphere entries for {} leaves", a.filled.len(), walk.leaves));
+            }
+            if let Some(f) = a.filled.iter().find(|&&f| f & !super::ALL_FACING != 0) {
+                return bad(format!("atmosphere bits {f:#010b} beyond the six matrices"));
+            }
+            let entries = a.filled.iter().filter(|&&f| f != 0).count();
+            if a.values.len() != entries {
+                return bad(format!("{} atmosphere values for {entries} filled leaves", a.values.len()));
+            }
+            if std::mem::discriminant(&a.values) != std::mem::discriminant(&values) {
+                return bad("the atmosphere's storage is not the tree's".into());
+            }
+            if let LeafValueParts::Full(v) = &a.values {
+                if v.iter().flatten().any(|m| !m.is_finite()) {
+                    return bad("an atmosphere matrix is not finite".into());
+                }
+            }
+        }
         let nv = n_values;
         let mean = |s: f64| if nv > 0 { s / nv as f64 } else { 0.0 };
         let min_leaf_size = cell_size[walk.max_depth as usize];
@@ -238,7 +278,19 @@ impl Octree {
             LeafValueParts::Compressed(v) => LeafValues::Compressed(v),
             LeafValueParts::Full(v) => LeafValues::Full(v),
         };
-        let bytes = std::mem::size_of_val(nodes.as_slice()) + values.bytes() + facing.len() + std::mem::size_of_val(anchors.as_slice());
+        let atmosphere_values = atmosphere.map(|a| {
+            let v = match a.values {
+                LeafValueParts::Compressed(v) => LeafValues::Compressed(v),
+                LeafValueParts::Full(v) => LeafValues::Full(v),
+            };
+            (a.filled, v)
+        });
+        let atmosphere_bytes = atmosphere_values.as_ref().map_or(0, |(f, v)| f.len() + v.bytes());
+        let bytes = std::mem::size_of_val(nodes.as_slice())
+            + values.bytes()
+            + facing.len()
+            + std::mem::size_of_val(anchors.as_slice())
+            + atmosphere_bytes;
         let stats = OctreeStats {
             bytes,
             bytes_per_valid_leaf: if nv > 0 { bytes as f64 / nv as f64 } else { 0.0 },
@@ -253,7 +305,7 @@ impl Octree {
             h_max: h,
             ..stats
         };
-        Ok(Octree {
+        let mut tree = Octree {
             origin,
             size,
             cell_size,
@@ -264,9 +316,14 @@ impl Octree {
             facing,
             anchors,
             query_half: 0.5 * settings.alpha * min_leaf_size,
+            atmosphere: None,
             settings,
             stats,
-        })
+        };
+        if let Some((filled, values)) = atmosphere_values {
+            tree.atmosphere = Some(super::atmosphere::Atmosphere::new(&tree, filled, values));
+        }
+        Ok(tree)
     }
 }
 

@@ -1,0 +1,123 @@
+"""An object inserted into baked lighting, measured (issue 13, item 5; docs/baking.md
+"Inserted objects").
+
+Bakes the built-in Cornell box, then renders a ball (ball.obj) moving along path.json (8 frames)
+- from the cache with the octree integrator (`--insert`), with and without the ambient-occlusion
+  correction (`--insert-ao`),
+- with the path tracer, the ball present (the truth), and once without the ball,
+and reports, on the ball's pixels (listed by each frame's OUT.json) and on the pixels the ball
+changes in the scene (its shadow and reflections: where the truths with and without it differ by
+more than 10%, the ball's pixels excluded):
+- relMSE (mean of (a - r)^2 / (r^2 + 1e-2) over the pixels and channels),
+- the bias of the mean (mean a / mean r - 1),
+- flicker: the RMS over consecutive frames of the change of the per-frame bias (the error
+  moving from one frame to the next; a steady error does not flicker),
+and writes the strip docs/img/insert-strip.png (top: octolux from the cache; bottom: truth).
+
+Reads EXR through Mitsuba 3's Python module (the one tools/mitsuba/ uses):
+    python bench/insert/measure.py [--bin target/release/octolux] [--spp 64] [--truth-spp 1024]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+HERE = Path(__file__).resolve().parent
+
+
+def run(cmd: list[str]) -> float:
+    t = time.time()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.time() - t
+
+
+def read(path: Path):
+    import mitsuba as mi
+
+    return np.array(mi.Bitmap(str(path)), dtype=np.float64)[..., :3]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--bin", default=str(ROOT / "target" / "release" / "octolux"))
+    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--truth-spp", type=int, default=1024)
+    ap.add_argument("--resolution", default="96x96")
+    ap.add_argument("--photons", type=int, default=1_000_000)
+    ap.add_argument("--ao-rays", type=int, default=16)
+    ap.add_argument("--strip", default=str(ROOT / "docs" / "img" / "insert-strip.png"))
+    ap.add_argument("--keep", help="folder for the renders (default: a temporary one)")
+    ap.add_argument("--reuse-truth", action="store_true", help="keep the path-traced renders already in --keep")
+    a = ap.parse_args()
+    import mitsuba as mi
+
+    mi.set_variant("scalar_rgb")
+    tmp = Path(a.keep) if a.keep else Path(tempfile.mkdtemp(prefix="octolux-insert-"))
+    tmp.mkdir(parents=True, exist_ok=True)
+    obj, path = str(HERE / "ball.obj"), str(HERE / "path.json")
+    common = ["render", "cornell-box", "--resolution", a.resolution, "--quiet"]
+    ins = ["--insert", obj, "--insert-path", path]
+    t_bake = run([a.bin, "bake", "cornell-box", "-o", str(tmp / "l.oxc"), "--photons", str(a.photons), "--quiet"])
+    t_oct = run([a.bin, *common, "--cache", str(tmp / "l.oxc"), *ins, "--spp", str(a.spp), "-o", str(tmp / "oct.exr")])
+    t_ao = run([a.bin, *common, "--cache", str(tmp / "l.oxc"), *ins, "--insert-ao", str(a.ao_rays), "--spp", str(a.spp), "-o", str(tmp / "ao.exr")])
+    t_pt = None
+    if not (a.reuse_truth and (tmp / "base.exr").exists()):
+        t_pt = run([a.bin, *common, "--integrator", "path", *ins, "--spp", str(a.truth_spp), "-o", str(tmp / "pt.exr")])
+        run([a.bin, *common, "--integrator", "path", "--spp", str(a.truth_spp), "-o", str(tmp / "base.exr")])
+    frames = sorted(p.name[len("pt_") : -len(".exr")] for p in tmp.glob("pt_*.exr"))
+    base = read(tmp / "base.exr")
+    h, w = base.shape[:2]
+    rows = {k: [] for k in ("oct", "ao")}
+    for f in frames:
+        info = json.loads((tmp / f"pt_{f}.json").read_text())["insert"]
+        obj_mask = np.zeros(h * w, bool)
+        obj_mask[np.array(info["pixels"], dtype=np.int64)] = True
+        obj_mask = obj_mask.reshape(h, w)
+        truth = read(tmp / f"pt_{f}.exr")
+        near = (np.abs(truth - base).mean(-1) > 0.1 * (base.mean(-1) + 1e-3)) & ~obj_mask
+        for k in rows:
+            img = read(tmp / f"{k}_{f}.exr")
+            row = {}
+            for name, m in (("object", obj_mask), ("near", near)):
+                x, r = img[m], truth[m]
+                row[name] = {
+                    "pixels": int(m.sum()),
+                    "relmse": float(((x - r) ** 2 / (r**2 + 1e-2)).mean()) if m.any() else 0.0,
+                    "bias": float(x.mean() / r.mean() - 1.0) if m.any() else 0.0,
+                }
+            row["object"]["frame_bias"] = row["object"]["bias"]
+            rows[k].append(row)
+    out = {"frames": len(frames), "times_s": {"bake": t_bake, "octree_frames": t_oct, "octree_ao_frames": t_ao, "path_frames": t_pt}}
+    for k, rs in rows.items():
+        for name in ("object", "near"):
+            bias = np.array([r[name]["bias"] for r in rs])
+            out[f"{k}.{name}"] = {
+                "relmse_mean": float(np.mean([r[name]["relmse"] for r in rs])),
+                "bias_mean": float(bias.mean()),
+                "bias_range": [float(bias.min()), float(bias.max())],
+                "flicker": float(np.sqrt(np.mean(np.diff(bias) ** 2))) if len(bias) > 1 else 0.0,
+                "pixels_mean": float(np.mean([r[name]["pixels"] for r in rs])),
+                "bias_per_frame": [round(float(b), 4) for b in bias],
+            }
+    print(json.dumps(out, indent=1))
+    # the strip: every other frame, octolux (top) over the truth (bottom), sRGB 8-bit
+    pick = frames[:: max(1, len(frames) // 4)][:4]
+    top = np.concatenate([read(tmp / f"oct_{f}.exr") for f in pick], axis=1)
+    bottom = np.concatenate([read(tmp / f"pt_{f}.exr") for f in pick], axis=1)
+    strip = np.concatenate([top, np.ones((2, top.shape[1], 3)), bottom], axis=0)
+    mi.util.write_bitmap(a.strip, mi.Bitmap(strip.astype(np.float32)), write_async=False)
+    print(f"strip: {a.strip} (frames {', '.join(pick)}; renders in {tmp})", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,172 @@
+//! `render --insert OBJECT --insert-path PATH.json` (issue 13, item 5; docs/baking.md
+//! "Inserted objects"): an object absent from the bake (an OBJ or PLY mesh, or the shapes of a
+//! Mitsuba XML file) is added to the rendered scene, moved per frame by an object path
+//! (`octolux::scene::object_path`). The lighting is the bake's: the cache's fingerprint is
+//! compared with the scene *without* the object (which the object does not change), and the
+//! `octree` integrator reads the object's indirect light from its volumetric values
+//! (`octolux::integrators::octree_insert`). Any other integrator renders the scene with the
+//! object as it is (`--integrator path` gives the truth to compare with).
+//!
+//! The object's shapes are appended after the scene's, its materials after the scene's (their
+//! indices shifted); its lights, camera and film are ignored (a note says so). Refused: an
+//! emitting object (the bake holds no light from it) and textured materials (their images are
+//! not carried over).
+
+use crate::args::RenderArgs;
+use anyhow::{bail, Context, Result};
+use glam::{Mat4, Vec3};
+use octolux::integrators::octree_insert::{InsertAo, Inserted};
+use octolux::math::Ray;
+use octolux::scene::material::Material;
+use octolux::scene::object_path::ObjectPath;
+use octolux::scene::{Geometry, Scene, SceneDesc, ShapeDesc};
+use std::path::Path;
+
+/// An object to insert, read and checked.
+pub struct Insertion {
+    /// As named on the command line.
+    pub file: String,
+    shapes: Vec<ShapeDesc>,
+    materials: Vec<Material>,
+    /// The motion; none: the object as loaded.
+    pub path: Option<ObjectPath>,
+    /// Rays of the ambient-occlusion correction (0: none).
+    ao_rays: u32,
+    /// Their length; none: the object's bounding-box diagonal at each frame.
+    ao_distance: Option<f32>,
+}
+
+/// Read an object path file (JSON), validated; errors name the file.
+pub fn read_object_path(path: &Path) -> Result<ObjectPath> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read object path {}", path.display()))?;
+    let p: ObjectPath = serde_json::from_str(&text).with_context(|| format!("object path {} is not valid", path.display()))?;
+    p.validate().map_err(|m| anyhow::anyhow!("object path {}: {m}", path.display()))?;
+    Ok(p)
+}
+
+/// The insertion `args` ask for, read and checked before any long work.
+pub fn read(args: &RenderArgs) -> Result<Option<Insertion>> {
+    let Some(file) = &args.insert else {
+        if args.insert_path.is_some() || args.insert_ao.is_some() || args.insert_ao_distance.is_some() {
+            bail!("--insert-path and --insert-ao need --insert OBJECT");
+        }
+        return Ok(None);
+    };
+    let path = args.insert_path.as_deref().map(read_object_path).transpose()?;
+    if let Some(d) = args.insert_ao_distance {
+        if !(d.is_finite() && d > 0.0) {
+            bail!("--insert-ao-distance must be a positive length, got {d}");
+        }
+    }
+    let loaded = octolux_io::load_scene(file, &[]).with_context(|| format!("cannot load the object to insert '{file}'"))?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {file}: {w}");
+    }
+    let d = loaded.desc;
+    if d.shapes.is_empty() {
+        bail!("--insert {file}: the file holds no shape");
+    }
+    if let Some(s) = d.shapes.iter().find(|s| s.emission.is_some()) {
+        bail!("--insert {file}: shape '{}' emits light, which the baked lighting does not hold; insert objects that do not emit", s.name);
+    }
+    if !d.images.is_empty() {
+        bail!("--insert {file}: textured materials are not supported for inserted objects (the object has {} images)", d.images.len());
+    }
+    if !d.lights.is_empty() {
+        eprintln!("note: --insert {file}: its {} lights are ignored (only its shapes are inserted)", d.lights.len());
+    }
+    Ok(Some(Insertion {
+        file: file.clone(),
+        shapes: d.shapes,
+        materials: d.materials,
+        path,
+        ao_rays: args.insert_ao.unwrap_or(0),
+        ao_distance: args.insert_ao_distance,
+    }))
+}
+
+impl Insertion {
+    /// The object's transform at a time (none: the path's first key, or the object as loaded).
+    pub fn transform_at(&self, time_s: Option<f64>) -> Mat4 {
+        match &self.path {
+            Some(p) => p.transform_at(time_s.unwrap_or_else(|| p.frame_time(1))),
+            None => Mat4::IDENTITY,
+        }
+    }
+
+    /// `base` with the object's shapes (moved by `m`) and materials appended.
+    pub fn scene_desc(&self, base: &SceneDesc, m: &Mat4) -> SceneDesc {
+        let mut d = base.clone();
+        let offset = d.materials.len() as u32;
+        d.materials.extend(self.materials.iter().cloned());
+        let scale =
+            m.transform_vector3(Vec3::X).length().max(m.transform_vector3(Vec3::Y).length()).max(m.transform_vector3(Vec3::Z).length());
+        for s in &self.shapes {
+            let mut s = s.clone();
+            s.material += offset;
+            s.name = format!("inserted {}", s.name);
+            s.geometry = match s.geometry {
+                Geometry::Mesh(mut mesh) => {
+                    mesh.transform(m);
+                    Geometry::Mesh(mesh)
+                }
+                Geometry::Sphere { center, radius } => Geometry::Sphere { center: m.transform_point3(center), radius: radius * scale },
+            };
+            d.shapes.push(s);
+        }
+        d
+    }
+
+    /// What the `octree` integrator needs to know of the object in a scene made by
+    /// [`Insertion::scene_desc`] from a base of `base_shapes` shapes.
+    pub fn inserted(&self, base_shapes: usize, m: &Mat4) -> Inserted {
+        let first = base_shapes as u32;
+        let ao =
+            (self.ao_rays > 0).then(|| InsertAo { rays: self.ao_rays, distance: self.ao_distance.unwrap_or_else(|| self.diagonal(m)) });
+        Inserted { shapes: first..first + self.shapes.len() as u32, ao }
+    }
+
+    /// Diagonal of the object's bounding box, moved by `m`.
+    fn diagonal(&self, m: &Mat4) -> f32 {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for s in &self.shapes {
+            match &s.geometry {
+                Geometry::Mesh(mesh) => {
+                    for p in &mesh.positions {
+                        let q = m.transform_point3(*p);
+                        lo = lo.min(q);
+                        hi = hi.max(q);
+                    }
+                }
+                Geometry::Sphere { center, radius } => {
+                    let c = m.transform_point3(*center);
+                    let r = *radius * m.transform_vector3(Vec3::X).length();
+                    lo = lo.min(c - Vec3::splat(r));
+                    hi = hi.max(c + Vec3::splat(r));
+                }
+            }
+        }
+        let d = (hi - lo).length();
+        if d.is_finite() && d > 0.0 {
+            d
+        } else {
+            1.0
+        }
+    }
+}
+
+/// What `OUT.json` says of the inserted object in a frame: the file, the transform (4x4,
+/// column-major) and the pixels (`y * width + x`) whose centre's camera ray first meets it,
+/// so that errors can be measured on the object's pixels.
+pub fn report(ins: &Insertion, scene: &Scene, m: &Mat4, shapes: &std::ops::Range<u32>) -> serde_json::Value {
+    let (w, h) = (scene.film.width, scene.film.height);
+    let pixels: Vec<u32> = (0..w * h)
+        .filter(|&i| {
+            let (o, d, tmin) = scene.camera.generate_ray(glam::Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5));
+            let mut ray = Ray::new(o, d);
+            ray.tmin = tmin;
+            scene.intersect(&ray).is_some_and(|hit| shapes.contains(&hit.shape))
+        })
+        .collect();
+    serde_json::json!({ "file": ins.file, "transform": m.to_cols_array(), "pixels": pixels })
+}

@@ -1,0 +1,82 @@
+//! `render --insert OBJECT --insert-path PATH.json` (issue 13, item 5; docs/baking.md
+//! "Inserted objects"): an object absent from the bake renders from the cache over the frames of
+//! its path (the cache's fingerprint ignores it, a change of the scene is still refused), each
+//! frame's JSON lists the object's pixels, and bad paths or objects are refused by name.
+//! Tiny renders (24², 2 spp, 20 000 photons).
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+const SCENE: &str = r#"<scene version="3.0.0">
+    <default name="mat" value="0.7"/>
+    <sensor type="perspective">
+        <float name="fov" value="70"/>
+        <transform name="to_world"><lookat origin="0, 1, 2.9" target="0, 0.9, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film>
+    </sensor>
+    <bsdf type="diffuse" id="white"><rgb name="reflectance" value="$mat"/></bsdf>
+    <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform><ref id="white"/></shape>
+    <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="90"/><translate y="2"/></transform><ref id="white"/></shape>
+    <shape type="rectangle"><transform name="to_world"><translate y="1" z="-1"/></transform><ref id="white"/></shape>
+    <shape type="rectangle"><transform name="to_world"><rotate y="1" angle="90"/><translate x="-1" y="1"/></transform><ref id="white"/></shape>
+    <shape type="rectangle"><transform name="to_world"><rotate y="1" angle="-90"/><translate x="1" y="1"/></transform><ref id="white"/></shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.3"/><rotate x="1" angle="90"/><translate y="1.99"/></transform>
+        <emitter type="area"><rgb name="radiance" value="15"/></emitter>
+    </shape>
+</scene>
+"#;
+
+/// A unit cube, OBJ.
+const CUBE: &str = "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n\
+f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 7 3\nf 4 8 7\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
+
+const PATH: &str = r#"{"fps": 2, "keyframes": [
+    {"time": 0, "position": [-0.4, 0.3, 0], "scale": 0.25},
+    {"time": 1, "position": [0.4, 0.8, 0], "rotate_y": 45, "scale": 0.25}]}"#;
+
+fn octolux(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_octolux")).args(args).output().expect("run octolux")
+}
+
+fn last_line(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).lines().last().unwrap_or("").to_string()
+}
+
+#[test]
+fn inserted_object_renders_from_a_cache_over_its_path() {
+    let dir = std::env::temp_dir().join(format!("octolux-insert-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |n: &str| -> String { dir.join(n).to_string_lossy().into_owned() };
+    std::fs::write(p("scene.xml"), SCENE).unwrap();
+    std::fs::write(p("cube.obj"), CUBE).unwrap();
+    std::fs::write(p("path.json"), PATH).unwrap();
+    let bake = octolux(&["bake", &p("scene.xml"), "-o", &p("l.oxc"), "--photons", "20000", "-q"]);
+    assert!(bake.status.success(), "{}", last_line(&bake));
+    let ins = ["--insert", &p("cube.obj"), "--insert-path", &p("path.json")];
+    let r = octolux(&[&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "--spp", "2", "-q", "-o", &p("f.exr")][..], &ins[..]].concat());
+    assert!(r.status.success(), "{}", last_line(&r));
+    let mut pixels = Vec::new();
+    for i in 1..=3 {
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p(&format!("f_{i:04}.json"))).unwrap()).unwrap();
+        assert_eq!(json["frame"]["count"], 3, "{json}");
+        assert!(json["cache"]["stale"].is_null(), "the object made the cache stale: {json}");
+        let px = json["insert"]["pixels"].as_array().unwrap().len();
+        assert!(px > 5, "frame {i}: the object covers {px} pixels");
+        pixels.push(json["insert"]["pixels"].clone());
+    }
+    assert_ne!(pixels[0], pixels[2], "the object moves");
+    // a change of the scene itself is still refused
+    let stale =
+        octolux(&[&["render", &p("scene.xml"), "-D", "mat=0.5", "--cache", &p("l.oxc"), "-q", "-o", &p("s.exr")][..], &ins[..]].concat());
+    assert!(!stale.status.success() && last_line(&stale).contains("materials"), "{}", last_line(&stale));
+    // bad inputs are named
+    std::fs::write(p("bad.json"), r#"{"keyframes": [{"time": 0, "position": [0, 0, 0], "scale": -1}]}"#).unwrap();
+    let bad =
+        octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert", &p("cube.obj"), "--insert-path", &p("bad.json")]);
+    assert!(!bad.status.success() && last_line(&bad).contains("bad.json") && last_line(&bad).contains("scale"), "{}", last_line(&bad));
+    let missing = octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert", &p("none.obj")]);
+    assert!(!missing.status.success() && last_line(&missing).contains("none.obj"), "{}", last_line(&missing));
+    let _ = std::fs::remove_dir_all(PathBuf::from(&dir));
+}

@@ -1,0 +1,527 @@
+//! Values in the atmospheric cells: the volumetric solution the paper names as future work
+//! (§10: "diffusing radiance into [the atmospheric cells] would make the solution volumetric
+//! and allow inserting and moving objects in a lit scene"); issue 13, item 4; measured in
+//! docs/baking.md ("A volumetric solution").
+//!
+//! # What is diffused
+//! A valid leaf's matrix `k` (one of `+X, −X, +Y, −Y, +Z, −Z`) is the irradiance vector of the
+//! hemisphere around `N_k` on the surfaces of the cell that face `N_k` (the facing bits). A
+//! small object placed in free space sees, on its side facing `N_k`, about what the nearby
+//! surfaces facing the same way see: the floor's `+Y` matrices stand for the tops of objects
+//! above it, the ceiling's `−Y` for their undersides, the walls' for their sides. So each of
+//! the six matrices is diffused on its own, from the leaves whose photons give it (the
+//! sources: the facing bits whose half-axis one of the leaf's photon normals faces) into
+//! every other leaf: atmospheric leaves, and the valid leaves' missing matrices (a floor cell's
+//! `−Y`), so that a query anywhere meets values for every normal.
+//!
+//! # How
+//! A graph over the leaves: two leaves are neighbours when their cells share a face (area
+//! `A > 0`), with weight `A / d` (`d` between the cells' centres, the finite-volume
+//! Laplacian's). Each leaf has a probe point: an atmospheric leaf's centre, a valid leaf's mean
+//! photon position lifted [`PROBE_LIFT`] cell edges along the mean photon normal (on the lit
+//! side of its surface). **An edge exists only when the segment between the two probe points
+//! is unoccluded** (the caller's visibility test, a shadow ray in the scene): light is never
+//! diffused through a wall, however thin against the cells, and cells inside solid geometry
+//! or outside a closed room are never reached (they stay without a value).
+//!
+//! Values flow one way along their own axis: matrix `k` enters a leaf across a face of `k`'s
+//! axis only from the neighbour behind it (on the `−N_k` side), across the other faces from
+//! any neighbour. A sensor facing `N_k` sees what the surfaces facing `N_k` *below* it (along
+//! `N_k`) see, not what those above it see: the top of a light fixture hung under the ceiling
+//! (a dark gap facing up) must not darken the up-facing values of the room under it
+//! (measured: it did, to 0.3 of the path-traced value 0.4 below the ceiling).
+//!
+//! Then, per matrix: a front grows from the sources, one graph layer per sweep, each reached
+//! leaf taking the weighted mean of its neighbours reached before (a deterministic
+//! breadth-first fill, sweeps in parallel over the leaves, each reading only the previous
+//! sweep); then [`SMOOTHING_SWEEPS`] damped Jacobi sweeps (`v ← ½v + ½ mean of neighbours`)
+//! relax the filled values towards the harmonic interpolation of the sources, which stay
+//! fixed. The result is bit-identical for any thread count.
+//!
+//! # Query
+//! [`Octree::irradiance_volume`] blends like §7 (`query.rs`): every leaf meeting the query box,
+//! weighted by its overlap, per axis over the leaves that have that matrix (a leaf's own
+//! value first, its diffused one otherwise). The weights are continuous in `P`, so the result
+//! is `C0` across cell borders wherever the caller's `keep` keeps the same leaves.
+//!
+//! # Storage
+//! Per leaf (depth-first order) one byte of filled bits, and per leaf with any filled bit the
+//! six matrices in the tree's storage (36 bytes compressed, zero where not filled). The cache
+//! file carries both (`octolux_io::cache`, format version 3).
+
+use super::compress::{compress_leaf, decompress_matrix, FullLeaf, MATRIX_BYTES};
+use super::{LeafValues, Octree, QueryLeaf, ALL_FACING, ANCHOR_SAMPLES, NO_VALUE};
+use crate::math::Color;
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// How far (in cell edges) a valid leaf's probe point lies off its photons' surface, along
+/// their mean normal (the `octree` integrator lifts its leak test's anchors as much).
+pub const PROBE_LIFT: f32 = 0.25;
+/// A valid leaf's matrix `k` is a source of the diffusion when one of its photon normals lies
+/// within 60° of the half-axis `k` (`Octree::source_bits`).
+pub const SOURCE_MAX_ANGLE_COS: f32 = 0.5;
+/// Damped Jacobi sweeps after the fill.
+pub const SMOOTHING_SWEEPS: u32 = 16;
+/// No value index.
+const NONE: u32 = u32::MAX;
+
+/// The diffused values of a tree (module docs).
+#[derive(Clone, Debug)]
+pub(super) struct Atmosphere {
+    /// Per leaf, depth-first order: which matrices were diffused into it.
+    pub(super) filled: Vec<u8>,
+    /// One entry per leaf with any filled bit, in order.
+    pub(super) values: LeafValues,
+    /// Per node: index into `values`, or `NONE` (derived from `filled`).
+    index: Vec<u32>,
+    /// Per entry of `values`: its filled bits (derived from `filled`).
+    entry_bits: Vec<u8>,
+}
+
+/// What the fill did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct AtmosphereStats {
+    /// Leaves of the tree (valid and atmospheric).
+    pub leaves: usize,
+    /// Face-sharing leaf pairs whose probe points see each other.
+    pub edges: usize,
+    /// Pairs refused by the visibility test (a surface between the probes).
+    pub blocked_edges: usize,
+    /// Leaves that received at least one diffused matrix.
+    pub filled_leaves: usize,
+    /// Atmospheric leaves left without any value (inside solids, outside closed rooms).
+    pub unreached_leaves: usize,
+    /// Fill sweeps (graph layers) of the slowest matrix.
+    pub fill_sweeps: u32,
+    /// Bytes stored: filled bits and values.
+    pub bytes: usize,
+    /// Seconds.
+    pub t_s: f64,
+}
+
+/// Whether matrix `k` may flow into a leaf from a neighbour on `side` (2 × axis + 1 when the
+/// neighbour lies above along the axis of the shared face): across faces of the other axes,
+/// always; along its own axis only in the direction `N_k` (module docs).
+#[inline]
+fn flows(k: usize, side: u8) -> bool {
+    let (axis, above) = ((side / 2) as usize, side % 2 == 1);
+    axis != k / 2 || above == (k % 2 == 1)
+}
+
+/// One leaf of the tree, for the fill.
+#[derive(Clone, Copy)]
+struct Leaf {
+    node: u32,
+    depth: u32,
+    ijk: [u32; 3],
+}
+
+/// Per-node value index of the leaves with filled bits (`filled` in depth-first leaf order).
+fn node_index(tree: &Octree, filled: &[u8]) -> Vec<u32> {
+    let mut index = vec![NONE; tree.nodes.len()];
+    let (mut leaf, mut next) = (0usize, 0u32);
+    let b = tree.bounds();
+    tree.view().visit(b.min, b.max, |node, _, _, _| {
+        if filled.get(leaf).copied().unwrap_or(0) != 0 {
+            index[node as usize] = next;
+            next += 1;
+        }
+        leaf += 1;
+    });
+    index
+}
+
+impl Atmosphere {
+    /// From stored parts: lengths are the caller's to check (`parts.rs`).
+    pub(super) fn new(tree: &Octree, filled: Vec<u8>, values: LeafValues) -> Atmosphere {
+        let index = node_index(tree, &filled);
+        let entry_bits = filled.iter().copied().filter(|&f| f != 0).collect();
+        Atmosphere { filled, values, index, entry_bits }
+    }
+
+    pub(super) fn bytes(&self) -> usize {
+        self.filled.len() + self.values.bytes()
+    }
+}
+
+impl Octree {
+    /// The leaves in depth-first order.
+    fn leaves(&self) -> Vec<Leaf> {
+        let mut out = Vec::with_capacity(self.stats.leaves);
+        let b = self.bounds();
+        self.view().visit(b.min, b.max, |node, depth, ijk, _| out.push(Leaf { node, depth, ijk }));
+        out
+    }
+
+    /// Matrix `k` of valid leaf `v`.
+    #[inline]
+    fn valid_matrix(&self, v: usize, k: usize) -> Mat3 {
+        match &self.values {
+            LeafValues::Compressed(c) => decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
+            LeafValues::Full(f) => f[v][k],
+        }
+    }
+
+    /// The matrices valid leaf `v` gives: those of its facing bits (all without them) whose
+    /// half-axis one of the leaf's photon normals (its anchors: the mean and the samples)
+    /// faces within [`SOURCE_MAX_ANGLE_COS`]. The facing bits alone are not enough: a floor
+    /// whose rotated normal is `(0, 1, −4e-8)` sets the `−Z` bit, and the matrix of such a
+    /// sliver (a few photons over a vanishing projected area) is noise, once even negative;
+    /// as a source it would pin the diffused field to it.
+    fn source_bits(&self, v: usize) -> u8 {
+        let own = self.facing.get(v).copied().unwrap_or(ALL_FACING);
+        let a = &self.anchors[v];
+        let normals = std::iter::once(a.mean.normal().normalize_or_zero()).chain(a.samples.iter().map(|x| x.normal().normalize_or_zero()));
+        let mut faced = 0u8;
+        for n in normals {
+            for k in 0..6 {
+                let c = if k % 2 == 0 { n[k / 2] } else { -n[k / 2] };
+                if c > SOURCE_MAX_ANGLE_COS {
+                    faced |= 1 << k;
+                }
+            }
+        }
+        own & faced
+    }
+
+    /// Whether the tree carries diffused values.
+    pub fn has_atmosphere(&self) -> bool {
+        self.atmosphere.is_some()
+    }
+
+    /// Diffuse the six matrices into every leaf that lacks them (module docs). `visible(a, b)`
+    /// says whether the segment between two points is free of surfaces (a shadow ray). Replaces
+    /// any previous fill.
+    pub fn fill_atmosphere(&mut self, visible: &(dyn Fn(Vec3, Vec3) -> bool + Sync)) -> AtmosphereStats {
+        let t0 = std::time::Instant::now();
+        self.atmosphere = None;
+        let leaves = self.leaves();
+        let n = leaves.len();
+        let mut leaf_of_node = vec![NONE; self.nodes.len()];
+        for (i, l) in leaves.iter().enumerate() {
+            leaf_of_node[l.node as usize] = i as u32;
+        }
+        let view = self.view();
+        let centre = |l: &Leaf| view.cell_min(l.depth, l.ijk) + Vec3::splat(0.5 * self.cell_size[l.depth as usize]);
+        let probes: Vec<Vec3> = leaves
+            .iter()
+            .map(|l| {
+                let v = self.nodes[l.node as usize].value();
+                if v == NO_VALUE {
+                    centre(l)
+                } else {
+                    let (cmin, s) = (view.cell_min(l.depth, l.ijk), self.cell_size[l.depth as usize]);
+                    let a = &self.anchors[v as usize].mean;
+                    a.position(cmin, s) + a.normal() * (PROBE_LIFT * s)
+                }
+            })
+            .collect();
+        // Face neighbours j > i of each leaf, with their weight and visibility.
+        let delta = 0.25 * self.stats.min_leaf_size;
+        let pairs: Vec<Vec<(u32, f32, bool, u8)>> = leaves
+            .par_iter()
+            .enumerate()
+            .map(|(i, l)| {
+                let s = self.cell_size[l.depth as usize];
+                let (cmin, c) = (view.cell_min(l.depth, l.ijk), centre(l));
+                let mut out = Vec::new();
+                for a in 0..3 {
+                    // the upper face only: every shared face is some leaf's upper face
+                    let mut lo = cmin;
+                    let mut hi = cmin + Vec3::splat(s);
+                    lo[a] = hi[a];
+                    hi[a] += delta;
+                    view.visit(lo, hi, |node, depth, ijk, vol| {
+                        let j = leaf_of_node[node as usize];
+                        if j == NONE || vol <= 0.0 {
+                            return;
+                        }
+                        let lj = Leaf { node, depth, ijk };
+                        let d = (centre(&lj) - c).length().max(1e-12);
+                        let ok = visible(probes[i], probes[j as usize]);
+                        out.push((j, vol / delta / d, ok, a as u8));
+                    });
+                }
+                out
+            })
+            .collect();
+        // Symmetric adjacency (CSR) over the visible pairs.
+        let mut degree = vec![0u32; n + 1];
+        let (mut edges, mut blocked) = (0usize, 0usize);
+        for (i, p) in pairs.iter().enumerate() {
+            for &(j, _, ok, _) in p {
+                if ok {
+                    degree[i] += 1;
+                    degree[j as usize] += 1;
+                    edges += 1;
+                } else {
+                    blocked += 1;
+                }
+            }
+        }
+        let mut start = vec![0usize; n + 1];
+        for i in 0..n {
+            start[i + 1] = start[i] + degree[i] as usize;
+        }
+        let mut fill_at = start.clone();
+        // (neighbour, weight, side): side = 2 × shared face's axis + 1 when the neighbour lies
+        // above along it
+        let mut adj = vec![(0u32, 0f32, 0u8); start[n]];
+        for (i, p) in pairs.iter().enumerate() {
+            for &(j, w, ok, a) in p {
+                if ok {
+                    adj[fill_at[i]] = (j, w, 2 * a + 1);
+                    fill_at[i] += 1;
+                    adj[fill_at[j as usize]] = (i as u32, w, 2 * a);
+                    fill_at[j as usize] += 1;
+                }
+            }
+        }
+        drop(pairs);
+        // Sources and working values.
+        let source: Vec<u8> = leaves
+            .iter()
+            .map(|l| {
+                let v = self.nodes[l.node as usize].value();
+                if v == NO_VALUE {
+                    0
+                } else {
+                    self.source_bits(v as usize)
+                }
+            })
+            .collect();
+        let mut vals: Vec<FullLeaf> = leaves
+            .iter()
+            .zip(&source)
+            .map(|(l, &src)| {
+                let v = self.nodes[l.node as usize].value();
+                std::array::from_fn(|k| if src & (1 << k) != 0 { self.valid_matrix(v as usize, k) } else { Mat3::ZERO })
+            })
+            .collect();
+        let mut known = source.clone();
+        let neighbours = |i: usize| &adj[start[i]..start[i + 1]];
+        // Breadth-first fill, one layer per sweep.
+        let mut sweeps = 0u32;
+        loop {
+            let updates: Vec<(usize, u8, FullLeaf)> = (0..n)
+                .into_par_iter()
+                .filter_map(|i| {
+                    let missing = ALL_FACING & !known[i];
+                    if missing == 0 {
+                        return None;
+                    }
+                    let (mut bits, mut m) = (0u8, vals[i]);
+                    for (k, mk) in m.iter_mut().enumerate() {
+                        if missing & (1 << k) == 0 {
+                            continue;
+                        }
+                        let (mut sum, mut wsum) = (Mat3::ZERO, 0.0f32);
+                        for &(j, w, side) in neighbours(i) {
+                            if known[j as usize] & (1 << k) != 0 && flows(k, side) {
+                                sum += vals[j as usize][k] * w;
+                                wsum += w;
+                            }
+                        }
+                        if wsum > 0.0 {
+                            *mk = sum * (1.0 / wsum);
+                            bits |= 1 << k;
+                        }
+                    }
+                    (bits != 0).then_some((i, bits, m))
+                })
+                .collect();
+            if updates.is_empty() {
+                break;
+            }
+            sweeps += 1;
+            for (i, bits, m) in updates {
+                known[i] |= bits;
+                vals[i] = m;
+            }
+        }
+        // Damped Jacobi towards the harmonic interpolation; sources fixed.
+        for _ in 0..SMOOTHING_SWEEPS {
+            let next: Vec<FullLeaf> = (0..n)
+                .into_par_iter()
+                .map(|i| {
+                    let free = known[i] & !source[i];
+                    let mut m = vals[i];
+                    if free == 0 {
+                        return m;
+                    }
+                    for (k, mk) in m.iter_mut().enumerate() {
+                        if free & (1 << k) == 0 {
+                            continue;
+                        }
+                        let (mut sum, mut wsum) = (Mat3::ZERO, 0.0f32);
+                        for &(j, w, side) in neighbours(i) {
+                            if known[j as usize] & (1 << k) != 0 && flows(k, side) {
+                                sum += vals[j as usize][k] * w;
+                                wsum += w;
+                            }
+                        }
+                        if wsum > 0.0 {
+                            *mk = *mk * 0.5 + sum * (0.5 / wsum);
+                        }
+                    }
+                    m
+                })
+                .collect();
+            vals = next;
+        }
+        // Store the filled matrices (zero where a leaf's own value serves).
+        let filled: Vec<u8> = known.iter().zip(&source).map(|(k, s)| k & !s).collect();
+        let entries: Vec<FullLeaf> = filled
+            .iter()
+            .zip(&vals)
+            .filter(|(f, _)| **f != 0)
+            .map(|(&f, m)| std::array::from_fn(|k| if f & (1 << k) != 0 { m[k] } else { Mat3::ZERO }))
+            .collect();
+        let values = match &self.values {
+            LeafValues::Compressed(_) => LeafValues::Compressed(entries.iter().map(compress_leaf).collect()),
+            LeafValues::Full(_) => LeafValues::Full(entries),
+        };
+        let unreached_leaves =
+            leaves.iter().zip(&known).filter(|(l, &k)| self.nodes[l.node as usize].value() == NO_VALUE && k == 0).count();
+        let filled_leaves = filled.iter().filter(|&&f| f != 0).count();
+        let atmosphere = Atmosphere::new(self, filled, values);
+        let bytes = atmosphere.bytes();
+        self.stats.bytes += bytes;
+        self.stats.bytes_per_valid_leaf =
+            if self.stats.valid_leaves > 0 { self.stats.bytes as f64 / self.stats.valid_leaves as f64 } else { 0.0 };
+        self.atmosphere = Some(atmosphere);
+        AtmosphereStats {
+            leaves: n,
+            edges,
+            blocked_edges: blocked,
+            filled_leaves,
+            unreached_leaves,
+            fill_sweeps: sweeps,
+            bytes,
+            t_s: t0.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// What a query meets of a leaf: (own value index or `NO_VALUE`, own bits, diffused entry
+    /// or `NONE`, diffused bits).
+    #[inline]
+    fn volume_leaf(&self, node: u32) -> (u32, u8, u32, u8) {
+        let v = self.nodes[node as usize].value();
+        let own = if v == NO_VALUE { 0 } else { self.facing.get(v as usize).copied().unwrap_or(ALL_FACING) };
+        let (e, filled) = match &self.atmosphere {
+            Some(a) => {
+                let e = a.index[node as usize];
+                (e, if e == NONE { 0 } else { a.entry_bits[e as usize] })
+            }
+            None => (NONE, 0),
+        };
+        (v, own, e, filled)
+    }
+
+    /// Matrix `k` of a leaf met by a volume query: the diffused one where filled, else its own.
+    #[inline]
+    fn volume_matrix(&self, v: u32, e: u32, filled: u8, k: usize) -> Mat3 {
+        if filled & (1 << k) != 0 {
+            if let Some(a) = &self.atmosphere {
+                return match &a.values {
+                    LeafValues::Compressed(c) => decompress_matrix(&c[e as usize][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
+                    LeafValues::Full(f) => f[e as usize][k],
+                };
+            }
+        }
+        self.valid_matrix(v as usize, k)
+    }
+
+    /// The leak test's view of a leaf met by a volume query at `p`: a valid leaf's anchors;
+    /// for an atmospheric leaf, the point of its cell nearest to `p` (nudged a thousandth of
+    /// the cell inwards; `p` itself inside the cell), as position and as every sample, normal
+    /// zero. Not the cell's centre: an inserted object often encloses the centre of the cell
+    /// it stands in, and its own surface then hid the cell from every point on it (measured:
+    /// a black ring on a ball, 28% of its light missing in one frame of eight).
+    fn volume_query_leaf(&self, p: Vec3, v: u32, depth: u32, ijk: [u32; 3]) -> QueryLeaf {
+        let view = self.view();
+        let (cmin, s) = (view.cell_min(depth, ijk), self.cell_size[depth as usize]);
+        if v == NO_VALUE {
+            let c = p.clamp(cmin + Vec3::splat(1e-3 * s), cmin + Vec3::splat(0.999 * s));
+            return QueryLeaf {
+                position: c,
+                normal: Vec3::ZERO,
+                cell_size: s,
+                samples: [(c, Vec3::ZERO); ANCHOR_SAMPLES],
+                index: NO_VALUE,
+            };
+        }
+        let a = &self.anchors[v as usize];
+        QueryLeaf {
+            position: a.mean.position(cmin, s),
+            normal: a.mean.normal(),
+            cell_size: s,
+            samples: a.samples.map(|x| (x.position(cmin, s), x.normal().normalize_or_zero())),
+            index: v,
+        }
+    }
+
+    /// The blended incident-radiance matrix `M(N)` at any point of the tree's volume: the §7
+    /// blend over every leaf meeting the query box that has the matrices `N` needs, its own or
+    /// diffused ones (module docs). `keep`, when given, sees each such leaf (an atmospheric one
+    /// as its point nearest to `p`) and may drop it (leak control). `None` when no leaf contributes.
+    pub fn incident_matrix_volume(&self, p: Vec3, n: Vec3, mut keep: Option<&mut dyn FnMut(QueryLeaf) -> bool>) -> Option<Mat3> {
+        if !p.is_finite() || !n.is_finite() {
+            return None;
+        }
+        let sel: [usize; 3] = [if n.x >= 0.0 { 0 } else { 1 }, if n.y >= 0.0 { 2 } else { 3 }, if n.z >= 0.0 { 4 } else { 5 }];
+        let wgt = [n.x * n.x, n.y * n.y, n.z * n.z];
+        let dom = if wgt[0] >= wgt[1] && wgt[0] >= wgt[2] {
+            sel[0]
+        } else if wgt[1] >= wgt[2] {
+            sel[1]
+        } else {
+            sel[2]
+        };
+        let need = sel.iter().fold(0u8, |b, &k| b | (1 << k));
+        let mut sum = [Mat3::ZERO; 3];
+        let mut wsum = [0.0f32; 3];
+        let h = Vec3::splat(self.query_half);
+        self.view().visit(p - h, p + h, |node, depth, ijk, g| {
+            let (v, own, e, filled) = self.volume_leaf(node);
+            let bits = own | filled;
+            if bits & need == 0 {
+                return;
+            }
+            if let Some(k) = keep.as_mut() {
+                if !k(self.volume_query_leaf(p, v, depth, ijk)) {
+                    return;
+                }
+            }
+            for a in 0..3 {
+                let k = sel[a];
+                if bits & (1 << k) != 0 {
+                    sum[a] += self.volume_matrix(v, e, filled, k) * g;
+                    wsum[a] += g;
+                }
+            }
+        });
+        let (mut out, mut norm, mut any) = (Mat3::ZERO, 0.0f32, false);
+        for a in 0..3 {
+            if wsum[a] > 0.0 {
+                any = true;
+                if wgt[a] > 0.0 {
+                    out += sum[a] * (wgt[a] / wsum[a]);
+                    norm += wgt[a];
+                }
+            }
+        }
+        if !any {
+            return None;
+        }
+        Some(if norm > 0.0 { out * (1.0 / norm) } else { Mat3::ZERO })
+    }
+
+    /// Irradiance (W/m², RGB) for the unit normal `n` at any point of the tree's volume,
+    /// negative channels clamped to 0 (see [`Octree::incident_matrix_volume`]).
+    pub fn irradiance_volume(&self, p: Vec3, n: Vec3, keep: Option<&mut dyn FnMut(QueryLeaf) -> bool>) -> Option<Color> {
+        self.incident_matrix_volume(p, n, keep).map(|m| (m.transpose() * n).max(Vec3::ZERO))
+    }
+}

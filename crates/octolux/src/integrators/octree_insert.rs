@@ -1,0 +1,121 @@
+//! Objects inserted into baked lighting (issue 13, item 5; docs/baking.md "Inserted objects"):
+//! the paper's abstract asks the representation "to allow an object to be embedded in a
+//! lighting solution", and its future work (§10) names the volumetric values that make it
+//! possible (`caches::octree` `atmosphere.rs`).
+//!
+//! The scene rendered is the baked one plus the object (its shapes appended last, so that the
+//! baked scene's shape indices are unchanged); [`Inserted::shapes`] names them. At a point of
+//! the object, direct light is computed as everywhere (shadow rays see the whole scene); the
+//! indirect light is the global octree's **volume query** ([`Octree::incident_matrix_volume`]:
+//! the leaves' own and diffused values, whatever the object's position) with the usual leak
+//! control (each leaf met must be visible from the point; an atmospheric leaf through its
+//! point nearest to it). The caustic octree is not read on the object (caustic light is not diffused).
+//!
+//! Not captured: the object's shadow in the baked indirect light of the scene (the floor under
+//! it keeps its baked value), the light it reflects onto the scene, and the change of the
+//! scene's light on the object from its own presence. The cheap correction measured
+//! ([`InsertAo`]): scale the scene's baked indirect light by the fraction of a cosine-weighted
+//! set of short rays that the object does not block (its ambient occlusion on the scene).
+
+use super::common::{RayCounters, Vertex};
+use super::octree::{keep_leaf, shade_matrix, OctreeIntegrator};
+use crate::caches::octree::AtmosphereStats;
+use crate::caches::Octree;
+use crate::math::{Color, Ray};
+use crate::sampling::{around, square_to_cosine_hemisphere, Sampler};
+use crate::scene::material::Material;
+use crate::scene::Scene;
+use std::ops::Range;
+
+/// The ambient-occlusion correction of the scene's indirect light around an inserted object.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InsertAo {
+    /// Cosine-distributed rays per shading point.
+    pub rays: u32,
+    /// Their length (scene units): occluders farther away do not count.
+    pub distance: f32,
+}
+
+/// The objects inserted into a baked lighting solution (module docs).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Inserted {
+    /// Shape indices (of the prepared scene) of the inserted objects; empty: none.
+    pub shapes: Range<u32>,
+    /// Their ambient occlusion on the scene's indirect light, if asked for.
+    pub ao: Option<InsertAo>,
+}
+
+impl OctreeIntegrator {
+    /// Diffuse the global octree's values into its atmospheric cells (and the valid leaves'
+    /// missing matrices), never through a surface of `scene` (the baked scene, without any
+    /// inserted object). The build statistics follow (bytes).
+    pub fn fill_atmosphere(&mut self, scene: &Scene) -> AtmosphereStats {
+        let visible = |a: glam::Vec3, b: glam::Vec3| {
+            let d = b - a;
+            let len = d.length();
+            !(len > 0.0) || !scene.occluded(&Ray::segment(a, d / len, len))
+        };
+        let st = self.global.fill_atmosphere(&visible);
+        self.stats.global = self.global.stats().clone();
+        self.stats.bytes = self.global.stats().bytes + self.caustic.as_ref().map_or(0, |c| c.stats().bytes);
+        st
+    }
+
+    /// The indirect light of the `Render` view at `v`: as without insertion, except on an
+    /// inserted object (the volume query) and, with [`InsertAo`], near one.
+    pub(super) fn indirect_render(
+        &self,
+        scene: &Scene,
+        v: &Vertex,
+        material: &Material,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+    ) -> Color {
+        if self.inserted.shapes.is_empty() {
+            return self.indirect_from(scene, v, material, counters, true, true);
+        }
+        if self.inserted.shapes.contains(&v.hit.shape) {
+            return self.inserted_indirect(scene, &self.global, v, material, counters);
+        }
+        let l = self.indirect_from(scene, v, material, counters, true, true);
+        match self.inserted.ao {
+            Some(ao) if ao.rays > 0 && l != Color::ZERO => l * self.unoccluded_by_inserted(scene, v, ao, sampler, counters),
+            _ => l,
+        }
+    }
+
+    /// Light reflected at a point of an inserted object from `tree`'s volume query.
+    fn inserted_indirect(&self, scene: &Scene, tree: &Octree, v: &Vertex, material: &Material, counters: &mut RayCounters) -> Color {
+        let (hit, n) = (&v.hit, v.n);
+        let mut rays = 0u64;
+        let leak = self.settings.leak;
+        let m = counters.time_query(|| {
+            tree.incident_matrix_volume(hit.p, n, Some(&mut |q| keep_leaf(scene, tree, None, hit, n, leak, q, &mut rays).is_some()))
+        });
+        counters.shadow_rays += rays;
+        let Some(m) = m else { return Color::ZERO };
+        match material.lambertian_albedo(&scene.images, hit.uv, v.wo) {
+            Some(rho) => rho * (m.transpose() * n).max(Color::ZERO) * std::f32::consts::FRAC_1_PI,
+            None => shade_matrix(scene, hit, material, v.wo, &m),
+        }
+    }
+
+    /// Fraction of `ao.rays` cosine-distributed rays of length `ao.distance` from `v` that no
+    /// inserted shape blocks.
+    fn unoccluded_by_inserted(&self, scene: &Scene, v: &Vertex, ao: InsertAo, sampler: &mut Sampler, counters: &mut RayCounters) -> f32 {
+        let o = crate::math::offset_origin(v.hit.p, crate::math::facing(v.hit.ng, v.n), v.n);
+        let mut free = 0u32;
+        for _ in 0..ao.rays {
+            let d = around(v.n, square_to_cosine_hemisphere(sampler.next_2d()));
+            counters.rays += 1;
+            match scene.intersect(&Ray::segment(o, d, ao.distance)) {
+                Some(h) if self.inserted.shapes.contains(&h.shape) => {}
+                _ => free += 1,
+            }
+        }
+        free as f32 / ao.rays as f32
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,244 @@
+//! The volumetric solution (`caches::octree` `atmosphere.rs`) against path tracing, across
+//! walls and across cell borders, and an object inserted into baked lighting.
+
+use super::super::octree::{OctreeIntegrator, OctreeIntegratorSettings, ANCHOR_LIFT};
+use super::super::octree_leak::two_rooms;
+use super::super::path::{li, PathSettings};
+use super::super::test_scenes::box_scene;
+use super::super::RayCounters;
+use super::{InsertAo, Inserted};
+use crate::caches::octree::{Depth, QueryLeaf};
+use crate::caches::Octree;
+use crate::math::Ray;
+use crate::sampling::{around, square_to_cosine_hemisphere, Sampler};
+use crate::scene::Scene;
+use glam::Vec3;
+
+const NORMALS: [Vec3; 6] = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+
+fn mean3(c: Vec3) -> f64 {
+    c.element_sum() as f64 / 3.0
+}
+
+/// Path-traced indirect irradiance at a free point `p` for normal `n`: `rays` cosine-sampled
+/// directions, the light leaving the surface each one meets (reflected light only: a ray
+/// meeting an emitter counts 0, its reflection there being negligible), times π.
+fn path_irradiance(scene: &Scene, p: Vec3, n: Vec3, rays: u32, seed: u64) -> f64 {
+    let mut c = RayCounters::default();
+    let settings = PathSettings::default();
+    let mut sum = 0.0f64;
+    for i in 0..rays {
+        let mut s = Sampler::new(seed, i as u64, 7);
+        let d = around(n, square_to_cosine_hemisphere(s.next_2d()));
+        let ray = Ray::new(p, d);
+        match scene.intersect(&ray) {
+            Some(h) if h.light.is_none() => sum += mean3(li(&settings, scene, ray, None, &mut s, &mut c)),
+            _ => {}
+        }
+    }
+    std::f64::consts::PI * sum / rays as f64
+}
+
+/// The leak test of a free point: a leaf counts when one of its sampled photons (lifted as the
+/// integrator lifts them), or an atmospheric leaf's centre, is visible from `p`.
+fn visible_from(scene: &Scene, p: Vec3) -> impl FnMut(QueryLeaf) -> bool + '_ {
+    move |q: QueryLeaf| {
+        q.samples.iter().any(|&(a, nrm)| {
+            let t = a + nrm * (ANCHOR_LIFT * q.cell_size);
+            let d = t - p;
+            let len = d.length();
+            !(len > 1e-6) || !scene.occluded(&Ray::segment(p, d / len, len))
+        })
+    }
+}
+
+fn volume(tree: &Octree, scene: &Scene, p: Vec3, n: Vec3) -> f64 {
+    let mut keep = visible_from(scene, p);
+    tree.irradiance_volume(p, n, Some(&mut keep)).map_or(0.0, mean3)
+}
+
+fn baked_box(photons: u64) -> (Scene, OctreeIntegrator) {
+    let scene = box_scene(8);
+    let mut s = OctreeIntegratorSettings::default();
+    s.photons.photons = photons;
+    let mut o = OctreeIntegrator::build(&scene, s).unwrap();
+    let st = o.fill_atmosphere(&scene);
+    eprintln!("atmosphere of the box: {st:?}");
+    assert!(st.filled_leaves > 0 && st.edges > 0, "{st:?}");
+    (scene, o)
+}
+
+/// Free-space points of the closed Cornell-like box (size 2, light under the ceiling), each of
+/// the six axis normals: the volume query's indirect irradiance against the path tracer's
+/// (512 rays each). Measured (400 000 photons): per (point, normal) the ratio spreads over
+/// 0.63–1.46 (the diffused value is that of the nearby surfaces facing the same way, not the
+/// point's own: a sensor facing −X near the red wall sees it closer than the green wall, whose
+/// value it gets, does), the mean ratio over the 48 cases 1.004. Before the diffusion flowed one
+/// way along each matrix's axis, the dark top of the light pulled the up-facing values under
+/// the ceiling to 0.26. Bounds: every case within 0.5–1.6, the mean within 15%.
+#[test]
+fn free_space_irradiance_is_close_to_path_tracing() {
+    let (scene, o) = baked_box(400_000);
+    let points = [
+        Vec3::new(-0.4, 0.5, -0.4),
+        Vec3::new(0.4, 0.5, 0.4),
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(0.5, 1.2, -0.3),
+        Vec3::new(-0.5, 1.5, 0.3),
+        Vec3::new(0.3, 0.3, 0.0),
+        Vec3::new(-0.2, 0.8, 0.6),
+        Vec3::new(0.0, 1.6, -0.5),
+    ];
+    let (mut ratios, mut line) = (Vec::new(), String::new());
+    for (i, &p) in points.iter().enumerate() {
+        for (k, &n) in NORMALS.iter().enumerate() {
+            let e = volume(&o.global, &scene, p, n);
+            let r = path_irradiance(&scene, p, n, 512, (i * 6 + k) as u64);
+            assert!(r > 0.0, "the path tracer sees indirect light at {p} for {n}");
+            ratios.push(e / r);
+            line += &format!(" {:.2}", e / r);
+        }
+        line += " |";
+    }
+    let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
+    let (lo, hi) = ratios.iter().fold((f64::MAX, 0.0f64), |(a, b), &r| (a.min(r), b.max(r)));
+    eprintln!(
+        "octree volume / path-traced indirect irradiance (+X -X +Y -Y +Z -Z per point):{line}\nmean {mean:.3}, range {lo:.3}..{hi:.3}"
+    );
+    assert!((0.5..=1.6).contains(&lo) && (0.5..=1.6).contains(&hi), "a case out of 0.5..1.6: {lo:.3}..{hi:.3}");
+    assert!((mean - 1.0).abs() <= 0.15, "mean ratio {mean:.3}");
+}
+
+/// Two rooms with a shared wall (`octree_leak.rs`), the light in the left one: the dark room
+/// must receive no diffused value, for a wall two leaves thick and for one a quarter leaf thick
+/// (thinner than a cell: the two rooms share cells). With a visibility that sees through
+/// everything the fill does leak (the test can fail).
+#[test]
+fn values_do_not_cross_a_wall() {
+    let root = 2.0 * (1.0 + 2e-5);
+    let s = root / 32.0;
+    let x_lit = -1.0 - 1e-5 * 2.0 + (16.0 + 0.3) * s;
+    for (t_leaves, leaks_expected) in [(2.0f32, true), (0.25, true)] {
+        let t = t_leaves * s;
+        let scene = two_rooms(x_lit, t);
+        let mut st = OctreeIntegratorSettings::default();
+        st.photons.photons = 200_000;
+        st.global.h_max = Depth::Fixed(5);
+        st.global.n_max = 100;
+        st.global.n_min = 10;
+        let mut o = OctreeIntegrator::build(&scene, st).unwrap();
+        let measure = |tree: &Octree| {
+            let (mut lit, mut dark) = (Vec::new(), Vec::new());
+            for y in [0.2f32, 0.5, 0.8] {
+                for z in [0.25f32, 0.5, 0.75] {
+                    for &n in &NORMALS {
+                        lit.push(volume(tree, &scene, Vec3::new(x_lit - 0.4, y, z), n));
+                        for d in [0.1f32, 0.3, 0.6] {
+                            dark.push(volume(tree, &scene, Vec3::new(x_lit + t + d, y, z), n));
+                        }
+                    }
+                }
+            }
+            let lit_mean = lit.iter().sum::<f64>() / lit.len() as f64;
+            (lit_mean, dark.iter().copied().fold(0.0, f64::max))
+        };
+        let stats = o.fill_atmosphere(&scene);
+        let (lit, dark) = measure(&o.global);
+        eprintln!("wall {t_leaves} leaves: lit room {lit:.4}, dark room max {dark:.5} ({:.3}%); {stats:?}", 100.0 * dark / lit);
+        assert!(lit > 0.0 && dark <= 0.01 * lit, "wall {t_leaves} leaves: dark room {dark} against lit {lit}");
+        // the same fill seeing through walls leaks: the visibility is what stops it
+        let mut blind = o.global.clone();
+        blind.fill_atmosphere(&|_, _| true);
+        let mut leak = 0.0f64;
+        for y in [0.2f32, 0.5, 0.8] {
+            for &n in &NORMALS {
+                leak = leak.max(blind.irradiance_volume(Vec3::new(x_lit + t + 0.3, y, 0.5), n, None).map_or(0.0, mean3));
+            }
+        }
+        eprintln!("  without the visibility test: dark room max {leak:.4} ({:.1}%)", 100.0 * leak / lit);
+        if leaks_expected {
+            assert!(leak > 0.05 * lit, "the blind fill should leak: {leak}");
+        }
+    }
+}
+
+/// Across the border of two free-space leaves, the volume query is continuous: at `±1e-4` of
+/// the query box from the border the values agree to 0.1%, where the two cells' own values
+/// (a query box away on each side) differ.
+#[test]
+fn volume_query_is_continuous_across_cell_borders() {
+    let (scene, o) = baked_box(200_000);
+    let tree = &o.global;
+    let q = tree.query_size();
+    let mut checked = 0;
+    for start in [Vec3::new(0.05, 1.0, 0.1), Vec3::new(-0.3, 0.6, 0.2), Vec3::new(0.2, 1.4, -0.3)] {
+        let leaf = tree.leaf_at(start).unwrap();
+        let x = leaf.bounds.max.x;
+        let at = |dx: f32, n: Vec3| tree.irradiance_volume(Vec3::new(x + dx, start.y, start.z), n, None).map_or(0.0, mean3);
+        for &n in &NORMALS {
+            let (a, b) = (at(-1e-4 * q, n), at(1e-4 * q, n));
+            let (far_a, far_b) = (at(-1.5 * q, n), at(1.5 * q, n));
+            assert!(a > 0.0 && b > 0.0, "no value at the border {x} for {n} (from {start})");
+            assert!((a - b).abs() <= 1e-3 * a.max(b), "jump at the border {x} for {n}: {a} | {b} (a box away: {far_a} | {far_b})");
+            if (far_a - far_b).abs() > 1e-2 * far_a.max(far_b) {
+                checked += 1;
+            }
+        }
+    }
+    let _ = scene;
+    eprintln!("continuity: {checked} of 18 borders separate different values");
+    assert!(checked >= 3, "too few borders between different values to test continuity: {checked}");
+}
+
+/// A box standing on the floor of the baked Cornell box, absent from the bake: rendered from
+/// the bake (octree, volume query on the box) and by the path tracer with the box present.
+/// Measured: the object's mean 0.933 of the path tracer's while the empty leaves' leak test
+/// aimed at their centres, 0.788 since it aims at their point nearest to the query (which
+/// removed the black rim of docs/baking.md's ball; why the box lost light is not yet
+/// understood). Bound: 0.7–1.15.
+#[test]
+fn inserted_object_renders_from_the_bake() {
+    use crate::integrators::Integrator;
+    use crate::render::{render, RenderSettings};
+    use crate::scene::{Geometry, ShapeDesc, TriMesh};
+    let base = super::super::test_scenes::box_desc();
+    let mut s = OctreeIntegratorSettings::default();
+    s.photons.photons = 200_000;
+    let base_scene = Scene::prepare(base.clone(), crate::accel::BackendKind::Bvh).unwrap();
+    let mut o = OctreeIntegrator::build(&base_scene, s).unwrap();
+    o.fill_atmosphere(&base_scene);
+    let mut desc = base;
+    desc.film.width = 24;
+    desc.film.height = 24;
+    let first = desc.shapes.len() as u32;
+    let cube = glam::Mat4::from_translation(Vec3::new(0.1, 0.3, -0.2)) * glam::Mat4::from_scale(Vec3::new(0.3, 0.3, 0.3));
+    desc.shapes.push(ShapeDesc {
+        name: "inserted".into(),
+        geometry: Geometry::Mesh(TriMesh::cube(&cube)),
+        material: 0,
+        emission: None,
+        flip_normals: false,
+    });
+    let scene = Scene::prepare(desc, crate::accel::BackendKind::Bvh).unwrap();
+    o.inserted = Inserted { shapes: first..first + 1, ao: None };
+    let rs = RenderSettings { spp: 16, ..Default::default() };
+    let octree = Integrator::Octree(Box::new(o));
+    let (img, _) = render(&scene, &octree, &rs, &|_, _| {});
+    let path = Integrator::Path(PathSettings::default());
+    let (truth, _) = render(&scene, &path, &RenderSettings { spp: 256, ..Default::default() }, &|_, _| {});
+    // the object's pixels: the camera ray's first hit
+    let mask: Vec<bool> = (0..24 * 24)
+        .map(|i| {
+            let (x, y) = ((i % 24) as f32 + 0.5, (i / 24) as f32 + 0.5);
+            let (o, d, _) = scene.camera.generate_ray(glam::Vec2::new(x, y));
+            scene.intersect(&Ray::new(o, d)).is_some_and(|h| h.shape == first)
+        })
+        .collect();
+    let n = mask.iter().filter(|&&m| m).count();
+    assert!(n > 20, "the object covers {n} pixels");
+    let mean = |im: &crate::image::Image| mask.iter().zip(&im.data).filter(|(m, _)| **m).map(|(_, c)| mean3(*c)).sum::<f64>() / n as f64;
+    let (a, b) = (mean(&img), mean(&truth));
+    eprintln!("inserted box: {n} pixels, octree mean {a:.4}, path {b:.4} (ratio {:.3})", a / b);
+    assert!((0.7..=1.15).contains(&(a / b)), "octree {a} against path {b}");
+    let _ = InsertAo { rays: 4, distance: 0.5 };
+}

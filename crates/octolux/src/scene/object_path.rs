@@ -1,0 +1,173 @@
+//! The motion of an object inserted into baked lighting (issue 13, item 5; docs/baking.md
+//! "Inserted objects"): keyframes of position, rotation about the vertical axis and scale,
+//! sampled at `fps` into numbered frames as a camera path is (`camera_path.rs`: frame `i` at
+//! `t_first + (i − 1) / fps`, the last one not after `t_last`).
+//!
+//! Interpolation is linear between keys (position, angle, scale), the key itself at its time,
+//! the first key before it and the last after it. The transform of a pose is
+//! `translate(position) · rotate_y(rotate_y) · scale(scale)` applied to the object as loaded.
+
+use glam::{Mat4, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// Most frames a path may make.
+pub const MAX_FRAMES: u64 = super::camera_path::MAX_FRAMES;
+
+/// One keyframe (scene units, degrees, seconds).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectKeyframe {
+    /// Seconds.
+    pub time: f64,
+    /// Where the object's origin goes (scene units).
+    pub position: [f32; 3],
+    /// Rotation about +y, degrees (default 0).
+    #[serde(default)]
+    pub rotate_y: f32,
+    /// Uniform scale (default 1).
+    #[serde(default = "one")]
+    pub scale: f32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+fn default_fps() -> f64 {
+    24.0
+}
+
+/// An object path file (JSON): `fps` and the keyframes, in increasing time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectPath {
+    /// Frames per second (default 24).
+    #[serde(default = "default_fps")]
+    pub fps: f64,
+    pub keyframes: Vec<ObjectKeyframe>,
+}
+
+impl ObjectKeyframe {
+    fn transform(&self) -> Mat4 {
+        Mat4::from_translation(Vec3::from(self.position))
+            * Mat4::from_rotation_y(self.rotate_y.to_radians())
+            * Mat4::from_scale(Vec3::splat(self.scale))
+    }
+}
+
+impl ObjectPath {
+    /// Keys present, finite, in increasing time, scales positive; `fps` positive; at most
+    /// [`MAX_FRAMES`] frames.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.keyframes.is_empty() {
+            return Err("the object path has no keyframe".into());
+        }
+        if !(self.fps.is_finite() && self.fps > 0.0) {
+            return Err(format!("fps {} must be a positive number", self.fps));
+        }
+        for (i, k) in self.keyframes.iter().enumerate() {
+            let at = |m: String| Err(format!("keyframe {}: {m}", i + 1));
+            if !k.time.is_finite() {
+                return at(format!("time {} is not finite", k.time));
+            }
+            if i > 0 && k.time <= self.keyframes[i - 1].time {
+                return at(format!("time {} is not after the previous keyframe's {}", k.time, self.keyframes[i - 1].time));
+            }
+            if !(Vec3::from(k.position).is_finite() && k.rotate_y.is_finite()) {
+                return at("position and rotate_y must be finite".into());
+            }
+            if !(k.scale.is_finite() && k.scale > 0.0) {
+                return at(format!("scale {} must be a positive number", k.scale));
+            }
+        }
+        let frames = self.span() * self.fps + 1.0;
+        if frames > MAX_FRAMES as f64 {
+            return Err(format!("the path makes {frames:.0} frames at {} fps (at most {MAX_FRAMES})", self.fps));
+        }
+        Ok(())
+    }
+
+    fn span(&self) -> f64 {
+        match (self.keyframes.first(), self.keyframes.last()) {
+            (Some(a), Some(b)) => b.time - a.time,
+            _ => 0.0,
+        }
+    }
+
+    /// Frames of the path at `fps`.
+    pub fn frame_count(&self) -> u64 {
+        ((self.span() * self.fps + 1e-9).floor() as u64 + 1).min(MAX_FRAMES)
+    }
+
+    /// Time of frame `i` (from 1).
+    pub fn frame_time(&self, i: u64) -> f64 {
+        let t0 = self.keyframes.first().map_or(0.0, |k| k.time);
+        t0 + (i.max(1) - 1) as f64 / self.fps
+    }
+
+    /// The object's transform at time `t` (module docs).
+    pub fn transform_at(&self, t: f64) -> Mat4 {
+        let keys = &self.keyframes;
+        let (Some(first), Some(last)) = (keys.first(), keys.last()) else { return Mat4::IDENTITY };
+        if !(t > first.time) {
+            return first.transform();
+        }
+        if t >= last.time {
+            return last.transform();
+        }
+        let k = keys.partition_point(|key| key.time <= t) - 1;
+        let (a, b) = (&keys[k], &keys[k + 1]);
+        let u = ((t - a.time) / (b.time - a.time)) as f32;
+        let lerp = |x: f32, y: f32| x + (y - x) * u;
+        ObjectKeyframe {
+            time: t,
+            position: std::array::from_fn(|j| lerp(a.position[j], b.position[j])),
+            rotate_y: lerp(a.rotate_y, b.rotate_y),
+            scale: lerp(a.scale, b.scale),
+        }
+        .transform()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn path() -> ObjectPath {
+        serde_json::from_str(
+            r#"{"fps": 4, "keyframes": [{"time": 0, "position": [0, 0, 0]},
+                {"time": 1, "position": [2, 0, 0], "rotate_y": 90, "scale": 3}]}"#,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn frames_and_interpolation() {
+        let p = path();
+        p.validate().unwrap();
+        assert_eq!(p.frame_count(), 5);
+        assert_eq!(p.frame_time(3), 0.5);
+        let m = p.transform_at(0.5);
+        // half-way: at x = 1, rotated 45°, scale 2
+        let o = m.transform_point3(Vec3::ZERO);
+        assert!((o - Vec3::new(1.0, 0.0, 0.0)).length() < 1e-6, "{o}");
+        let x = m.transform_vector3(Vec3::X);
+        assert!((x.length() - 2.0).abs() < 1e-5 && (x.x - x.z.abs()).abs() < 1e-5, "{x}");
+        assert_eq!(p.transform_at(-1.0), Mat4::IDENTITY);
+        assert_eq!(p.transform_at(7.0), p.keyframes[1].transform());
+    }
+
+    #[test]
+    fn bad_paths_are_refused() {
+        let mut p = path();
+        p.keyframes[1].time = 0.0;
+        assert!(p.validate().unwrap_err().contains("keyframe 2"));
+        let mut p = path();
+        p.keyframes[0].scale = 0.0;
+        assert!(p.validate().unwrap_err().contains("scale"));
+        let mut p = path();
+        p.fps = f64::NAN;
+        assert!(p.validate().unwrap_err().contains("fps"));
+        assert!(serde_json::from_str::<ObjectPath>(r#"{"keyframes": [], "speed": 1}"#).is_err());
+    }
+}
