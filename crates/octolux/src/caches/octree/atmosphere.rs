@@ -473,13 +473,6 @@ impl Octree {
         }
         let sel: [usize; 3] = [if n.x >= 0.0 { 0 } else { 1 }, if n.y >= 0.0 { 2 } else { 3 }, if n.z >= 0.0 { 4 } else { 5 }];
         let wgt = [n.x * n.x, n.y * n.y, n.z * n.z];
-        let dom = if wgt[0] >= wgt[1] && wgt[0] >= wgt[2] {
-            sel[0]
-        } else if wgt[1] >= wgt[2] {
-            sel[1]
-        } else {
-            sel[2]
-        };
         let need = sel.iter().fold(0u8, |b, &k| b | (1 << k));
         let mut sum = [Mat3::ZERO; 3];
         let mut wsum = [0.0f32; 3];
