@@ -165,15 +165,17 @@ impl Octree {
     }
 
     /// The matrices valid leaf `v` gives: those of its facing bits (all without them) whose
-    /// half-axis one of the leaf's photon normals (its anchors: the mean and the samples)
-    /// faces within [`SOURCE_MAX_ANGLE_COS`]. The facing bits alone are not enough: a floor
+    /// half-axis the leaf's mean photon normal (its mean anchor) faces within
+    /// [`SOURCE_MAX_ANGLE_COS`] (a corner's mean normal lies within 55° of each of its walls). The facing bits alone are not enough: a floor
     /// whose rotated normal is `(0, 1, −4e-8)` sets the `−Z` bit, and the matrix of such a
     /// sliver (a few photons over a vanishing projected area) is noise, once even negative;
     /// as a source it would pin the diffused field to it.
     fn source_bits(&self, v: usize) -> u8 {
         let own = self.facing.get(v).copied().unwrap_or(ALL_FACING);
         let a = &self.anchors[v];
-        let normals = std::iter::once(a.mean.normal().normalize_or_zero()).chain(a.samples.iter().map(|x| x.normal().normalize_or_zero()));
+        // the mean normal only: since format 3 the sampled anchors hold incident directions,
+        // which on a floor reach within 60° of the side axes and made it a source again
+        let normals = std::iter::once(a.mean.normal().normalize_or_zero());
         let mut faced = 0u8;
         for n in normals {
             for k in 0..6 {
