@@ -378,6 +378,41 @@ pub fn check_bsdf(cfg: &Chi2Config, material: &Material, images: &[Image], uv: V
     out
 }
 
+/// The cache integrators with test-sized photon counts, `octree` twice (direct read and
+/// `gather`): `octree_photons` for the octree, `photons` and `n_max` 50 for the baselines,
+/// `gather_rays` for the photon map's final gathering. The furnace tests and the random-scene
+/// property test run them all.
+pub fn cache_integrators(
+    octree_photons: u64,
+    photons: u64,
+    gather_rays: u32,
+) -> Vec<(&'static str, crate::integrators::IntegratorSettings)> {
+    use crate::integrators::octree::OctreeIntegratorSettings;
+    use crate::integrators::photon::{christensen::ChristensenSettings, photonmap::PhotonMapSettings, ward::WardSettings};
+    use crate::integrators::IntegratorSettings;
+    let mut octree = OctreeIntegratorSettings::default();
+    octree.photons.photons = octree_photons;
+    let gather = OctreeIntegratorSettings { gather: true, ..octree.clone() };
+    let mut pm = PhotonMapSettings { gather_rays, ..Default::default() };
+    pm.photons.photons = photons;
+    pm.global.n_max = 50;
+    let mut ward = WardSettings::default();
+    ward.photons.photons = photons;
+    ward.density.n_max = 50;
+    ward.caustic.n_max = 50;
+    let mut chr = ChristensenSettings::default();
+    chr.photons.photons = photons;
+    chr.density.n_max = 50;
+    chr.caustic.n_max = 50;
+    vec![
+        ("octree", IntegratorSettings::Octree(octree)),
+        ("octree --gather", IntegratorSettings::Octree(gather)),
+        ("photonmap", IntegratorSettings::Photonmap(pm)),
+        ("ward", IntegratorSettings::Ward(ward)),
+        ("christensen", IntegratorSettings::Christensen(chr)),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -433,39 +468,4 @@ mod tests {
         assert!(honest.passed, "{honest:?}");
         assert!((honest.valid_fraction - 0.9).abs() < 0.01);
     }
-}
-
-/// The cache integrators with test-sized photon counts, `octree` twice (direct read and
-/// `gather`): `octree_photons` for the octree, `photons` and `n_max` 50 for the baselines,
-/// `gather_rays` for the photon map's final gathering. The furnace tests and the random-scene
-/// property test run them all.
-pub fn cache_integrators(
-    octree_photons: u64,
-    photons: u64,
-    gather_rays: u32,
-) -> Vec<(&'static str, crate::integrators::IntegratorSettings)> {
-    use crate::integrators::octree::OctreeIntegratorSettings;
-    use crate::integrators::photon::{christensen::ChristensenSettings, photonmap::PhotonMapSettings, ward::WardSettings};
-    use crate::integrators::IntegratorSettings;
-    let mut octree = OctreeIntegratorSettings::default();
-    octree.photons.photons = octree_photons;
-    let gather = OctreeIntegratorSettings { gather: true, ..octree.clone() };
-    let mut pm = PhotonMapSettings { gather_rays, ..Default::default() };
-    pm.photons.photons = photons;
-    pm.global.n_max = 50;
-    let mut ward = WardSettings::default();
-    ward.photons.photons = photons;
-    ward.density.n_max = 50;
-    ward.caustic.n_max = 50;
-    let mut chr = ChristensenSettings::default();
-    chr.photons.photons = photons;
-    chr.density.n_max = 50;
-    chr.caustic.n_max = 50;
-    vec![
-        ("octree", IntegratorSettings::Octree(octree)),
-        ("octree --gather", IntegratorSettings::Octree(gather)),
-        ("photonmap", IntegratorSettings::Photonmap(pm)),
-        ("ward", IntegratorSettings::Ward(ward)),
-        ("christensen", IntegratorSettings::Christensen(chr)),
-    ]
 }

@@ -18,6 +18,39 @@ use serde::{Deserialize, Serialize};
 /// Most frames a path may make (a typo in `fps` should not ask for a billion renders).
 pub const MAX_FRAMES: u64 = 1_000_000;
 
+/// The frames of keyframes from their first to their last time at `fps` (camera and object
+/// paths alike): frame 1 at the first key, then one every `1/fps` seconds.
+pub(crate) struct Timeline {
+    t0: f64,
+    span: f64,
+    fps: f64,
+}
+
+impl Timeline {
+    pub(crate) fn new(mut times: impl Iterator<Item = f64>, fps: f64) -> Timeline {
+        let t0 = times.next().unwrap_or(0.0);
+        let t1 = times.last().unwrap_or(t0);
+        Timeline { t0, span: t1 - t0, fps }
+    }
+
+    /// At most [`MAX_FRAMES`] frames.
+    pub(crate) fn check(&self) -> Result<(), String> {
+        let frames = self.span * self.fps + 1.0;
+        if frames > MAX_FRAMES as f64 {
+            return Err(format!("the path makes {frames:.0} frames at {} fps (at most {MAX_FRAMES})", self.fps));
+        }
+        Ok(())
+    }
+
+    pub(crate) fn frame_count(&self) -> u64 {
+        ((self.span * self.fps + 1e-9).floor() as u64 + 1).min(MAX_FRAMES)
+    }
+
+    pub(crate) fn frame_time(&self, i: u64) -> f64 {
+        self.t0 + (i.max(1) - 1) as f64 / self.fps
+    }
+}
+
 /// One keyframe: where the camera is and looks at a time (scene units, degrees, seconds).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -108,29 +141,21 @@ impl CameraPath {
                 return at(format!("fov {} degrees is outside (0, 180)", k.fov));
             }
         }
-        let frames = self.span() * self.fps + 1.0;
-        if frames > MAX_FRAMES as f64 {
-            return Err(format!("the path makes {frames:.0} frames at {} fps (at most {MAX_FRAMES})", self.fps));
-        }
-        Ok(())
+        self.timeline().check()
     }
 
-    fn span(&self) -> f64 {
-        match (self.keyframes.first(), self.keyframes.last()) {
-            (Some(a), Some(b)) => b.time - a.time,
-            _ => 0.0,
-        }
+    fn timeline(&self) -> Timeline {
+        Timeline::new(self.keyframes.iter().map(|k| k.time), self.fps)
     }
 
     /// Number of frames (a validated path).
     pub fn frame_count(&self) -> u64 {
-        ((self.span() * self.fps + 1e-9).floor() as u64 + 1).min(MAX_FRAMES)
+        self.timeline().frame_count()
     }
 
     /// Time of frame `i` (from 1).
     pub fn frame_time(&self, i: u64) -> f64 {
-        let t0 = self.keyframes.first().map_or(0.0, |k| k.time);
-        let t = t0 + (i.max(1) - 1) as f64 / self.fps;
+        let t = self.timeline().frame_time(i);
         // a frame on a key takes the key exactly
         self.keyframes.iter().map(|k| k.time).find(|&kt| (kt - t).abs() < 1e-9).unwrap_or(t)
     }

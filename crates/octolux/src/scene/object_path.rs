@@ -80,29 +80,21 @@ impl ObjectPath {
                 return at(format!("scale {} must be a positive number", k.scale));
             }
         }
-        let frames = self.span() * self.fps + 1.0;
-        if frames > MAX_FRAMES as f64 {
-            return Err(format!("the path makes {frames:.0} frames at {} fps (at most {MAX_FRAMES})", self.fps));
-        }
-        Ok(())
+        self.timeline().check()
     }
 
-    fn span(&self) -> f64 {
-        match (self.keyframes.first(), self.keyframes.last()) {
-            (Some(a), Some(b)) => b.time - a.time,
-            _ => 0.0,
-        }
+    fn timeline(&self) -> super::camera_path::Timeline {
+        super::camera_path::Timeline::new(self.keyframes.iter().map(|k| k.time), self.fps)
     }
 
     /// Frames of the path at `fps`.
     pub fn frame_count(&self) -> u64 {
-        ((self.span() * self.fps + 1e-9).floor() as u64 + 1).min(MAX_FRAMES)
+        self.timeline().frame_count()
     }
 
     /// Time of frame `i` (from 1).
     pub fn frame_time(&self, i: u64) -> f64 {
-        let t0 = self.keyframes.first().map_or(0.0, |k| k.time);
-        t0 + (i.max(1) - 1) as f64 / self.fps
+        self.timeline().frame_time(i)
     }
 
     /// The object's transform at time `t` (module docs).

@@ -304,6 +304,18 @@ impl Octree {
             .collect();
         let mut known = source.clone();
         let neighbours = |i: usize| &adj[start[i]..start[i + 1]];
+        // The weighted mean of matrix `k` over the neighbours of leaf `i` that know it and
+        // from which it flows (none: `None`).
+        let neighbour_mean = |i: usize, k: usize, known: &[u8], vals: &[FullLeaf]| -> Option<Mat3> {
+            let (mut sum, mut wsum) = (Mat3::ZERO, 0.0f32);
+            for &(j, w, side) in neighbours(i) {
+                if known[j as usize] & (1 << k) != 0 && flows(k, side) {
+                    sum += vals[j as usize][k] * w;
+                    wsum += w;
+                }
+            }
+            (wsum > 0.0).then(|| sum * (1.0 / wsum))
+        };
         // Breadth-first fill, one layer per sweep.
         let mut sweeps = 0u32;
         loop {
@@ -319,15 +331,8 @@ impl Octree {
                         if missing & (1 << k) == 0 {
                             continue;
                         }
-                        let (mut sum, mut wsum) = (Mat3::ZERO, 0.0f32);
-                        for &(j, w, side) in neighbours(i) {
-                            if known[j as usize] & (1 << k) != 0 && flows(k, side) {
-                                sum += vals[j as usize][k] * w;
-                                wsum += w;
-                            }
-                        }
-                        if wsum > 0.0 {
-                            *mk = sum * (1.0 / wsum);
+                        if let Some(mean) = neighbour_mean(i, k, &known, &vals) {
+                            *mk = mean;
                             bits |= 1 << k;
                         }
                     }
@@ -357,15 +362,8 @@ impl Octree {
                         if free & (1 << k) == 0 {
                             continue;
                         }
-                        let (mut sum, mut wsum) = (Mat3::ZERO, 0.0f32);
-                        for &(j, w, side) in neighbours(i) {
-                            if known[j as usize] & (1 << k) != 0 && flows(k, side) {
-                                sum += vals[j as usize][k] * w;
-                                wsum += w;
-                            }
-                        }
-                        if wsum > 0.0 {
-                            *mk = *mk * 0.5 + sum * (0.5 / wsum);
+                        if let Some(mean) = neighbour_mean(i, k, &known, &vals) {
+                            *mk = *mk * 0.5 + mean * 0.5;
                         }
                     }
                     m
