@@ -33,6 +33,28 @@ impl Timeline {
         Timeline { t0, span: t1 - t0, fps }
     }
 
+    /// A keyframe at least, finite times in increasing order, a positive `fps` (`what`: the
+    /// path's kind, for the message, which names the key from 1).
+    pub(crate) fn check_keys(what: &str, times: impl Iterator<Item = f64>, fps: f64) -> Result<(), String> {
+        if !(fps.is_finite() && fps > 0.0) {
+            return Err(format!("fps {fps} must be a positive number"));
+        }
+        let mut prev: Option<f64> = None;
+        for (i, t) in times.enumerate() {
+            if !t.is_finite() {
+                return Err(format!("keyframe {}: time {t} is not finite", i + 1));
+            }
+            if let Some(p) = prev.filter(|&p| t <= p) {
+                return Err(format!("keyframe {}: time {t} is not after the previous keyframe's {p}", i + 1));
+            }
+            prev = Some(t);
+        }
+        if prev.is_none() {
+            return Err(format!("the {what} path has no keyframe"));
+        }
+        Ok(())
+    }
+
     /// At most [`MAX_FRAMES`] frames.
     pub(crate) fn check(&self) -> Result<(), String> {
         let frames = self.span * self.fps + 1.0;
@@ -112,20 +134,9 @@ impl CameraPath {
     /// Check the path: a keyframe at least, finite increasing times, a positive `fps`, at most
     /// [`MAX_FRAMES`] frames, and every key a valid camera. The message names the key (from 1).
     pub fn validate(&self) -> Result<(), String> {
-        if self.keyframes.is_empty() {
-            return Err("the camera path has no keyframe".into());
-        }
-        if !(self.fps.is_finite() && self.fps > 0.0) {
-            return Err(format!("fps {} must be a positive number", self.fps));
-        }
+        Timeline::check_keys("camera", self.keyframes.iter().map(|k| k.time), self.fps)?;
         for (i, k) in self.keyframes.iter().enumerate() {
             let at = |m: String| Err(format!("keyframe {}: {m}", i + 1));
-            if !k.time.is_finite() {
-                return at(format!("time {} is not finite", k.time));
-            }
-            if i > 0 && k.time <= self.keyframes[i - 1].time {
-                return at(format!("time {} is not after the previous keyframe's {}", k.time, self.keyframes[i - 1].time));
-            }
             let p = k.pose();
             if !(p.position.is_finite() && p.target.is_finite() && p.up.is_finite()) {
                 return at("position, target and up must be finite".into());

@@ -59,20 +59,9 @@ impl ObjectPath {
     /// Keys present, finite, in increasing time, scales positive; `fps` positive; at most
     /// [`MAX_FRAMES`] frames.
     pub fn validate(&self) -> Result<(), String> {
-        if self.keyframes.is_empty() {
-            return Err("the object path has no keyframe".into());
-        }
-        if !(self.fps.is_finite() && self.fps > 0.0) {
-            return Err(format!("fps {} must be a positive number", self.fps));
-        }
+        super::camera_path::Timeline::check_keys("object", self.keyframes.iter().map(|k| k.time), self.fps)?;
         for (i, k) in self.keyframes.iter().enumerate() {
             let at = |m: String| Err(format!("keyframe {}: {m}", i + 1));
-            if !k.time.is_finite() {
-                return at(format!("time {} is not finite", k.time));
-            }
-            if i > 0 && k.time <= self.keyframes[i - 1].time {
-                return at(format!("time {} is not after the previous keyframe's {}", k.time, self.keyframes[i - 1].time));
-            }
             if !(Vec3::from(k.position).is_finite() && k.rotate_y.is_finite()) {
                 return at("position and rotate_y must be finite".into());
             }
