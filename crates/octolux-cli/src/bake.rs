@@ -132,16 +132,6 @@ pub fn read_cache(path: &Path) -> Result<(LoadedCache, f64)> {
     Ok((c, t.elapsed().as_secs_f64()))
 }
 
-/// The cache's settings as the base layer of the render's (an object without `type`).
-pub fn base_settings(c: &LoadedCache) -> Result<Value> {
-    Ok(settings::cache_base(c)?)
-}
-
-/// Refuse resolved settings that differ from the cache's in a key that shaped the octrees.
-pub fn check_settings(path: &Path, c: &LoadedCache, resolved: &IntegratorSettings) -> Result<()> {
-    Ok(settings::check_cache_settings(path, c, resolved)?)
-}
-
 /// What `OUT.json` says of the cache.
 pub fn report(path: &Path, c: &LoadedCache, load_s: f64, stale: &Option<String>) -> Value {
     json!({

@@ -59,12 +59,7 @@ fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
 
 pub(crate) fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
     let defines = parse_defines(&args.define)?;
-    let mut loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
-    let xml = std::path::Path::new(&args.scene).extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"));
-    if !xml && !defines.is_empty() {
-        // Only Mitsuba XML has parameters; a built-in scene or a mesh would drop them silently.
-        loaded.warnings.push(format!("-D is ignored: '{}' is not a Mitsuba XML scene (it has no parameters)", args.scene));
-    }
+    let loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
     for n in &loaded.notes {
         eprintln!("note: {n}");
     }
@@ -132,7 +127,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     flags.extend(args.max_depth.map(settings::max_depth_flag));
     let (integrator_name, base, derived) = match &cache {
         // the cache's settings are the defaults; nothing is derived from the scene or the seed
-        Some((c, _)) => (Some("octree"), Some(bake::base_settings(c)?), vec![]),
+        Some((c, _)) => (Some("octree"), Some(settings::cache_base(c)?), vec![]),
         None => (
             args.integrator.as_deref(),
             None,
@@ -154,7 +149,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     }
     let integrator_settings = resolved.settings;
     if let (Some((c, _)), Some(path)) = (&cache, &args.cache) {
-        bake::check_settings(path, c, &integrator_settings)?;
+        settings::check_cache_settings(path, c, &integrator_settings)?;
     }
     let name = integrator_settings.name();
     match settings::scene_integrator_remark(
@@ -178,14 +173,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let backend = backend_kind(args.backend);
     let t1 = Instant::now();
     let mut scene = Scene::prepare(desc, backend).with_context(|| format!("cannot prepare scene '{}'", args.scene.scene))?;
-    let light_warning = if scene.lights.is_empty() {
-        Some("the scene has no light; the image will be black")
-    } else if !scene.lights.emits() {
-        Some("the scene's lights emit nothing (zero radiance, intensity or area); the image will be black")
-    } else {
-        None
-    };
-    if let Some(w) = light_warning {
+    if let Some(w) = scene.light_warning() {
         eprintln!("warning: {w}");
         warnings.push(w.to_string());
     }
@@ -214,7 +202,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
             }
             let report = bake::report(path, &c, load_s, &stale);
             let mut integrator = c.integrator;
-            // only the render-time keys (view, gather) may differ: check_settings
+            // only the render-time keys (view, gather) may differ: check_cache_settings
             if let (Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&mut integrator, &integrator_settings) {
                 o.settings = s.clone();
             }

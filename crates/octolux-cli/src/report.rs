@@ -16,7 +16,7 @@
 use anyhow::{bail, Context, Result};
 use octolux::image::Image;
 use octolux::metrics;
-use octolux_io::image_io::{encode_png_rgb8, encode_srgb8, read_exr};
+use octolux_io::image_io::{encode_png_rgb8, read_exr, srgb8_bytes};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -68,10 +68,6 @@ fn base64(bytes: &[u8]) -> String {
         }
     }
     s
-}
-
-fn srgb8(img: &Image) -> Vec<u8> {
-    img.data.iter().flat_map(|c| [encode_srgb8(c.x), encode_srgb8(c.y), encode_srgb8(c.z)]).collect()
 }
 
 /// A value in [0, 1] through the magma colour map as PNG bytes, base64.
@@ -135,6 +131,8 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
         let bytes: Vec<u8> = img.data.iter().flat_map(|c| rgbe([c.x, c.y, c.z])).collect();
         json!({ "name": name, "width": img.width, "height": img.height, "rgbe": base64(&bytes), "means": metrics::channel_means(img) })
     };
+    // the reference as FLIP reads it, once for every image
+    let reference_srgb = reference.as_ref().map(|(_, r)| srgb8_bytes(r));
     let mut entries: Vec<Value> = Vec::new();
     if let Some((rp, r)) = &reference {
         let mut e = encode(format!("{} (reference)", name_of(rp)), r);
@@ -143,23 +141,15 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
     }
     for (p, img) in &loaded {
         let mut e = encode(name_of(p), img);
-        if let Some((_, r)) = &reference {
+        if let (Some((_, r)), Some(r_srgb)) = (&reference, &reference_srgb) {
             let m = metrics::compare(img, r).context("image sizes")?;
             let (w, h) = (img.width, img.height);
             // relative squared error per pixel (the relMSE's terms), on a log scale 1e-4 .. 10
-            let rel: Vec<f32> = img
-                .data
-                .iter()
-                .zip(&r.data)
-                .map(|(a, b)| {
-                    let t = |x: f32, y: f32| ((x - y) as f64).powi(2) / ((y as f64).powi(2) + metrics::REL_EPS);
-                    let v = (t(a.x, b.x) + t(a.y, b.y) + t(a.z, b.z)) / 3.0;
-                    ((v.max(1e-4).log10() + 4.0) / 5.0) as f32
-                })
-                .collect();
+            let rel: Vec<f32> =
+                img.data.iter().zip(&r.data).map(|(&a, &b)| ((metrics::rel_se(a, b).max(1e-4).log10() + 4.0) / 5.0) as f32).collect();
             let flip_map = nv_flip::flip(
-                nv_flip::FlipImageRgb8::with_data(w, h, &srgb8(r)),
-                nv_flip::FlipImageRgb8::with_data(w, h, &srgb8(img)),
+                nv_flip::FlipImageRgb8::with_data(w, h, r_srgb),
+                nv_flip::FlipImageRgb8::with_data(w, h, &srgb8_bytes(img)),
                 nv_flip::DEFAULT_PIXELS_PER_DEGREE,
             );
             let flip_mean = nv_flip::FlipPool::from_image(&flip_map).mean();

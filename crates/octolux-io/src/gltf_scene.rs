@@ -202,10 +202,11 @@ impl Loader<'_> {
         }
         let alpha = pbr.roughness_factor().clamp(0.0, 1.0).powi(2);
         let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+        let ggx = Microfacet { kind: MicrofacetKind::Ggx, alpha_u: alpha, alpha_v: alpha };
         let dielectric = Material::RoughPlastic {
             diffuse_reflectance: base.clone(),
             specular_reflectance: Color::ONE,
-            distribution: Microfacet { kind: MicrofacetKind::Ggx, alpha_u: alpha, alpha_v: alpha },
+            distribution: ggx,
             eta: IOR,
             nonlinear: false,
         };
@@ -217,12 +218,8 @@ impl Loader<'_> {
             }
             _ => factor,
         };
-        let metal = Material::RoughConductor {
-            distribution: Roughness::from(Microfacet { kind: MicrofacetKind::Ggx, alpha_u: alpha, alpha_v: alpha }),
-            eta: Color::ZERO,
-            k: Color::ZERO,
-            specular_reflectance: tint,
-        };
+        let metal =
+            Material::RoughConductor { distribution: Roughness::from(ggx), eta: Color::ZERO, k: Color::ZERO, specular_reflectance: tint };
         let surface = if metallic <= 0.0 {
             dielectric
         } else if metallic >= 1.0 {

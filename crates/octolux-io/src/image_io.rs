@@ -152,13 +152,15 @@ pub fn decode_exr(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
     }
 }
 
+/// The pixels as 8-bit sRGB RGB bytes, as the PNG output develops them ([`encode_srgb8`]).
+pub fn srgb8_bytes(img: &Image) -> Vec<u8> {
+    img.data.iter().flat_map(|c| [encode_srgb8(c.x), encode_srgb8(c.y), encode_srgb8(c.z)]).collect()
+}
+
 /// Write an 8-bit sRGB PNG (values clamped to `[0, 1]`, atomically).
 pub fn write_png(path: &Path, img: &Image) -> Result<(), IoError> {
     check_image(path, img)?;
-    let mut bytes = Vec::with_capacity(img.data.len() * 3);
-    for c in &img.data {
-        bytes.extend_from_slice(&[encode_srgb8(c.x), encode_srgb8(c.y), encode_srgb8(c.z)]);
-    }
+    let bytes = srgb8_bytes(img);
     let buf =
         image::RgbImage::from_raw(img.width, img.height, bytes).ok_or_else(|| IoError::invalid(path, "image buffer size mismatch"))?;
     write_atomically(path, |tmp| buf.save_with_format(tmp, image::ImageFormat::Png).map_err(|e| e.to_string()))

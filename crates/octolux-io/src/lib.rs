@@ -68,6 +68,16 @@ pub struct LoadedScene {
 /// Mitsuba XML, `.obj`/`.ply` a mesh rendered directly). `defines` are Mitsuba `-D name=value`
 /// overrides of `<default>` parameters.
 pub fn load_scene(spec: &str, defines: &[(String, String)]) -> Result<LoadedScene, IoError> {
+    let mut loaded = load_any(spec, defines)?;
+    let xml = Path::new(spec).extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"));
+    if !xml && !defines.is_empty() {
+        // Only Mitsuba XML has parameters; a built-in scene or a mesh would drop them silently.
+        loaded.warnings.push(format!("-D is ignored: '{spec}' is not a Mitsuba XML scene (it has no parameters)"));
+    }
+    Ok(loaded)
+}
+
+fn load_any(spec: &str, defines: &[(String, String)]) -> Result<LoadedScene, IoError> {
     let path = Path::new(spec);
     if !path.exists() {
         if let Some(desc) = builtin::scene(spec) {

@@ -128,11 +128,7 @@ fn load_scene(
     let never = AtomicBool::new(false);
     let spec = path.to_string();
     interruptible(py, None, &never, || -> Result<Scene, String> {
-        let mut loaded = octolux_io::load_scene(&spec, &defines).map_err(|e| format!("cannot load scene '{spec}': {e}"))?;
-        let xml = Path::new(&spec).extension().is_some_and(|e| e.eq_ignore_ascii_case("xml"));
-        if !xml && !defines.is_empty() {
-            loaded.warnings.push(format!("-D is ignored: '{spec}' is not a Mitsuba XML scene (it has no parameters)"));
-        }
+        let loaded = octolux_io::load_scene(&spec, &defines).map_err(|e| format!("cannot load scene '{spec}': {e}"))?;
         let mut desc = loaded.desc;
         if let Some((w, h)) = resolution {
             desc.film.width = w;
@@ -142,11 +138,7 @@ fn load_scene(
         let hints = desc.hints.clone();
         let scene = octolux::scene::Scene::prepare(desc, kind).map_err(|e| format!("cannot prepare scene '{spec}': {e}"))?;
         let mut warnings = loaded.warnings;
-        if scene.lights.is_empty() {
-            warnings.push("the scene has no light; the image will be black".into());
-        } else if !scene.lights.emits() {
-            warnings.push("the scene's lights emit nothing (zero radiance, intensity or area); the image will be black".into());
-        }
+        warnings.extend(scene.light_warning().map(String::from));
         Ok(Scene { scene, spec: spec.clone(), hints, warnings, notes: loaded.notes })
     })?
     .map_err(error)
@@ -218,8 +210,7 @@ fn render<'py>(
     let cancel = AtomicBool::new(false);
     let layers = Layers { seed, photons, max_depth, sets: &sets, file: settings_file.as_deref() };
     let t_build = Instant::now();
-    let mut report = json!({});
-    let (built, settings, mut warnings) = match &cache {
+    let (built, settings, mut warnings, report) = match &cache {
         Some(path) => {
             if let Some(n) = integrator.filter(|&n| n != "octree") {
                 return Err(error(format!("cache holds the octree integrator's lighting; integrator {n} cannot render from it")));
@@ -230,18 +221,18 @@ fn render<'py>(
             settings::check_cache_settings(path, &c, &s).map_err(error)?;
             let fp = scene.scene.lighting_fingerprint();
             warnings.extend(cache::check_fingerprint(path, &c, &fp, &scene.spec, allow_stale_cache).map_err(error)?);
-            report = json!({ "file": path.display().to_string(), "file_bytes": c.file_bytes, "baked_from": c.info });
+            let report = json!({ "file": path.display().to_string(), "file_bytes": c.file_bytes, "baked_from": c.info });
             let mut integrator = c.integrator;
             // only the render-time keys (view, gather) may differ: check_cache_settings
             if let (Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&mut integrator, &s) {
                 o.settings = s.clone();
             }
-            (integrator, s, warnings)
+            (integrator, s, warnings, report)
         }
         None => {
             let (s, warnings) = resolve(scene, integrator, None, &layers)?;
             let built = interruptible(py, threads, &cancel, || build(&s, &scene.scene))?.map_err(error)?;
-            (built, s, warnings)
+            (built, s, warnings, Value::Null)
         }
     };
     let build_s = t_build.elapsed().as_secs_f64();
@@ -258,7 +249,7 @@ fn render<'py>(
         "settings": settings,
         "build_s": build_s,
         "render": stats,
-        "cache": if cache.is_some() { report } else { Value::Null },
+        "cache": report,
         "warnings": warnings,
     });
     let pixels: Vec<f32> = img.data.iter().flat_map(|c| [c.x, c.y, c.z]).collect();

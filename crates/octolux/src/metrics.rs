@@ -5,6 +5,7 @@
 //! dominating), `rmse = sqrt(mean (a − r)²)`. Sums in f64.
 
 use crate::image::Image;
+use crate::math::Color;
 use serde::Serialize;
 
 /// Regulariser of the relative MSE denominator.
@@ -31,13 +32,24 @@ pub fn channel_means(img: &Image) -> [f64; 3] {
     m.map(|v| v / img.data.len().max(1) as f64)
 }
 
+/// One term of the relMSE: `(a − b)² / (r² + ε)` for one channel value.
+#[inline]
+fn rel_term(a: f32, b: f32, r: f32) -> f64 {
+    let d = (a - b) as f64;
+    d * d / ((r as f64).powi(2) + REL_EPS)
+}
+
+/// The relMSE of one pixel `a` against the reference pixel `r` (its channels' mean term).
+pub fn rel_se(a: Color, r: Color) -> f64 {
+    (0..3).map(|c| rel_term(a[c], r[c], r[c])).sum::<f64>() / 3.0
+}
+
 /// `mean((a − b)² / (r² + ε))` with the denominator from a third image `r` (the reference).
 pub fn rel_mse_with(a: &Image, b: &Image, r: &Image) -> f64 {
     let mut s = 0.0f64;
     for ((x, y), z) in a.data.iter().zip(&b.data).zip(&r.data) {
         for c in 0..3 {
-            let d = (x[c] - y[c]) as f64;
-            s += d * d / ((z[c] as f64).powi(2) + REL_EPS);
+            s += rel_term(x[c], y[c], z[c]);
         }
     }
     s / (3 * a.data.len().max(1)) as f64

@@ -42,7 +42,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
-__all__ = ["render_frames", "frame_files"]
+__all__ = ["render_frames"]
 
 
 def _bin(octolux_bin: Optional[str]) -> str:
@@ -84,13 +84,6 @@ def _frame_task(bin_: str, scene: str, digest: str, data: bytes, index: int, nam
     with tempfile.TemporaryDirectory(prefix="octolux-frame-") as d:
         _run([bin_, "render", scene, "--cache", str(cache), "--frames", f"{index}..{index}", "-o", str(Path(d) / name), "-q", *args])
         return {p.name: p.read_bytes() for p in sorted(Path(d).iterdir())}
-
-
-def frame_files(output: Path, index: int, count: int) -> Tuple[str, str, str]:
-    """The names one machine writes for frame ``index`` of ``count`` (``f_0001.exr``, ...)."""
-    width = max(4, len(str(count)))
-    stem = f"{output.stem}_{index:0{width}d}"
-    return (f"{stem}.exr", f"{stem}.png", f"{stem}.json")
 
 
 def _write_atomic(path: Path, data: bytes) -> None:
@@ -172,13 +165,13 @@ def render_frames(
     for fut in as_completed(tasks):
         i = tasks[fut]
         files = fut.result()
-        exr, png, js = frame_files(out, i, count)
-        if exr not in files:
-            raise RuntimeError(f"frame {i}: the worker returned {sorted(files)}, not {exr}")
-        for name in (exr, png, js):
-            if name in files:
-                _write_atomic(out.parent / name, files[name])
-        written.append(out.parent / exr)
+        # the CLI named them as one machine does (OUT_0001.exr, .png, .json)
+        exrs = [name for name in files if name.endswith(".exr")]
+        if len(exrs) != 1:
+            raise RuntimeError(f"frame {i}: the worker returned {sorted(files)}, not one EXR")
+        for name, data in files.items():
+            _write_atomic(out.parent / name, data)
+        written.append(out.parent / exrs[0])
         done += 1
         if on_frame is not None:
             on_frame(i)

@@ -307,6 +307,18 @@ impl Scene {
         }
     }
 
+    /// Why the image will be black, when it will: no light, or lights that emit nothing (the
+    /// warning every front end prints).
+    pub fn light_warning(&self) -> Option<&'static str> {
+        if self.lights.is_empty() {
+            Some("the scene has no light; the image will be black")
+        } else if !self.lights.emits() {
+            Some("the scene's lights emit nothing (zero radiance, intensity or area); the image will be black")
+        } else {
+            None
+        }
+    }
+
     /// Name of the intersection backend in use.
     pub fn backend_name(&self) -> String {
         self.accel.name()
