@@ -30,22 +30,29 @@ impl Octree {
         TreeView { nodes: &self.nodes, origin: self.origin, cell_size: &self.cell_size }
     }
 
-    /// Visit the valid leaves overlapping the query box centred on `p`: `f(value, γ, depth, ijk)`.
+    /// Visit the valid leaves overlapping the query box centred on `p`: `f(value, γ)`, in
+    /// depth-first order. From the flat lists (`flat.rs`: locate the leaf holding `p`, loop over
+    /// its list); the tree walk for a point outside the root cube. Both give the same leaves,
+    /// order and weights.
     #[inline]
-    fn visit_query<F: FnMut(usize, f32, u32, [u32; 3])>(&self, p: Vec3, mut f: F) {
+    fn visit_query<F: FnMut(usize, f32)>(&self, p: Vec3, mut f: F) {
         let h = Vec3::splat(self.query_half);
+        let (qmin, qmax) = (p - h, p + h);
+        if self.flat().visit(self, p, qmin, qmax, &mut f) {
+            return;
+        }
         let nodes = &self.nodes;
-        self.view().visit(p - h, p + h, |node, depth, ijk, g| {
+        self.view().visit(qmin, qmax, |node, _, _, g| {
             let v = nodes[node as usize].value();
             if v != NO_VALUE {
-                f(v as usize, g, depth, ijk);
+                f(v as usize, g);
             }
         });
     }
 
-    /// The anchors of valid leaf `v` (cell at `depth`, `ijk`) in world space.
-    #[inline]
-    fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3]) -> QueryLeaf {
+    /// The anchors of valid leaf `v` (cell at `depth`, `ijk`) in world space (decoded once per
+    /// tree into the flat lists, `flat.rs`).
+    pub(super) fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3]) -> QueryLeaf {
         let view = self.view();
         let (cmin, s) = (view.cell_min(depth, ijk), self.cell_size[depth as usize]);
         let a = &self.anchors[v];
@@ -137,13 +144,14 @@ impl Octree {
         let sel = selection(n);
         let mut sum = [zero; 3];
         let mut wsum = [0.0f32; 3];
-        self.visit_query(p, |v, g, depth, ijk| {
-            let f = match keep.as_mut() {
-                Some(k) => match k(self.query_leaf(v, depth, ijk)) {
+        let leaves = keep.is_some().then(|| self.flat().leaves.as_slice());
+        self.visit_query(p, |v, g| {
+            let f = match (keep.as_mut(), leaves) {
+                (Some(k), Some(leaves)) => match k(leaves[v]) {
                     Some(f) => f,
                     None => return,
                 },
-                None => 1.0,
+                _ => 1.0,
             };
             let bits = self.facing.get(v).copied().unwrap_or(ALL_FACING);
             let terms = leaf(v, &sel);
