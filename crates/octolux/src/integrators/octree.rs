@@ -279,6 +279,10 @@ impl OctreeIntegrator {
         if matches!(self.settings.leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections)
         {
             self.planes_of(scene, &self.global);
+            // the caustic tree's too: built at its first query, they counted as query time
+            if let Some(c) = &self.caustic {
+                self.planes_of(scene, c);
+            }
         }
     }
 
@@ -420,7 +424,7 @@ impl OctreeIntegrator {
             LeakTest::None => tree.irradiance(hit.p, n),
             leak => {
                 let planes = self.leak_planes(scene, tree, leak);
-                tree.irradiance_where(hit.p, n, &mut |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+                tree.irradiance_where(hit.p, n, |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
             }
         });
         counters.shadow_rays += rays;
@@ -434,7 +438,7 @@ impl OctreeIntegrator {
             LeakTest::None => tree.incident_matrix(hit.p, n),
             leak => {
                 let planes = self.leak_planes(scene, tree, leak);
-                tree.incident_matrix_where(hit.p, n, &mut |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+                tree.incident_matrix_where(hit.p, n, |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
             }
         });
         counters.shadow_rays += rays;

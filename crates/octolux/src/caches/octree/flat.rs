@@ -5,9 +5,10 @@
 //! `V` is centred in the leaf `L` holding `P`, so every leaf it meets meets `L`'s cell grown by
 //! `h`. Per leaf, this module keeps the valid leaves that grown cell meets (in the tree's
 //! depth-first order, which is the order of the valid leaves' indices), and per valid leaf the
-//! cell bounds the traversal tests and the anchors the leak test reads ([`QueryLeaf`], decoded
-//! once). A query then locates `L` (a descent on the quantised position, no recursion), and
-//! loops over `L`'s list, with the traversal's own test and overlap volume for each entry:
+//! cell bounds the traversal tests, the anchors the leak test reads ([`QueryLeaf`]) and, for
+//! compressed storage, the factors `D` and `C` of its six matrices (`compress.rs`), each decoded
+//! once instead of at every leaf met. A query then locates `L` (a grid of the nodes at depth
+//! 5, then a descent on the quantised position: no recursion), and loops over `L`'s list, with the traversal's own test and overlap volume for each entry:
 //! the same leaves, in the same order, with the same weights, bit for bit (the test
 //! `flat_visit_equals_the_tree_walk`). Points outside the root cube take the tree walk.
 //!
@@ -21,7 +22,8 @@
 //! cells of different depths is the same `f32` at every depth: the scalings are powers of two).
 
 use super::cells::quantize;
-use super::{Octree, QueryLeaf, NO_VALUE};
+use super::compress::{tables, MATRIX_BYTES};
+use super::{LeafValues, Octree, QueryLeaf, NO_VALUE};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -48,7 +50,17 @@ pub(super) struct FlatQuery {
     cells: Vec<FlatCell>,
     /// Per valid leaf: its anchors in world space, as [`Octree`]'s `query_leaf` decodes them.
     pub leaves: Vec<QueryLeaf>,
+    /// Per valid leaf of a compressed tree, per matrix: `[D, C]` with `M ≈ D Cᵀ`, decoded as
+    /// the query did per leaf met (`compress.rs`; empty for full storage).
+    pub decoded: Vec<[[Vec3; 2]; 6]>,
+    /// Per cell of the grid at depth `grid_depth` (x fastest): the node on the path to its
+    /// leaves at that depth, or the leaf holding it when that leaf is larger.
+    grid: Vec<u32>,
+    grid_depth: u32,
 }
+
+/// Depth of [`FlatQuery`]'s grid of nodes, at most (4 bytes per cell: 128 KiB).
+const GRID_DEPTH: u32 = 5;
 
 impl FlatQuery {
     pub(super) fn new(tree: &Octree) -> FlatQuery {
@@ -99,7 +111,28 @@ impl FlatQuery {
             let a = count[node as usize] as usize;
             flat[a..a + l.len()].copy_from_slice(l);
         }
-        FlatQuery { start: count, lists: flat, cells, leaves }
+        let decoded = match &tree.values {
+            LeafValues::Compressed(c) => {
+                let t = tables();
+                c.iter()
+                    .map(|leaf| {
+                        std::array::from_fn(|k| {
+                            let b = &leaf[k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES];
+                            let (st, ct) = (t.sin_t[b[0] as usize], t.cos_t[b[0] as usize]);
+                            let d = Vec3::new(st * t.cos_p[b[1] as usize], st * t.sin_p[b[1] as usize], ct);
+                            let f = t.exp_scale[b[5] as usize];
+                            [d, Vec3::new(b[2] as f32 + 0.5, b[3] as f32 + 0.5, b[4] as f32 + 0.5) * f]
+                        })
+                    })
+                    .collect()
+            }
+            LeafValues::Full(_) => Vec::new(),
+        };
+        let grid_depth = tree.h_max.min(GRID_DEPTH);
+        let side = 1u32 << grid_depth;
+        let mut grid = vec![0u32; (side * side * side) as usize];
+        fill_grid(tree, 0, 0, [0; 3], grid_depth, &mut grid);
+        FlatQuery { start: count, lists: flat, cells, leaves, decoded, grid, grid_depth }
     }
 
     /// Bytes held at render time (not in the cache file).
@@ -108,6 +141,8 @@ impl FlatQuery {
             + std::mem::size_of_val(self.lists.as_slice())
             + std::mem::size_of_val(self.cells.as_slice())
             + std::mem::size_of_val(self.leaves.as_slice())
+            + std::mem::size_of_val(self.decoded.as_slice())
+            + std::mem::size_of_val(self.grid.as_slice())
     }
 
     /// Entries of all lists.
@@ -120,7 +155,7 @@ impl FlatQuery {
     /// called) when `p` lies outside the root cube (the caller then walks the tree).
     #[inline]
     pub(super) fn visit<F: FnMut(usize, f32)>(&self, tree: &Octree, p: Vec3, qmin: Vec3, qmax: Vec3, mut f: F) -> bool {
-        let Some(node) = tree.locate(p) else { return false };
+        let Some(node) = self.locate(tree, p) else { return false };
         let (a, b) = (self.start[node as usize] as usize, self.start[node as usize + 1] as usize);
         for &v in &self.lists[a..b] {
             let c = &self.cells[v as usize];
@@ -133,21 +168,23 @@ impl FlatQuery {
     }
 }
 
-impl Octree {
-    /// The leaf node whose (half-open) cell holds `p`, `None` outside the root cube: a descent
-    /// on `p`'s quantised coordinates.
+impl FlatQuery {
+    /// The leaf node whose (half-open) cell holds `p`, `None` outside the root cube: the grid's
+    /// node for `p`'s quantised coordinates, then a descent on them.
     #[inline]
-    pub(super) fn locate(&self, p: Vec3) -> Option<u32> {
-        let o = self.origin;
-        let e = o + Vec3::splat(self.size);
+    fn locate(&self, tree: &Octree, p: Vec3) -> Option<u32> {
+        let o = tree.origin;
+        let e = o + Vec3::splat(tree.size);
         if !(p.cmpge(o).all() && p.cmplt(e).all()) {
             return None;
         }
-        let q = quantize(p, self.origin, self.inv_quant, self.h_max);
-        let mut node = 0u32;
-        let mut s = self.h_max;
+        let q = quantize(p, tree.origin, tree.inv_quant, tree.h_max);
+        let mut s = tree.h_max - self.grid_depth;
+        let side = 1usize << self.grid_depth;
+        let g = |a: usize| (q[a] >> s) as usize;
+        let mut node = self.grid[g(0) + side * (g(1) + side * g(2))];
         loop {
-            let n = self.nodes[node as usize];
+            let n = tree.nodes[node as usize];
             if n.is_leaf() || s == 0 {
                 return Some(node);
             }
@@ -156,7 +193,32 @@ impl Octree {
             node = n.link + c;
         }
     }
+}
 
+/// Fill the grid cells under `node` (cell at `depth`, `ijk`): the node at `grid_depth`, or the
+/// leaf above it.
+fn fill_grid(tree: &Octree, node: u32, depth: u32, ijk: [u32; 3], grid_depth: u32, grid: &mut [u32]) {
+    let n = tree.nodes[node as usize];
+    let side = 1u32 << grid_depth;
+    if n.is_leaf() || depth == grid_depth {
+        let k = grid_depth - depth;
+        let lo = ijk.map(|i| i << k);
+        for z in lo[2]..lo[2] + (1 << k) {
+            for y in lo[1]..lo[1] + (1 << k) {
+                for x in lo[0]..lo[0] + (1 << k) {
+                    grid[(x + side * (y + side * z)) as usize] = node;
+                }
+            }
+        }
+        return;
+    }
+    for c in 0..8u32 {
+        let cijk = [2 * ijk[0] + (c & 1), 2 * ijk[1] + ((c >> 1) & 1), 2 * ijk[2] + ((c >> 2) & 1)];
+        fill_grid(tree, n.link + c, depth + 1, cijk, grid_depth, grid);
+    }
+}
+
+impl Octree {
     /// The flat query lists ([`FlatQuery`]), built at the first call.
     #[inline]
     pub(super) fn flat(&self) -> &FlatQuery {
@@ -223,7 +285,7 @@ mod tests {
         }
         let bounds = Bounds3 { min: Vec3::new(0.0, 0.0, 0.0), max: Vec3::new(1.0, 0.9, 1.0) };
         for (h_max, n_max, alpha) in [(3, 200, 1.5), (6, 40, 1.5), (8, 20, 1.5), (7, 30, 4.0), (0, 10, 1.5)] {
-            let settings = OctreeSettings { h_max: Depth::Fixed(h_max), n_max, alpha, ..OctreeSettings::default() };
+            let settings = OctreeSettings { h_max: Depth::Fixed(h_max), n_max, n_min: 5, alpha, ..OctreeSettings::default() };
             let tree = Octree::build(&photons, bounds, &settings, None).unwrap();
             let (entries, bytes) = tree.query_lists();
             assert!(entries >= tree.stats().valid_leaves && bytes > 0);

@@ -11,10 +11,13 @@
 //! cell queried for a wall's normal) is left out of that axis instead of pulling it to 0.
 
 use super::cells::{quantize, TreeView};
-use super::compress::{decompress_matrix, tables, MATRIX_BYTES};
+use super::compress::{decompress_matrix, MATRIX_BYTES};
 use super::{LeafInfo, LeafValues, Octree, QueryLeaf, ALL_FACING, NO_VALUE};
 use crate::math::{Bounds3, Color};
 use glam::{Mat3, Vec3};
+
+/// The type of "no leak test" in [`Octree::blend`].
+type NoKeep = fn(QueryLeaf) -> Option<f32>;
 
 /// The three matrices (indices into the `+X, −X, +Y, −Y, +Z, −Z` order) used for normal
 /// `n`, and their weights `N_a²`.
@@ -85,16 +88,11 @@ impl Octree {
     fn leaf_irradiance(&self, v: usize, n: Vec3, sel: &([usize; 3], [f32; 3])) -> [Vec3; 3] {
         let mut e = [Vec3::ZERO; 3];
         match &self.values {
-            LeafValues::Compressed(c) => {
-                let t = tables();
-                let leaf = &c[v];
+            LeafValues::Compressed(_) => {
+                // `D` and `C` of each matrix, decoded once per tree (`flat.rs`)
+                let leaf = &self.flat().decoded[v];
                 for (a, ea) in e.iter_mut().enumerate() {
-                    let b = &leaf[sel.0[a] * MATRIX_BYTES..(sel.0[a] + 1) * MATRIX_BYTES];
-                    // inline decode: D·N and C
-                    let (st, ct) = (t.sin_t[b[0] as usize], t.cos_t[b[0] as usize]);
-                    let d = Vec3::new(st * t.cos_p[b[1] as usize], st * t.sin_p[b[1] as usize], ct);
-                    let f = t.exp_scale[b[5] as usize];
-                    let col = Vec3::new(b[2] as f32 + 0.5, b[3] as f32 + 0.5, b[4] as f32 + 0.5) * f;
+                    let [d, col] = leaf[sel.0[a]];
                     *ea = col * d.dot(n);
                 }
             }
@@ -127,16 +125,17 @@ impl Octree {
     /// `keep`, when given, sees every valid leaf met and may drop it (`None`: out of both
     /// sums) or scale its value by a factor (leak control; see [`Octree::irradiance_where`]).
     #[inline]
-    fn blend<T>(
+    fn blend<T, K>(
         &self,
         p: Vec3,
         n: Vec3,
         zero: T,
-        mut keep: Option<&mut dyn FnMut(QueryLeaf) -> Option<f32>>,
+        mut keep: Option<K>,
         leaf: impl Fn(usize, &([usize; 3], [f32; 3])) -> [T; 3],
     ) -> Option<T>
     where
         T: Copy + std::ops::AddAssign + std::ops::Mul<f32, Output = T>,
+        K: FnMut(QueryLeaf) -> Option<f32>,
     {
         if !p.is_finite() || !n.is_finite() {
             return None;
@@ -184,13 +183,13 @@ impl Octree {
     /// negative channels clamped to 0. `None` when no valid leaf meets the query box (or
     /// `p`/`n` is not finite).
     pub fn irradiance(&self, p: Vec3, n: Vec3) -> Option<Color> {
-        self.blend(p, n, Vec3::ZERO, None, |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
+        self.blend(p, n, Vec3::ZERO, None::<NoKeep>, |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
     }
 
     /// The blended incident-radiance matrix `M(N)` at `p` (columns = r, g, b irradiance
     /// vectors), for glossy shading. `None` as for [`Octree::irradiance`].
     pub fn incident_matrix(&self, p: Vec3, n: Vec3) -> Option<Mat3> {
-        self.blend(p, n, Mat3::ZERO, None, |v, sel| self.leaf_matrix(v, sel))
+        self.blend(p, n, Mat3::ZERO, None::<NoKeep>, |v, sel| self.leaf_matrix(v, sel))
     }
 
     /// [`Octree::irradiance`] over the valid leaves that `keep` accepts: it sees each leaf's
@@ -200,13 +199,15 @@ impl Octree {
     /// its value by `f` (the share of its light that reaches `p`, in [0, 1]). Where `keep`
     /// answers `Some(1.0)` for every leaf the result is [`Octree::irradiance`]'s, with the same
     /// continuity.
-    pub fn irradiance_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> Option<f32>) -> Option<Color> {
+    /// `keep` is generic (a `&mut dyn FnMut` works too), so that a closure is called directly
+    /// for every leaf met.
+    pub fn irradiance_where(&self, p: Vec3, n: Vec3, keep: impl FnMut(QueryLeaf) -> Option<f32>) -> Option<Color> {
         self.blend(p, n, Vec3::ZERO, Some(keep), |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
     }
 
     /// [`Octree::incident_matrix`] over the valid leaves that `keep` accepts (see
     /// [`Octree::irradiance_where`]).
-    pub fn incident_matrix_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> Option<f32>) -> Option<Mat3> {
+    pub fn incident_matrix_where(&self, p: Vec3, n: Vec3, keep: impl FnMut(QueryLeaf) -> Option<f32>) -> Option<Mat3> {
         self.blend(p, n, Mat3::ZERO, Some(keep), |v, sel| self.leaf_matrix(v, sel))
     }
 
