@@ -259,7 +259,18 @@ impl OctreeIntegrator {
         stats.global = global.stats().clone();
         stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
         stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
-        Ok(OctreeIntegrator { settings, global, caustic, stats, planes: Default::default(), inserted: Default::default() })
+        let o = OctreeIntegrator { settings, global, caustic, stats, planes: Default::default(), inserted: Default::default() };
+        o.prepare_query();
+        Ok(o)
+    }
+
+    /// Build the octrees' flat query lists now (render-time data, `caches/octree/flat.rs`)
+    /// instead of at the first query.
+    pub fn prepare_query(&self) {
+        self.global.prepare_query();
+        if let Some(c) = &self.caustic {
+            c.prepare_query();
+        }
     }
 
     /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
@@ -268,6 +279,10 @@ impl OctreeIntegrator {
         if matches!(self.settings.leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections)
         {
             self.planes_of(scene, &self.global);
+            // the caustic tree's too: built at its first query, they counted as query time
+            if let Some(c) = &self.caustic {
+                self.planes_of(scene, c);
+            }
         }
     }
 
@@ -276,7 +291,16 @@ impl OctreeIntegrator {
     /// ray) and all valid leaves.
     pub fn leak_report(&self) -> serde_json::Value {
         let count = |p: &std::sync::OnceLock<LeafPlanes>| p.get().map(|p| serde_json::json!({ "planar": p.planar(), "valid": p.len() }));
-        serde_json::json!({ "leak_planes_global": count(&self.planes[0]), "leak_planes_caustic": count(&self.planes[1]) })
+        let lists = |t: &Octree| {
+            let (entries, bytes) = t.query_lists();
+            serde_json::json!({ "entries": entries, "bytes": bytes })
+        };
+        serde_json::json!({
+            "leak_planes_global": count(&self.planes[0]),
+            "leak_planes_caustic": count(&self.planes[1]),
+            "query_lists_global": lists(&self.global),
+            "query_lists_caustic": self.caustic.as_ref().map(lists),
+        })
     }
 
     /// The [`LeafPlanes`] of `tree` (one of this integrator's octrees) for `scene`.
@@ -339,6 +363,7 @@ impl OctreeIntegrator {
         };
         let o = OctreeIntegrator { settings, global, caustic, stats, planes: Default::default(), inserted: Default::default() };
         o.prepare_leak(scene);
+        o.prepare_query();
         Ok(o)
     }
 
@@ -399,7 +424,7 @@ impl OctreeIntegrator {
             LeakTest::None => tree.irradiance(hit.p, n),
             leak => {
                 let planes = self.leak_planes(scene, tree, leak);
-                tree.irradiance_where(hit.p, n, &mut |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+                tree.irradiance_where(hit.p, n, |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
             }
         });
         counters.shadow_rays += rays;
@@ -413,7 +438,7 @@ impl OctreeIntegrator {
             LeakTest::None => tree.incident_matrix(hit.p, n),
             leak => {
                 let planes = self.leak_planes(scene, tree, leak);
-                tree.incident_matrix_where(hit.p, n, &mut |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+                tree.incident_matrix_where(hit.p, n, |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
             }
         });
         counters.shadow_rays += rays;

@@ -320,6 +320,7 @@ pub(super) fn build(
         anchors,
         query_half: 0.5 * settings.alpha * min_leaf_size,
         atmosphere: None,
+        flat: Default::default(),
         settings: settings.clone(),
         stats,
     };

@@ -80,6 +80,7 @@ mod build;
 mod cells;
 pub mod compress;
 mod estimate;
+mod flat;
 mod geometry;
 mod parts;
 mod planes;
@@ -313,6 +314,9 @@ pub struct Octree {
     /// Values diffused into the leaves that lack them (`atmosphere.rs`); none until
     /// [`Octree::fill_atmosphere`].
     atmosphere: Option<atmosphere::Atmosphere>,
+    /// The query's flat lists (`flat.rs`): render-time data derived from the nodes, built at
+    /// the first query or by [`Octree::prepare_query`].
+    flat: std::sync::OnceLock<flat::FlatQuery>,
     settings: OctreeSettings,
     stats: OctreeStats,
 }

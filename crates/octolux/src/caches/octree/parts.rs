@@ -317,6 +317,7 @@ impl Octree {
             anchors,
             query_half: 0.5 * settings.alpha * min_leaf_size,
             atmosphere: None,
+            flat: Default::default(),
             settings,
             stats,
         };

@@ -11,10 +11,13 @@
 //! cell queried for a wall's normal) is left out of that axis instead of pulling it to 0.
 
 use super::cells::{quantize, TreeView};
-use super::compress::{decompress_matrix, tables, MATRIX_BYTES};
+use super::compress::{decompress_matrix, MATRIX_BYTES};
 use super::{LeafInfo, LeafValues, Octree, QueryLeaf, ALL_FACING, NO_VALUE};
 use crate::math::{Bounds3, Color};
 use glam::{Mat3, Vec3};
+
+/// The type of "no leak test" in [`Octree::blend`].
+type NoKeep = fn(QueryLeaf) -> Option<f32>;
 
 /// The three matrices (indices into the `+X, −X, +Y, −Y, +Z, −Z` order) used for normal
 /// `n`, and their weights `N_a²`.
@@ -30,22 +33,29 @@ impl Octree {
         TreeView { nodes: &self.nodes, origin: self.origin, cell_size: &self.cell_size }
     }
 
-    /// Visit the valid leaves overlapping the query box centred on `p`: `f(value, γ, depth, ijk)`.
+    /// Visit the valid leaves overlapping the query box centred on `p`: `f(value, γ)`, in
+    /// depth-first order. From the flat lists (`flat.rs`: locate the leaf holding `p`, loop over
+    /// its list); the tree walk for a point outside the root cube. Both give the same leaves,
+    /// order and weights.
     #[inline]
-    fn visit_query<F: FnMut(usize, f32, u32, [u32; 3])>(&self, p: Vec3, mut f: F) {
+    fn visit_query<F: FnMut(usize, f32)>(&self, p: Vec3, mut f: F) {
         let h = Vec3::splat(self.query_half);
+        let (qmin, qmax) = (p - h, p + h);
+        if self.flat().visit(self, p, qmin, qmax, &mut f) {
+            return;
+        }
         let nodes = &self.nodes;
-        self.view().visit(p - h, p + h, |node, depth, ijk, g| {
+        self.view().visit(qmin, qmax, |node, _, _, g| {
             let v = nodes[node as usize].value();
             if v != NO_VALUE {
-                f(v as usize, g, depth, ijk);
+                f(v as usize, g);
             }
         });
     }
 
-    /// The anchors of valid leaf `v` (cell at `depth`, `ijk`) in world space.
-    #[inline]
-    fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3]) -> QueryLeaf {
+    /// The anchors of valid leaf `v` (cell at `depth`, `ijk`) in world space (decoded once per
+    /// tree into the flat lists, `flat.rs`).
+    pub(super) fn query_leaf(&self, v: usize, depth: u32, ijk: [u32; 3]) -> QueryLeaf {
         let view = self.view();
         let (cmin, s) = (view.cell_min(depth, ijk), self.cell_size[depth as usize]);
         let a = &self.anchors[v];
@@ -78,16 +88,11 @@ impl Octree {
     fn leaf_irradiance(&self, v: usize, n: Vec3, sel: &([usize; 3], [f32; 3])) -> [Vec3; 3] {
         let mut e = [Vec3::ZERO; 3];
         match &self.values {
-            LeafValues::Compressed(c) => {
-                let t = tables();
-                let leaf = &c[v];
+            LeafValues::Compressed(_) => {
+                // `D` and `C` of each matrix, decoded once per tree (`flat.rs`)
+                let leaf = &self.flat().decoded[v];
                 for (a, ea) in e.iter_mut().enumerate() {
-                    let b = &leaf[sel.0[a] * MATRIX_BYTES..(sel.0[a] + 1) * MATRIX_BYTES];
-                    // inline decode: D·N and C
-                    let (st, ct) = (t.sin_t[b[0] as usize], t.cos_t[b[0] as usize]);
-                    let d = Vec3::new(st * t.cos_p[b[1] as usize], st * t.sin_p[b[1] as usize], ct);
-                    let f = t.exp_scale[b[5] as usize];
-                    let col = Vec3::new(b[2] as f32 + 0.5, b[3] as f32 + 0.5, b[4] as f32 + 0.5) * f;
+                    let [d, col] = leaf[sel.0[a]];
                     *ea = col * d.dot(n);
                 }
             }
@@ -120,16 +125,17 @@ impl Octree {
     /// `keep`, when given, sees every valid leaf met and may drop it (`None`: out of both
     /// sums) or scale its value by a factor (leak control; see [`Octree::irradiance_where`]).
     #[inline]
-    fn blend<T>(
+    fn blend<T, K>(
         &self,
         p: Vec3,
         n: Vec3,
         zero: T,
-        mut keep: Option<&mut dyn FnMut(QueryLeaf) -> Option<f32>>,
+        mut keep: Option<K>,
         leaf: impl Fn(usize, &([usize; 3], [f32; 3])) -> [T; 3],
     ) -> Option<T>
     where
         T: Copy + std::ops::AddAssign + std::ops::Mul<f32, Output = T>,
+        K: FnMut(QueryLeaf) -> Option<f32>,
     {
         if !p.is_finite() || !n.is_finite() {
             return None;
@@ -137,13 +143,14 @@ impl Octree {
         let sel = selection(n);
         let mut sum = [zero; 3];
         let mut wsum = [0.0f32; 3];
-        self.visit_query(p, |v, g, depth, ijk| {
-            let f = match keep.as_mut() {
-                Some(k) => match k(self.query_leaf(v, depth, ijk)) {
+        let leaves = keep.is_some().then(|| self.flat().leaves.as_slice());
+        self.visit_query(p, |v, g| {
+            let f = match (keep.as_mut(), leaves) {
+                (Some(k), Some(leaves)) => match k(leaves[v]) {
                     Some(f) => f,
                     None => return,
                 },
-                None => 1.0,
+                _ => 1.0,
             };
             let bits = self.facing.get(v).copied().unwrap_or(ALL_FACING);
             let terms = leaf(v, &sel);
@@ -176,13 +183,13 @@ impl Octree {
     /// negative channels clamped to 0. `None` when no valid leaf meets the query box (or
     /// `p`/`n` is not finite).
     pub fn irradiance(&self, p: Vec3, n: Vec3) -> Option<Color> {
-        self.blend(p, n, Vec3::ZERO, None, |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
+        self.blend(p, n, Vec3::ZERO, None::<NoKeep>, |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
     }
 
     /// The blended incident-radiance matrix `M(N)` at `p` (columns = r, g, b irradiance
     /// vectors), for glossy shading. `None` as for [`Octree::irradiance`].
     pub fn incident_matrix(&self, p: Vec3, n: Vec3) -> Option<Mat3> {
-        self.blend(p, n, Mat3::ZERO, None, |v, sel| self.leaf_matrix(v, sel))
+        self.blend(p, n, Mat3::ZERO, None::<NoKeep>, |v, sel| self.leaf_matrix(v, sel))
     }
 
     /// [`Octree::irradiance`] over the valid leaves that `keep` accepts: it sees each leaf's
@@ -192,13 +199,15 @@ impl Octree {
     /// its value by `f` (the share of its light that reaches `p`, in [0, 1]). Where `keep`
     /// answers `Some(1.0)` for every leaf the result is [`Octree::irradiance`]'s, with the same
     /// continuity.
-    pub fn irradiance_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> Option<f32>) -> Option<Color> {
+    /// `keep` is generic (a `&mut dyn FnMut` works too), so that a closure is called directly
+    /// for every leaf met.
+    pub fn irradiance_where(&self, p: Vec3, n: Vec3, keep: impl FnMut(QueryLeaf) -> Option<f32>) -> Option<Color> {
         self.blend(p, n, Vec3::ZERO, Some(keep), |v, sel| self.leaf_irradiance(v, n, sel)).map(|e| e.max(Vec3::ZERO))
     }
 
     /// [`Octree::incident_matrix`] over the valid leaves that `keep` accepts (see
     /// [`Octree::irradiance_where`]).
-    pub fn incident_matrix_where(&self, p: Vec3, n: Vec3, keep: &mut dyn FnMut(QueryLeaf) -> Option<f32>) -> Option<Mat3> {
+    pub fn incident_matrix_where(&self, p: Vec3, n: Vec3, keep: impl FnMut(QueryLeaf) -> Option<f32>) -> Option<Mat3> {
         self.blend(p, n, Mat3::ZERO, Some(keep), |v, sel| self.leaf_matrix(v, sel))
     }
 
