@@ -33,6 +33,9 @@ pub struct LatLong {
     height: usize,
     data: Vec<Color>,
     dist: Option<Distribution2D>,
+    /// `cos θ` of the row boundaries `θ_j = j π / (height - 1)`, `j = 0..height`, computed
+    /// once (the samples and densities read them instead of two `cos` per call).
+    row_cos: Vec<f64>,
     /// `∫ L dω` over the sphere (W/m² per unit... i.e. radiance times steradians), per channel.
     integral: Color,
 }
@@ -96,7 +99,8 @@ impl LatLong {
             }
         }
         let dist = Distribution2D::new(&weights, nx, ny);
-        Ok(LatLong { width, height, data, dist, integral: integral.as_vec3() })
+        let row_cos = (0..=ny).map(|j| (j as f64 * PI64 / ny as f64).cos()).collect();
+        Ok(LatLong { width, height, data, dist, row_cos, integral: integral.as_vec3() })
     }
 
     /// Bilinear radiance lookup at texture coordinates `uv` (module docs).
@@ -143,20 +147,24 @@ impl LatLong {
     /// Solid angle of the cells of row `iy`, i.e. `Δφ (cos θ₀ − cos θ₁)`.
     #[inline]
     fn cell_solid_angle(&self, iy: usize) -> f32 {
-        let ny = (self.height - 1) as f64;
-        let (t0, t1) = (iy as f64 * PI64 / ny, (iy + 1) as f64 * PI64 / ny);
-        ((2.0 * PI64 / self.width as f64) * (t0.cos() - t1.cos())) as f32
+        ((2.0 * PI64 / self.width as f64) * (self.row_cos[iy] - self.row_cos[iy + 1])) as f32
     }
 
     /// Sample a local direction; returns it, its radiance and its solid-angle density.
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Color, f32)> {
+        let (d, pdf) = self.sample_direction(u)?;
+        Some((d, self.eval(d), pdf))
+    }
+
+    /// [`Self::sample`] without the radiance lookup: the direction and its density.
+    #[inline]
+    pub fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32)> {
         let dist = self.dist.as_ref()?;
         let (ix, iy, p, r) = dist.sample_cell(u)?;
         let nx = self.width as f64;
-        let ny = (self.height - 1) as f64;
         let phi = 2.0 * PI64 * ((ix as f64 + 0.5 + r.x as f64) / nx);
-        let (c0, c1) = ((iy as f64 * PI64 / ny).cos(), ((iy + 1) as f64 * PI64 / ny).cos());
+        let (c0, c1) = (self.row_cos[iy], self.row_cos[iy + 1]);
         let cos_t = c0 + (c1 - c0) * r.y as f64;
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         let d = DVec3::new(sin_t * phi.sin(), cos_t, -sin_t * phi.cos()).as_vec3();
@@ -164,7 +172,7 @@ impl LatLong {
         if !(pdf > 0.0) || !pdf.is_finite() {
             return None;
         }
-        Some((d, self.eval(d), pdf))
+        Some((d, pdf))
     }
 
     /// Solid-angle density with which [`Self::sample`] picks local direction `d`.
