@@ -133,7 +133,7 @@ impl OctreeIntegrator {
 /// test must stop is light read across the scene's own walls. With the object blocking, the
 /// leaves behind the surface were dropped as meant, but so were those beside it, whose nearest
 /// points lie in the surface's plane (the ray ends on the object), and the cell holding the
-/// point itself: measured on the faces of a cube inserted into the test box, 0.26–0.65 of the
+/// point itself: measured on the faces of a cube inserted into the test box, 0.22–0.56 of the
 /// value without leak test at mid-height, 0 on two faces (`octree_insert/tests.rs`).
 /// `rays` counts the rays cast.
 pub(super) fn leaf_seen_past_inserted(

@@ -247,7 +247,7 @@ fn inserted_object_renders_from_the_bake() {
 /// On the faces of a cube inserted in the middle of the baked box (no wall within a query box
 /// of it), the object's leak test keeps every leaf the query meets: the value is the one
 /// without a leak test. With the object blocking the rays (the scene's leak test,
-/// `keep_leaf`), the leaves beside and behind each face were dropped: measured 0.26–0.65 of
+/// `keep_leaf`), the leaves beside and behind each face were dropped: measured 0.22–0.56 of
 /// the value on four faces and nothing at all on the two facing ±Z, so that test fails here.
 #[test]
 fn the_inserted_objects_leak_test_looks_through_the_object() {
