@@ -290,10 +290,10 @@ pub struct RenderArgs {
     /// `importance` (positions drawn from the filter, one pixel per sample).
     #[arg(long, value_enum, default_value = "splat")]
     pub reconstruction: ReconstructionArg,
-    /// The numbers behind every sample: `independent` (uniform random, as Mitsuba's
-    /// `independent`) or `sobol` (Owen-scrambled Sobol' points, stratified per pixel: 1.2-2.5x
-    /// lower relMSE at equal spp for path and octree, docs/performance.md).
-    #[arg(long, value_enum, default_value = "independent")]
+    /// The numbers behind every sample: `sobol` (Owen-scrambled Sobol' points, stratified per
+    /// pixel: 1.2-2.5x lower relMSE at equal spp for path and octree, docs/performance.md) or
+    /// `independent` (uniform random, as Mitsuba's `independent`).
+    #[arg(long, value_enum, default_value = "sobol")]
     pub sampler: SamplerArg,
     #[command(flatten)]
     pub octree: OctreeArgs,

@@ -7,7 +7,7 @@
 //!
 //! Two kinds ([`SamplerKind`]): independent numbers (PCG32), and padded Owen-scrambled Sobol'
 //! points ([`sobol`]), where each draw (`next_1d` or `next_2d`) is one slot, stratified over
-//! the samples of a pixel. The photon pass and the tests use independent numbers.
+//! the samples of a pixel (the render's default). The photon pass uses independent numbers.
 //!
 //! Each warp `square_to_*` has a matching `*_pdf` (density w.r.t. the measure named in the doc).
 
@@ -34,14 +34,13 @@ pub fn mix64(mut x: u64) -> u64 {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SamplerKind {
-    /// Independent uniform numbers (PCG32), as Mitsuba's `independent` sampler. The default
-    /// until the Christensen furnace tests pass with Sobol' (docs/performance.md).
-    #[default]
+    /// Independent uniform numbers (PCG32), as Mitsuba's `independent` sampler.
     Independent,
     /// Owen-scrambled Sobol' points, padded per 2D slot ([`sobol`]): stratified in every
     /// slot over each power-of-two run of samples of a pixel. 1.2–1.7x lower relMSE than
-    /// independent numbers at equal spp for `path`, 1.4–2.5x for `octree`
+    /// independent numbers at equal spp for `path`, 1.4–2.5x for `octree`; the default
     /// (docs/performance.md).
+    #[default]
     Sobol,
 }
 

@@ -193,9 +193,10 @@ fn volume_query_is_continuous_across_cell_borders() {
 /// A box standing on the floor of the baked Cornell box, absent from the bake: rendered from
 /// the bake (octree, volume query on the box) and by the path tracer with the box present.
 /// Measured: the object's mean 0.933 of the path tracer's while the empty leaves' leak test
-/// aimed at their centres, 0.788 since it aims at their point nearest to the query (which
-/// removed the black rim of docs/baking.md's ball; why the box lost light is not yet
-/// understood). Bound: 0.7–1.15.
+/// aimed at their centres, 0.788 once it aimed at their point nearest to the query (the
+/// object itself then hid the leaves beside each face, whose nearest points lie in the face's
+/// plane), 0.937 since the object's leak test looks through the object
+/// (`leaf_seen_past_inserted`). Bound: 0.85–1.15.
 #[test]
 fn inserted_object_renders_from_the_bake() {
     use crate::integrators::Integrator;
@@ -239,6 +240,148 @@ fn inserted_object_renders_from_the_bake() {
     let mean = |im: &crate::image::Image| mask.iter().zip(&im.data).filter(|(m, _)| **m).map(|(_, c)| mean3(*c)).sum::<f64>() / n as f64;
     let (a, b) = (mean(&img), mean(&truth));
     eprintln!("inserted box: {n} pixels, octree mean {a:.4}, path {b:.4} (ratio {:.3})", a / b);
-    assert!((0.7..=1.15).contains(&(a / b)), "octree {a} against path {b}");
+    assert!((0.85..=1.15).contains(&(a / b)), "octree {a} against path {b}");
     let _ = InsertAo { rays: 4, distance: 0.5 };
+}
+
+/// On the faces of a cube inserted in the middle of the baked box (no wall within a query box
+/// of it), the object's leak test keeps every leaf the query meets: the value is the one
+/// without a leak test. With the object blocking the rays (the scene's leak test,
+/// `keep_leaf`), the leaves beside and behind each face were dropped: measured 0.22–0.56 of
+/// the value on four faces and nothing at all on the two facing ±Z, so that test fails here.
+#[test]
+fn the_inserted_objects_leak_test_looks_through_the_object() {
+    use super::super::octree::keep_leaf;
+    use crate::scene::{Geometry, ShapeDesc, TriMesh};
+    let (_, o) = baked_box(200_000);
+    let mut desc = super::super::test_scenes::box_desc();
+    let first = desc.shapes.len() as u32;
+    let (centre, half) = (Vec3::new(-0.3, 1.0, 0.0), 0.15f32);
+    let cube = glam::Mat4::from_translation(centre) * glam::Mat4::from_scale(Vec3::splat(half));
+    desc.shapes.push(ShapeDesc {
+        name: "inserted".into(),
+        geometry: Geometry::Mesh(TriMesh::cube(&cube)),
+        material: 0,
+        emission: None,
+        flip_normals: false,
+    });
+    let scene = Scene::prepare(desc, crate::accel::BackendKind::Bvh).unwrap();
+    let tree = &o.global;
+    let (mut all_sum, mut blocked_sum, mut rays) = (0.0f64, 0.0f64, 0u64);
+    let mut lowest_face = f64::MAX;
+    for &n in &NORMALS {
+        let (t1, t2) = n.any_orthonormal_pair();
+        let (mut face_all, mut face_blocked) = (0.0, 0.0);
+        for i in 0..3 {
+            for j in 0..3 {
+                let (u, v) = ((i as f32 - 1.0) * 0.6 * half, (j as f32 - 1.0) * 0.6 * half);
+                let hit = scene.intersect(&Ray::new(centre + n * (half + 0.05) + t1 * u + t2 * v, -n)).expect("the cube");
+                assert_eq!(hit.shape, first);
+                let all = tree.irradiance_volume(hit.p, n, None).map_or(0.0, mean3);
+                let seen = tree
+                    .irradiance_volume(
+                        hit.p,
+                        n,
+                        Some(&mut |q| super::leaf_seen_past_inserted(&scene, &(first..first + 1), &hit, n, &q, &mut rays)),
+                    )
+                    .map_or(0.0, mean3);
+                let blocked = tree
+                    .irradiance_volume(
+                        hit.p,
+                        n,
+                        Some(&mut |q| keep_leaf(&scene, tree, None, &hit, n, o.settings.leak, q, &mut rays).is_some()),
+                    )
+                    .map_or(0.0, mean3);
+                assert!(all > 0.0, "no value at {} for {n}", hit.p);
+                assert!((seen / all - 1.0).abs() < 1e-4, "face {n} at {}: {seen} with the object's leak test, {all} without", hit.p);
+                face_all += all;
+                face_blocked += blocked;
+            }
+        }
+        all_sum += face_all;
+        blocked_sum += face_blocked;
+        lowest_face = lowest_face.min(face_blocked / face_all);
+    }
+    eprintln!(
+        "inserted cube: with the object blocking the leak test {:.3} of the light (lowest face {lowest_face:.3}); {rays} rays",
+        blocked_sum / all_sum
+    );
+    assert!(lowest_face < 0.5, "the blocking test should lose light here (the test can fail): {lowest_face}");
+}
+
+/// Diagnostic (not a check, `--ignored`): on the faces of a cube inserted into the baked box
+/// at three heights, the volume query (with the scene's leak test, none, the object's) against
+/// the path tracer with the cube present and with it absent (docs/baking.md).
+#[test]
+#[ignore]
+fn inserted_cube_faces_diagnostic() {
+    use super::super::octree::keep_leaf;
+    use crate::scene::{Geometry, ShapeDesc, TriMesh};
+    let base = super::super::test_scenes::box_desc();
+    let mut s = OctreeIntegratorSettings::default();
+    s.photons.photons = 400_000;
+    let base_scene = Scene::prepare(base.clone(), crate::accel::BackendKind::Bvh).unwrap();
+    let mut o = OctreeIntegrator::build(&base_scene, s).unwrap();
+    o.fill_atmosphere(&base_scene);
+    let leak = o.settings.leak;
+    for (name, centre, half) in [
+        ("floor", Vec3::new(0.1, 0.3, -0.2), 0.3f32),
+        ("mid", Vec3::new(-0.3, 1.0, 0.0), 0.15),
+        ("ceiling", Vec3::new(-0.5, 1.75, 0.2), 0.15),
+    ] {
+        let mut desc = base.clone();
+        let first = desc.shapes.len() as u32;
+        let cube = glam::Mat4::from_translation(centre) * glam::Mat4::from_scale(Vec3::splat(half));
+        desc.shapes.push(ShapeDesc {
+            name: "inserted".into(),
+            geometry: Geometry::Mesh(TriMesh::cube(&cube)),
+            material: 0,
+            emission: None,
+            flip_normals: false,
+        });
+        let scene = Scene::prepare(desc, crate::accel::BackendKind::Bvh).unwrap();
+        for (k, &n) in NORMALS.iter().enumerate() {
+            let (mut a, mut b, mut c, mut d, mut e) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            let (t1, t2) = (n.any_orthonormal_pair().0, n.any_orthonormal_pair().1);
+            let mut cnt = 0;
+            for i in 0..3 {
+                for j in 0..3 {
+                    let u = (i as f32 - 1.0) * 0.6 * half;
+                    let v = (j as f32 - 1.0) * 0.6 * half;
+                    let outside = centre + n * (half + 0.05) + t1 * u + t2 * v;
+                    let Some(hit) = scene.intersect(&Ray::new(outside, -n)) else { continue };
+                    if hit.shape != first {
+                        continue;
+                    }
+                    let p = hit.p + n * 1e-3;
+                    let mut rays = 0u64;
+                    let tree = &o.global;
+                    let oct_keep = tree
+                        .irradiance_volume(hit.p, n, Some(&mut |q| keep_leaf(&scene, tree, None, &hit, n, leak, q, &mut rays).is_some()))
+                        .map_or(0.0, mean3);
+                    let oct_none = tree.irradiance_volume(hit.p, n, None).map_or(0.0, mean3);
+                    let oct_new = tree
+                        .irradiance_volume(
+                            hit.p,
+                            n,
+                            Some(&mut |q| super::leaf_seen_past_inserted(&scene, &(first..first + 1), &hit, n, &q, &mut rays)),
+                        )
+                        .map_or(0.0, mean3);
+                    let seed = (k * 9 + i * 3 + j) as u64;
+                    let pt_obj = path_irradiance(&scene, p, n, 256, seed);
+                    let pt_base = path_irradiance(&base_scene, p, n, 256, seed);
+                    a += oct_keep;
+                    b += oct_none;
+                    c += pt_obj;
+                    d += pt_base;
+                    e += oct_new;
+                    cnt += 1;
+                }
+            }
+            eprintln!(
+                "{name} face {n}: {cnt} pts  oct(keep) {:.4}  oct(all) {:.4}  oct(new) {:.4}  path(with) {:.4}  path(without) {:.4}  | keep/with {:.3} new/with {:.3} all/without {:.3} without/with {:.3}",
+                a / cnt as f64, b / cnt as f64, e / cnt as f64, c / cnt as f64, d / cnt as f64, a / c, e / c, b / d, d / c
+            );
+        }
+    }
 }
