@@ -78,8 +78,12 @@ fn the_light_fixture_gap_does_not_leak() {
     o.settings.leak = LeakTest::VisibleLight;
     let light_gap = mean(&o, &gap);
     let light_lit = mean(&o, &lit);
+    o.settings.leak = LeakTest::VisibleOrigin;
+    let origin_gap = mean(&o, &gap);
+    let origin_lit = mean(&o, &lit);
     o.settings.leak = LeakTest::None;
     let none_gap = mean(&o, &gap);
+    println!("visible_origin: gap {origin_gap:.4}, lit {origin_lit:.4}");
     println!(
         "fixture gap irradiance: path {truth_gap:.4}, octree visible_light {light_gap:.4}, visible_sample (default) {sample_gap:.4}, \
          none {none_gap:.4}; lit ceiling in front: path {truth_lit:.4}, octree visible_light {light_lit:.4}"
