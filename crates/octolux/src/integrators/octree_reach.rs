@@ -7,7 +7,10 @@
 //! [`super::octree::LeakTest::VisibleOrigin`] looks from the query point at the photon's light
 //! origin, a point on that segment, which therefore never lies behind the surface that lit the
 //! photon (a floor photon lit by a wall a few millimetres away has its origin in front of the
-//! wall, not in the next room).
+//! wall, not in the next room). Each sample also gets the normal of the surface it lies on
+//! (found by a ray back along its incident direction; the anchors keep only the incident
+//! direction), so that the test counts only the samples on surfaces facing like the query
+//! point's: the matrices a query reads hold the light of those (the split by normal).
 
 use crate::caches::octree::{LeafPlanes, ANCHOR_SAMPLES};
 use crate::caches::Octree;
@@ -29,22 +32,54 @@ pub const REACH_SKIP: f32 = 0.05;
 #[derive(Debug)]
 pub struct LeakData {
     pub planes: LeafPlanes,
-    /// Per valid leaf, per sampled photon: its reach in world units (see the module docs).
-    reach: Vec<[f32; ANCHOR_SAMPLES]>,
+    /// Per valid leaf, per sampled photon: its reach and normal (see the module docs).
+    samples: Vec<[SampleReach; ANCHOR_SAMPLES]>,
 }
 
 impl LeakData {
     /// The planes and sample reaches of `tree` (built for `scene`).
     pub fn new(scene: &Scene, tree: &Octree, planes: LeafPlanes) -> LeakData {
-        let reach = tree.valid_leaves().par_iter().map(|q| q.samples.map(|(p, w)| sample_reach(scene, p, w, q.cell_size))).collect();
-        LeakData { planes, reach }
+        let samples = tree.valid_leaves().par_iter().map(|q| q.samples.map(|(p, w)| SampleReach::new(scene, p, w, q.cell_size))).collect();
+        LeakData { planes, samples }
     }
 
-    /// The reaches of valid leaf `index`'s samples (world units).
+    /// The reaches and normals of valid leaf `index`'s samples.
     #[inline]
-    pub fn reach(&self, index: u32) -> Option<&[f32; ANCHOR_SAMPLES]> {
-        self.reach.get(index as usize)
+    pub fn samples(&self, index: u32) -> Option<&[SampleReach; ANCHOR_SAMPLES]> {
+        self.samples.get(index as usize)
     }
+}
+
+/// A sampled photon's reach and surface normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SampleReach {
+    /// Distance to the surface that lit it along its incident direction, world units, at most
+    /// [`REACH_MAX`] cell edges ([`sample_reach`]).
+    pub reach: f32,
+    /// Unit normal of the surface it lies on, on the side its light came from; its incident
+    /// direction where no surface is found ([`sample_normal`]).
+    pub normal: Vec3,
+}
+
+impl SampleReach {
+    /// Reach and normal of the sample at `p` with incident direction `w` in a leaf of edge
+    /// `cell_size`.
+    pub fn new(scene: &Scene, p: Vec3, w: Vec3, cell_size: f32) -> SampleReach {
+        SampleReach { reach: sample_reach(scene, p, w, cell_size), normal: sample_normal(scene, p, w, cell_size) }
+    }
+}
+
+/// The normal of the surface a sampled photon at `p` with incident direction `w` lies on:
+/// a ray from [`REACH_SKIP`] cell edges along `w` back towards the photon, over up to three
+/// times that (the quantised position's offset, divided by the incidence's cosine); `w` when
+/// it finds nothing.
+pub fn sample_normal(scene: &Scene, p: Vec3, w: Vec3, cell_size: f32) -> Vec3 {
+    let skip = REACH_SKIP * cell_size;
+    if w == Vec3::ZERO || !(skip > 0.0) {
+        return w;
+    }
+    let ray = Ray::segment(p + w * skip, -w, 3.0 * skip);
+    scene.intersect(&ray).map_or(w, |h| crate::math::facing(h.ng, w))
 }
 
 /// Distance from a sampled photon at `p` along its incident direction `w` (unit, or zero) to
