@@ -20,8 +20,8 @@
 //!
 //! **Leak control** ([`LeakTest`], `docs/octree.md` "Leak control"): every octree read drops
 //! the leaves whose photons the shading point cannot see (default: none of four sampled
-//! photons per leaf is visible; `visible_light` also scales a leaf by the share of its light
-//! whose origin the point sees), so light does not pass through walls thinner than the query
+//! photons per leaf is visible; `visible_light` and `visible_origin` also scale a leaf by the
+//! share of its light whose origin the point sees), so light does not pass through walls thinner than the query
 //! box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
@@ -70,8 +70,9 @@ pub enum LeakTest {
     /// A leaf counts when a ray from the query point reaches any of its sampled photons
     /// ([`crate::caches::octree::LeafAnchors`]), each lifted by [`ANCHOR_LIFT`] cell edges along
     /// its own normal. One to four shadow rays per valid leaf met (the first visible one
-    /// ends the test). The default: `VisibleLight` removes the light-fixture leak but costs
-    /// relMSE elsewhere (`docs/octree.md`).
+    /// ends the test). The default: `VisibleLight` and `VisibleOrigin` remove most of the
+    /// light-fixture leak but cost relMSE elsewhere (`VisibleLight` on the Cornell boxes,
+    /// `VisibleOrigin` on sponza; `docs/octree.md`).
     #[default]
     VisibleSample,
     /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
