@@ -316,7 +316,7 @@ impl OctreeIntegrator {
             let tris = scene.mesh_triangles_where(|_| true);
             let spheres: Vec<_> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
             let planes: LeafPlanes = tree.leaf_planes(&tris, &spheres, DIRECTION_REACH.max(ANCHOR_LIFT).max(LIGHT_LIFT).max(REACH_MAX));
-            LeakData::new(scene, tree, planes)
+            LeakData::new(scene, tree, planes, self.settings.leak == LeakTest::VisibleOrigin)
         })
     }
 

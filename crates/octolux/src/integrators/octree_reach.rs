@@ -37,13 +37,19 @@ pub struct LeakData {
 }
 
 impl LeakData {
-    /// The planes and sample reaches of `tree` (built for `scene`).
-    pub fn new(scene: &Scene, tree: &Octree, planes: LeafPlanes) -> LeakData {
-        let samples = tree.valid_leaves().par_iter().map(|q| q.samples.map(|(p, w)| SampleReach::new(scene, p, w, q.cell_size))).collect();
+    /// The planes of `tree` (built for `scene`), and its samples' reaches and normals when
+    /// `reach` (two rays per sample; without them, [`LeakData::samples`] is `None` and the
+    /// test that needs them casts those rays per query).
+    pub fn new(scene: &Scene, tree: &Octree, planes: LeafPlanes, reach: bool) -> LeakData {
+        let samples = if reach {
+            tree.valid_leaves().par_iter().map(|q| q.samples.map(|(p, w)| SampleReach::new(scene, p, w, q.cell_size))).collect()
+        } else {
+            Vec::new()
+        };
         LeakData { planes, samples }
     }
 
-    /// The reaches and normals of valid leaf `index`'s samples.
+    /// The reaches and normals of valid leaf `index`'s samples, when computed.
     #[inline]
     pub fn samples(&self, index: u32) -> Option<&[SampleReach; ANCHOR_SAMPLES]> {
         self.samples.get(index as usize)
