@@ -21,8 +21,8 @@
 //! **Leak control** ([`LeakTest`], `docs/octree.md` "Leak control"): every octree read drops
 //! the leaves whose photons the shading point cannot see (default: none of four sampled
 //! photons per leaf is visible; `visible_light` and `visible_origin` also scale a leaf by the
-//! share of its light whose origin the point sees), so light does not pass through walls thinner than the query
-//! box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
+//! share of its light whose origin the point sees), so light does not pass through walls
+//! thinner than the query box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
 use super::octree_reach::{LeakData, SampleReach, REACH_MAX};
@@ -91,7 +91,8 @@ pub enum LeakTest {
     /// keeps its weight when the query point sees one of those origins or one of its photons
     /// (each lifted by [`ANCHOR_LIFT`] cell edges, at most half its reach, along its incident
     /// direction); its value is scaled by the share of its samples lit from the query's side
-    /// whose origin the query point sees. A point in a gap (above a light fixture hung under
+    /// and lying on surfaces facing like the query point's ([`SAME_FACING`]; their normals are
+    /// found from the scene) whose origin the query point sees. A point in a gap (above a light fixture hung under
     /// the ceiling) sees the lit ceiling photons outside through the gap's opening, but not
     /// the room below them, where their light came from; a floor photon lit by a wall a few
     /// millimetres away has its origin in front of that wall, not behind it. One to eight rays
