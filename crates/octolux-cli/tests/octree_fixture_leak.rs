@@ -7,9 +7,10 @@
 //!
 //! The reference is computed here, by path tracing the irradiance at the same points (cosine-
 //! weighted directions, `E = π · mean L`, Mitsuba's path tracer agrees with octolux's `path`
-//! within noise, `agreement_mitsuba.rs`). The octree's irradiance with `leak = visible_light`
-//! must stay within a bound of it, and the paper's blend (`leak = none`) must leak there (else
-//! the test proves nothing); the default's (`visible_sample`) is printed.
+//! within noise, `agreement_mitsuba.rs`). The octree's irradiance with `leak = visible_origin`
+//! and `visible_light` must stay within a bound of it, and the paper's blend (`leak = none`)
+//! must leak there (else the test proves nothing); the default's (`visible_sample`, which
+//! leaks there: neither opt-in test kept sponza's relMSE, `docs/octree.md`) is printed.
 
 use glam::Vec3;
 use octolux::accel::BackendKind;
@@ -55,6 +56,10 @@ fn path_irradiance(scene: &Scene, hit: &octolux::scene::SurfaceHit, index: u64, 
     std::f64::consts::PI * sum / n as f64
 }
 
+/// The gap irradiance of the leak tests that aim at it (`visible_origin`, `visible_light`) may
+/// exceed the path tracer's by this share of the lit ceiling's.
+const BOUND: f64 = 0.1;
+
 #[test]
 fn the_light_fixture_gap_does_not_leak() {
     let Some(scene) = scene() else { return };
@@ -67,34 +72,33 @@ fn the_light_fixture_gap_does_not_leak() {
     let mut s = OctreeIntegratorSettings::default();
     s.photons.photons = 1_000_000;
     let mut o = OctreeIntegrator::build(&scene, s).expect("octree builds");
-    let mean = |o: &OctreeIntegrator, pts: &[octolux::scene::SurfaceHit]| {
+    let mut mean = |leak: LeakTest, pts: &[octolux::scene::SurfaceHit]| {
+        o.settings.leak = leak;
         let mut c = RayCounters::default();
         pts.iter()
             .map(|h| o.irradiance_at(&scene, &o.global, h, -Vec3::Y, &mut c).map_or(0.0, |e| e.element_sum() as f64 / 3.0))
             .sum::<f64>()
             / pts.len() as f64
     };
-    let sample_gap = mean(&o, &gap);
-    o.settings.leak = LeakTest::VisibleLight;
-    let light_gap = mean(&o, &gap);
-    let light_lit = mean(&o, &lit);
-    o.settings.leak = LeakTest::None;
-    let none_gap = mean(&o, &gap);
+    let (origin_gap, origin_lit) = (mean(LeakTest::VisibleOrigin, &gap), mean(LeakTest::VisibleOrigin, &lit));
+    let (light_gap, light_lit) = (mean(LeakTest::VisibleLight, &gap), mean(LeakTest::VisibleLight, &lit));
+    let (sample_gap, none_gap) = (mean(LeakTest::VisibleSample, &gap), mean(LeakTest::None, &gap));
     println!(
-        "fixture gap irradiance: path {truth_gap:.4}, octree visible_light {light_gap:.4}, visible_sample (default) {sample_gap:.4}, \
-         none {none_gap:.4}; lit ceiling in front: path {truth_lit:.4}, octree visible_light {light_lit:.4}"
+        "fixture gap irradiance: path {truth_gap:.4}, octree visible_origin {origin_gap:.4}, visible_light {light_gap:.4}, \
+         visible_sample (default) {sample_gap:.4}, none {none_gap:.4}; lit ceiling in front: path {truth_lit:.4}, octree \
+         visible_origin {origin_lit:.4}, visible_light {light_lit:.4}"
     );
     assert!(none_gap > truth_gap + 0.2 * truth_lit, "the paper's blend should leak here: {none_gap} vs {truth_gap}");
-    // measured (deterministic): path 0.0019, visible_light 0.0211, visible_sample 0.1788, none
-    // 0.1773, lit ceiling 0.2616 (path) and 0.2698 (octree): the leak falls from 68% of the lit
-    // ceiling's irradiance to 7.3%, not to the path tracer's 0.7%
-    assert!(
-        (light_gap - truth_gap).abs() <= 0.1 * truth_lit,
-        "gap irradiance {light_gap:.4} vs the path tracer's {truth_gap:.4} (lit ceiling {truth_lit:.4})"
-    );
-    assert!(
-        light_gap - truth_gap <= 0.25 * (sample_gap - truth_gap),
-        "visible_light {light_gap:.4} against visible_sample {sample_gap:.4}"
-    );
-    assert!((light_lit / truth_lit - 1.0).abs() < 0.15, "lit ceiling {light_lit:.4} vs {truth_lit:.4}");
+    // measured (deterministic): path 0.0019, visible_origin 0.0234, visible_light 0.0211,
+    // visible_sample 0.1788, none 0.1773, lit ceiling 0.2616 (path) and 0.2698 (octree): the
+    // leak falls from 68% of the lit ceiling's irradiance to 8.2% (visible_origin) and 7.3%
+    // (visible_light), not to the path tracer's 0.7%
+    for (name, g, l) in [("visible_origin", origin_gap, origin_lit), ("visible_light", light_gap, light_lit)] {
+        assert!(
+            (g - truth_gap).abs() <= BOUND * truth_lit,
+            "{name}: gap irradiance {g:.4} vs the path tracer's {truth_gap:.4} (lit ceiling {truth_lit:.4})"
+        );
+        assert!(g - truth_gap <= 0.25 * (sample_gap - truth_gap), "{name} {g:.4} against visible_sample {sample_gap:.4}");
+        assert!((l / truth_lit - 1.0).abs() < 0.15, "{name}: lit ceiling {l:.4} vs {truth_lit:.4}");
+    }
 }

@@ -18,6 +18,7 @@ pub mod octree;
 pub mod octree_insert;
 #[cfg(test)]
 mod octree_leak;
+pub mod octree_reach;
 pub mod path;
 pub mod photon;
 #[cfg(test)]

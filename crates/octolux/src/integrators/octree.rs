@@ -20,11 +20,12 @@
 //!
 //! **Leak control** ([`LeakTest`], `docs/octree.md` "Leak control"): every octree read drops
 //! the leaves whose photons the shading point cannot see (default: none of four sampled
-//! photons per leaf is visible; `visible_light` also scales a leaf by the share of its light
-//! whose origin the point sees), so light does not pass through walls thinner than the query
-//! box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
+//! photons per leaf is visible; `visible_light` and `visible_origin` also scale a leaf by the
+//! share of its light whose origin the point sees), so light does not pass through walls
+//! thinner than the query box. The global tree's depth limit is automatic by default (`caches::octree::auto_depth`).
 
 use super::common::{direct_light, facing, walk_specular, RayCounters, Vertex};
+use super::octree_reach::{LeakData, SampleReach, REACH_MAX};
 use crate::caches::octree::{AnalyticSphere, Depth, LeafPlanes, OctreeParts, PartsError, QueryLeaf, Segment, Surfaces, ANCHOR_SAMPLES};
 use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
 use crate::math::{Color, Frame, Ray, RayDifferential};
@@ -69,8 +70,9 @@ pub enum LeakTest {
     /// A leaf counts when a ray from the query point reaches any of its sampled photons
     /// ([`crate::caches::octree::LeafAnchors`]), each lifted by [`ANCHOR_LIFT`] cell edges along
     /// its own normal. One to four shadow rays per valid leaf met (the first visible one
-    /// ends the test). The default: `VisibleLight` removes the light-fixture leak but costs
-    /// relMSE elsewhere (`docs/octree.md`).
+    /// ends the test). The default: `VisibleLight` and `VisibleOrigin` remove most of the
+    /// light-fixture leak but cost relMSE elsewhere (`VisibleLight` on the Cornell boxes,
+    /// `VisibleOrigin` on sponza; `docs/octree.md`).
     #[default]
     VisibleSample,
     /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
@@ -83,6 +85,19 @@ pub enum LeakTest {
     /// One to twelve rays per leaf, fewer where the planes around the leaf answer them
     /// ([`LeafPlanes`]).
     VisibleLight,
+    /// Each sampled photon's light origin: the photon moved along its incident direction by
+    /// 0.9 of its reach (the distance to the surface that lit it, at most
+    /// [`super::octree_reach::REACH_MAX`] cell edges, [`super::octree_reach`]). The leaf
+    /// keeps its weight when the query point sees one of those origins or one of its photons
+    /// (each lifted by [`ANCHOR_LIFT`] cell edges, at most half its reach, along its incident
+    /// direction); its value is scaled by the share of its samples lit from the query's side
+    /// and lying on surfaces facing like the query point's ([`SAME_FACING`]; their normals are
+    /// found from the scene) whose origin the query point sees. A point in a gap (above a light fixture hung under
+    /// the ceiling) sees the lit ceiling photons outside through the gap's opening, but not
+    /// the room below them, where their light came from; a floor photon lit by a wall a few
+    /// millimetres away has its origin in front of that wall, not behind it. One to eight rays
+    /// per leaf, fewer where the planes around the leaf answer them ([`LeafPlanes`]).
+    VisibleOrigin,
     /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
     /// light that reaches the query point: of the sampled photons whose light arrived on the
     /// query's side, the fraction visible whose incident direction is open from the query point
@@ -110,6 +125,18 @@ pub const ANCHOR_LIFT: f32 = 0.25;
 /// incident direction: far enough to leave a slit narrower than a leaf (the fixture gap of
 /// Bitterli's box: 0.02 under leaves of 0.03–0.07), no farther than the planes' reach.
 pub const LIGHT_LIFT: f32 = 1.0;
+
+/// Where [`LeakTest::VisibleOrigin`] puts a sample's light origin, as a share of its reach:
+/// short of the surface that lit it, so that a ray from a point that sees that surface
+/// reaches it.
+pub const ORIGIN_SHARE: f32 = 0.9;
+
+/// [`LeakTest::VisibleOrigin`] counts a sample when the normal of its surface and the query
+/// point's make an angle under ~37° (cosine 0.8): the query reads the matrices of the
+/// half-axes its normal points to, weighted by the squared components (§5.2), and the split by
+/// normal files a photon under its normal's. Measured (`docs/octree.md`): 0.5 (60°) gave the
+/// same fixture gap and Bitterli's box, sponza 1.35e-2 instead of 1.22e-2 (1M photons).
+pub const SAME_FACING: f32 = 0.8;
 
 /// Length of the direction rays of [`LeakTest::OpenDirections`], in cell edges of the leaf: the
 /// occluders that matter are those near the query point that were not near the photons.
@@ -216,7 +243,7 @@ pub struct OctreeIntegrator {
     pub stats: OctreeBuildStats,
     /// [`LeafPlanes`] of the global and the caustic tree for the leak test, computed from the
     /// scene at the first query (or by [`OctreeIntegrator::prepare_leak`]).
-    planes: [std::sync::OnceLock<LeafPlanes>; 2],
+    planes: [std::sync::OnceLock<LeakData>; 2],
     /// Objects inserted into the baked lighting (`octree_insert.rs`); none by default.
     pub inserted: super::octree_insert::Inserted,
 }
@@ -276,8 +303,10 @@ impl OctreeIntegrator {
     /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
     /// instead of at the first query; the scene must be the one the octrees were built for.
     pub fn prepare_leak(&self, scene: &Scene) {
-        if matches!(self.settings.leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections)
-        {
+        if matches!(
+            self.settings.leak,
+            LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::VisibleOrigin | LeakTest::OpenDirections
+        ) {
             self.planes_of(scene, &self.global);
             // the caustic tree's too: built at its first query, they counted as query time
             if let Some(c) = &self.caustic {
@@ -290,7 +319,9 @@ impl OctreeIntegrator {
     /// the valid leaves around which the scene is one plane ([`LeafPlanes`], tested without a
     /// ray) and all valid leaves.
     pub fn leak_report(&self) -> serde_json::Value {
-        let count = |p: &std::sync::OnceLock<LeafPlanes>| p.get().map(|p| serde_json::json!({ "planar": p.planar(), "valid": p.len() }));
+        let count = |p: &std::sync::OnceLock<LeakData>| {
+            p.get().map(|p| serde_json::json!({ "planar": p.planes.planar(), "valid": p.planes.len() }))
+        };
         let lists = |t: &Octree| {
             let (entries, bytes) = t.query_lists();
             serde_json::json!({ "entries": entries, "bytes": bytes })
@@ -303,13 +334,14 @@ impl OctreeIntegrator {
         })
     }
 
-    /// The [`LeafPlanes`] of `tree` (one of this integrator's octrees) for `scene`.
-    fn planes_of(&self, scene: &Scene, tree: &Octree) -> &LeafPlanes {
+    /// The [`LeafPlanes`] and sample reaches of `tree` (one of this integrator's octrees) for `scene`.
+    fn planes_of(&self, scene: &Scene, tree: &Octree) -> &LeakData {
         let i = if std::ptr::eq(tree, &self.global) { 0 } else { 1 };
         self.planes[i].get_or_init(|| {
             let tris = scene.mesh_triangles_where(|_| true);
             let spheres: Vec<_> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
-            tree.leaf_planes(&tris, &spheres, DIRECTION_REACH.max(ANCHOR_LIFT).max(LIGHT_LIFT))
+            let planes: LeafPlanes = tree.leaf_planes(&tris, &spheres, DIRECTION_REACH.max(ANCHOR_LIFT).max(LIGHT_LIFT).max(REACH_MAX));
+            LeakData::new(scene, tree, planes, self.settings.leak == LeakTest::VisibleOrigin)
         })
     }
 
@@ -412,9 +444,12 @@ impl OctreeIntegrator {
 
     /// The planes the leak test `leak` uses for `tree` (none for the tests that do not use them).
     #[inline]
-    fn leak_planes(&self, scene: &Scene, tree: &Octree, leak: LeakTest) -> Option<&LeafPlanes> {
-        matches!(leak, LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::OpenDirections)
-            .then(|| self.planes_of(scene, tree))
+    fn leak_planes(&self, scene: &Scene, tree: &Octree, leak: LeakTest) -> Option<&LeakData> {
+        matches!(
+            leak,
+            LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::VisibleOrigin | LeakTest::OpenDirections
+        )
+        .then(|| self.planes_of(scene, tree))
     }
 
     /// `tree`'s irradiance at `hit` for normal `n` (on the viewer's side), leak control applied.
@@ -587,13 +622,14 @@ fn hsv(h: f32, s: f32, v: f32) -> Color {
 
 /// Whether the light of a leaf met by a query at `hit` (normal `n`, on the viewer's side) can
 /// reach it ([`LeakTest`]): `None` drops the leaf, `Some(f)` keeps it with its value scaled by
-/// `f`. `planes`: the [`LeafPlanes`] of `tree` for the tests that use them; `rays` counts the
-/// visibility rays cast.
+/// `f`. `planes`: the [`LeafPlanes`] and sample reaches of `tree` for the tests that use them
+/// (without them, segments and reaches are found by rays); `rays` counts the visibility rays
+/// cast.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn keep_leaf(
     scene: &Scene,
     tree: &Octree,
-    planes: Option<&LeafPlanes>,
+    planes: Option<&LeakData>,
     hit: &SurfaceHit,
     n: Vec3,
     leak: LeakTest,
@@ -608,7 +644,7 @@ pub(super) fn keep_leaf(
     // tell (`caches::octree::planes`), else by a ray
     let clear = |a: Vec3, b: Vec3, rays: &mut u64| {
         if let Some(p) = planes {
-            match p.segment(q.index, a, b) {
+            match p.planes.segment(q.index, a, b) {
                 Segment::Free => return true,
                 Segment::Blocked => return false,
                 Segment::Unknown => {}
@@ -653,6 +689,30 @@ pub(super) fn keep_leaf(
                 return None;
             }
             Some(if told == 0 { 1.0 } else { seen as f32 / told as f32 })
+        }
+        LeakTest::VisibleOrigin => {
+            // the reach and normal of each sample: precomputed per leaf, else by rays
+            let reach: [SampleReach; ANCHOR_SAMPLES] = match planes.and_then(|d| d.samples(q.index)) {
+                Some(r) => *r,
+                None => q.samples.map(|(p, w)| SampleReach::new(scene, p, w, q.cell_size)),
+            };
+            // of the samples on surfaces facing like the query point's (those the matrices it
+            // reads hold) lit from its side, those whose light's origin (0.9 of the way to the
+            // surface that lit them) the query point sees
+            let (mut facing, mut seen) = (0u32, 0u32);
+            for (&(p, w), r) in q.samples.iter().zip(&reach) {
+                if w.dot(n) > 0.0 && r.normal.dot(n) > SAME_FACING {
+                    facing += 1;
+                    if free(p + w * (ORIGIN_SHARE * r.reach), rays) {
+                        seen += 1;
+                    }
+                }
+            }
+            // the leaf keeps its weight when the query point sees any of its photons or origins
+            if seen == 0 && !q.samples.iter().zip(reach).any(|(&(p, w), r)| free(p + w * lift.min(0.5 * r.reach), rays)) {
+                return None;
+            }
+            Some(if facing == 0 { 1.0 } else { seen as f32 / facing as f32 })
         }
         LeakTest::OpenDirections => {
             // the share of the leaf's light (in the matrices the query reads: light arriving

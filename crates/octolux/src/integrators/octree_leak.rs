@@ -132,6 +132,7 @@ fn thin_wall_leaks_at_most_one_percent_with_the_visibility_test() {
             LeakTest::VisibilityAndDirection,
             LeakTest::VisibleSample,
             LeakTest::VisibleLight,
+            LeakTest::VisibleOrigin,
             LeakTest::OpenDirections,
         ] {
             o.settings.leak = leak;
