@@ -201,7 +201,7 @@ fn beam_estimate_of_an_isotropic_field_and_a_build_with_invalid_probes() {
     let layout = BrickLayout::new(unit_bounds(), &[], &[], &s).unwrap();
     let g = ProbeGrid::build(layout, ProbeInputs { photons: &ph, flight_lengths: &len }, &s, &|p: Vec3| if p.x < 0.3 { 0.6 } else { 0.0 }).unwrap();
     let st = g.stats().clone();
-    assert_eq!(st.invalid_probes, 2 * 4 * 4 * 4 * 2, "{st:?}"); // x = 0, 1/6 in the 4 left bricks
+    assert_eq!(st.invalid_probes, 2 * 16 * 4, "{st:?}"); // x = 0 and 1/6 (2 × 16 probes) in the 4 left bricks
     assert!(st.dilated_probes > 0 && st.dilated_probes <= st.invalid_probes, "{st:?}");
     let (probe, valid) = g.probe(BRICK); // brick 0, x = 0, y = 1/6: invalid, dilated from x = 1/3
     assert!(!valid && probe[0].x > 0.0, "{probe:?}");
