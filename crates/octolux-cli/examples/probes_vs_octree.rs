@@ -4,7 +4,7 @@
 //!
 //! ```sh
 //! cargo run --release -p octolux-cli --example probes_vs_octree -- --scene cbox [--photons 1000000]
-//!     [--n-max 2000,500,125] [--free 200] [--objects 8 --per-object 25] [--rays 1024] [--out FILE.json]
+//!     [--n-max 2000,500,125] [--free 300] [--objects 10 --per-object 30] [--rays 16384] [--levels 2] [--out FILE.json]
 //! ```
 //!
 //! One photon pass (seed 0, unlimited depth with Russian roulette); per `n_max` the global
@@ -46,7 +46,7 @@ struct Args {
 }
 
 fn parse() -> Result<Args> {
-    let mut a = Args { scene: "cbox".into(), photons: 1_000_000, n_max: vec![2000, 500, 125], free: 200, objects: 8, per_object: 25, rays: 1024, levels: 2, out: None };
+    let mut a = Args { scene: "cbox".into(), photons: 1_000_000, n_max: vec![2000, 500, 125], free: 300, objects: 10, per_object: 30, rays: 16384, levels: 2, out: None };
     let mut it = std::env::args().skip(1);
     while let Some(k) = it.next() {
         let mut v = || it.next().with_context(|| format!("{k} needs a value"));

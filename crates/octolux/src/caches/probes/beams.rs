@@ -15,11 +15,14 @@
 //! Havran et al. (Eurographics 2005) read at a point. The kernel is Epanechnikov's,
 //! `K(d) = 2 (1 − d²/r²) / (π r²)`.
 //!
-//! Search: the flights are marched in steps of half a grid cell and listed in every cell a
-//! step lands in (counting sort into one index array); a query visits the cells overlapping
-//! its ball grown by half a cell (which holds a step of every flight passing within `r`),
-//! deduplicates the candidates and tests each exactly. Deterministic: each query sums its
-//! flights in index order.
+//! Search: each flight is marched in steps of one grid cell and listed in the cell of every
+//! step point (once per run of equal cells; counting sort into one index array). A query
+//! visits the cells overlapping its ball grown by half a cell and tests each listed flight
+//! exactly; a flight is counted in one cell only, that of its step point nearest to its
+//! closest approach (within half a cell of it, so inside the visited cells): no duplicate,
+//! no sort. Deterministic: each query sums its flights in cell and index order. One grid per
+//! kernel radius (the caller makes one per brick level, cell = radius): the cost per query
+//! stays a fixed multiple of the flights it uses.
 
 use super::sh::{basis, ShOrder, MAX_COEFFS};
 use crate::photon::Photon;
@@ -27,7 +30,7 @@ use glam::Vec3;
 
 /// Most index entries the grid may hold (4 bytes each); the cell grows past the asked size
 /// rather than exceed it.
-pub const MAX_ENTRIES: usize = 96 << 20;
+pub const MAX_ENTRIES: usize = 64 << 20;
 
 /// Photon flights bucketed in a uniform grid over a cube.
 pub struct Flights<'a> {
@@ -49,10 +52,10 @@ impl<'a> Flights<'a> {
         assert_eq!(photons.len(), lengths.len());
         let total: f64 = lengths.iter().map(|&l| if l.is_finite() { l.min(2.0 * size) as f64 } else { 0.0 }).sum();
         let mut cell = cell.max(size / 256.0);
-        // entries ≈ Σ len / (cell / 2) + photons
+        // entries ≈ Σ len / cell + photons
         let budget = (MAX_ENTRIES - photons.len().min(MAX_ENTRIES / 2)) as f64;
-        if total * 2.0 / cell as f64 > budget {
-            cell = (total * 2.0 / budget) as f32;
+        if total / cell as f64 > budget {
+            cell = (total / budget) as f32;
         }
         let n = ((size / cell).ceil() as usize).clamp(1, 256);
         let cell = size / n as f32;
@@ -94,20 +97,30 @@ impl<'a> Flights<'a> {
         Some(q.x as usize + n * (q.y as usize + n * q.z as usize))
     }
 
+    /// The flight's length as marched (clamped to twice the cube) and its step count.
+    #[inline]
+    fn steps(&self, len: f32) -> (f32, usize) {
+        let len = len.min(2.0 * self.cell * self.n as f32);
+        (len, (len / self.cell).ceil() as usize)
+    }
+
+    /// Cell of step `k` of a flight of (marched) length `len`.
+    #[inline]
+    fn step_cell(&self, ph: &Photon, len: f32, k: usize) -> Option<usize> {
+        let t = (k as f32 * self.cell).min(len);
+        self.cell_of(ph.p + ph.wi * t)
+    }
+
     /// Every (cell, flight) pair of the steps, once per run of equal cells, in flight order.
     fn march(&self, mut f: impl FnMut(usize, u32)) {
-        let step = 0.5 * self.cell;
-        let size = self.cell * self.n as f32;
         for (i, (ph, &len)) in self.photons.iter().zip(self.lengths).enumerate() {
             if !ph.is_finite() || !(len >= 0.0) {
                 continue;
             }
-            let len = len.min(2.0 * size);
-            let steps = (len / step).ceil() as usize;
+            let (len, steps) = self.steps(len);
             let mut last = usize::MAX;
             for k in 0..=steps {
-                let t = (k as f32 * step).min(len);
-                if let Some(c) = self.cell_of(ph.p + ph.wi * t) {
+                if let Some(c) = self.step_cell(ph, len, k) {
                     if c != last {
                         f(c, i as u32);
                         last = c;
@@ -118,49 +131,51 @@ impl<'a> Flights<'a> {
     }
 
     /// The beam estimate of the incident radiance's SH coefficients at `x` with kernel radius
-    /// `r` (see the module docs), and the number of flights it used.
-    pub fn estimate(&self, x: Vec3, r: f32, order: ShOrder, scratch: &mut Vec<u32>) -> ([Vec3; MAX_COEFFS], usize) {
-        scratch.clear();
+    /// `r` (see the module docs; best with `r` about the grid's cell), and the number of
+    /// flights it used.
+    pub fn estimate(&self, x: Vec3, r: f32, order: ShOrder) -> ([Vec3; MAX_COEFFS], usize) {
         let grow = r + 0.5 * self.cell;
-        let lo = ((x - grow - self.origin) / self.cell).floor();
-        let hi = ((x + grow - self.origin) / self.cell).floor();
         let last = self.n as f32 - 1.0;
-        let (lo, hi) = (lo.clamp(Vec3::ZERO, Vec3::splat(last)), hi.clamp(Vec3::ZERO, Vec3::splat(last)));
+        let lo = ((x - grow - self.origin) / self.cell).floor().clamp(Vec3::ZERO, Vec3::splat(last));
+        let hi = ((x + grow - self.origin) / self.cell).floor().clamp(Vec3::ZERO, Vec3::splat(last));
         let n = self.n;
-        for z in lo.z as usize..=hi.z as usize {
-            for y in lo.y as usize..=hi.y as usize {
-                for xx in lo.x as usize..=hi.x as usize {
-                    let c = xx + n * (y + n * z);
-                    scratch.extend_from_slice(&self.index[self.start[c] as usize..self.start[c + 1] as usize]);
-                }
-            }
-        }
-        scratch.sort_unstable();
-        scratch.dedup();
         let r2 = r * r;
         let norm = 2.0 / (std::f64::consts::PI * r2 as f64);
         let k = order.coefficients();
         let mut acc = [[0.0f64; 3]; MAX_COEFFS];
         let mut used = 0;
-        for &i in scratch.iter() {
-            let ph = &self.photons[i as usize];
-            let v = x - ph.p;
-            let t = v.dot(ph.wi);
-            if !(t >= 0.0 && t <= self.lengths[i as usize]) {
-                continue;
-            }
-            let d2 = v.length_squared() - t * t;
-            if !(d2 < r2) {
-                continue;
-            }
-            used += 1;
-            let w = norm * (1.0 - (d2 / r2).max(0.0)) as f64;
-            let y = basis(ph.wi);
-            for (j, a) in acc.iter_mut().enumerate().take(k) {
-                let s = w * y[j] as f64;
-                a[0] += s * ph.power.x as f64;
-                a[1] += s * ph.power.y as f64;
-                a[2] += s * ph.power.z as f64;
+        for z in lo.z as usize..=hi.z as usize {
+            for y in lo.y as usize..=hi.y as usize {
+                for xx in lo.x as usize..=hi.x as usize {
+                    let c = xx + n * (y + n * z);
+                    for &i in &self.index[self.start[c] as usize..self.start[c + 1] as usize] {
+                        let ph = &self.photons[i as usize];
+                        let (len, steps) = self.steps(self.lengths[i as usize]);
+                        let v = x - ph.p;
+                        let t = v.dot(ph.wi);
+                        if !(t >= 0.0 && t <= len) {
+                            continue;
+                        }
+                        let d2 = v.length_squared() - t * t;
+                        if !(d2 < r2) {
+                            continue;
+                        }
+                        // counted in the cell of the step point nearest to the closest approach
+                        let k_near = ((t / self.cell).round() as usize).min(steps);
+                        if self.step_cell(ph, len, k_near) != Some(c) {
+                            continue;
+                        }
+                        used += 1;
+                        let w = norm * (1.0 - (d2 / r2).max(0.0)) as f64;
+                        let yb = basis(ph.wi);
+                        for (j, a) in acc.iter_mut().enumerate().take(k) {
+                            let s = w * yb[j] as f64;
+                            a[0] += s * ph.power.x as f64;
+                            a[1] += s * ph.power.y as f64;
+                            a[2] += s * ph.power.z as f64;
+                        }
+                    }
+                }
             }
         }
         let mut c = [Vec3::ZERO; MAX_COEFFS];

@@ -322,20 +322,21 @@ impl ProbeGrid {
         }
         let t0 = std::time::Instant::now();
         let n = layout.probes();
-        let finest = layout.bricks.iter().map(|b| b.1).max().unwrap_or(0);
-        let min_spacing = layout.spacing(finest);
-        let flights = Flights::new(inputs.photons, inputs.flight_lengths, layout.origin, layout.size, 2.0 * settings.radius_scale * min_spacing);
         let order = settings.order;
-        let estimates: Vec<([Vec3; MAX_COEFFS], usize, bool)> = (0..n)
-            .into_par_iter()
-            .map_init(Vec::new, |scratch, i| {
-                let (b, k) = (i / BRICK_PROBES, i % BRICK_PROBES);
-                let p = layout.probe_position(b, k);
-                let r = settings.radius_scale * layout.spacing(layout.bricks[b].1);
-                let (c, used) = flights.estimate(p, r, order, scratch);
-                (c, used, backface_fraction(p) <= settings.validity_threshold)
-            })
-            .collect();
+        // one flight grid per brick level (cell = that level's kernel radius), built in turn
+        let mut levels: Vec<u32> = layout.bricks.iter().map(|b| b.1).collect();
+        levels.sort_unstable();
+        levels.dedup();
+        let mut estimates: Vec<([Vec3; MAX_COEFFS], usize, bool)> = vec![([Vec3::ZERO; MAX_COEFFS], 0, true); n];
+        for level in levels {
+            let r = settings.radius_scale * layout.spacing(level);
+            let flights = Flights::new(inputs.photons, inputs.flight_lengths, layout.origin, layout.size, r);
+            estimates.par_iter_mut().enumerate().filter(|(i, _)| layout.bricks[i / BRICK_PROBES].1 == level).for_each(|(i, e)| {
+                let p = layout.probe_position(i / BRICK_PROBES, i % BRICK_PROBES);
+                let (c, used) = flights.estimate(p, r, order);
+                *e = (c, used, backface_fraction(p) <= settings.validity_threshold);
+            });
+        }
         let mean_flights = estimates.iter().map(|e| e.1 as f64).sum::<f64>() / n.max(1) as f64;
         let valid: Vec<bool> = estimates.iter().map(|e| e.2).collect();
         let mut values: Vec<[Vec3; MAX_COEFFS]> = estimates.into_iter().map(|e| e.0).collect();

@@ -189,8 +189,7 @@ fn beam_estimate_of_an_isotropic_field_and_a_build_with_invalid_probes() {
     let (ph, len) = isotropic_flights(x, n, big_r, phi);
     let radiance = n as f32 * phi / (PI * big_r * big_r * 4.0 * PI);
     let fl = Flights::new(&ph, &len, Vec3::ZERO, 1.0, 0.1);
-    let mut scratch = Vec::new();
-    let (c, used) = fl.estimate(x, 0.15, ShOrder::L2, &mut scratch);
+    let (c, used) = fl.estimate(x, 0.15, ShOrder::L2);
     assert!(used > 1000, "{used}");
     for nrm in normals(16) {
         let e = sh::irradiance(&c, ShOrder::L2, nrm).x;
