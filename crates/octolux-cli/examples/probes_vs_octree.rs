@@ -7,8 +7,9 @@
 //!     [--n-max 2000,500,125] [--free 300] [--objects 10 --per-object 30] [--rays 16384] [--levels 2] [--out FILE.json]
 //! ```
 //!
-//! One photon pass (seed 0, unlimited depth with Russian roulette); per `n_max` the global
-//! octree (the `octree` integrator's default global settings otherwise) with its volumetric
+//! One photon pass (seed 0, unlimited depth with Russian roulette), its global and caustic
+//! photons together (all light reflected at least once, what the truth counts); per `n_max` an
+//! octree with the global tree's settings (the `octree` integrator's default global settings otherwise) with its volumetric
 //! fill (`fill_atmosphere`), and probe grids at SH order 1 and 2 whose layout (brick levels
 //! `base..base+2`, lattice scale) is searched so that their bytes match the octree's. Errors
 //! of the indirect irradiance (channel mean) at (a) random free points with random normals and
@@ -46,7 +47,17 @@ struct Args {
 }
 
 fn parse() -> Result<Args> {
-    let mut a = Args { scene: "cbox".into(), photons: 1_000_000, n_max: vec![2000, 500, 125], free: 300, objects: 10, per_object: 30, rays: 16384, levels: 2, out: None };
+    let mut a = Args {
+        scene: "cbox".into(),
+        photons: 1_000_000,
+        n_max: vec![2000, 500, 125],
+        free: 300,
+        objects: 10,
+        per_object: 30,
+        rays: 16384,
+        levels: 2,
+        out: None,
+    };
     let mut it = std::env::args().skip(1);
     while let Some(k) = it.next() {
         let mut v = || it.next().with_context(|| format!("{k} needs a value"));
@@ -151,8 +162,12 @@ fn main() -> Result<()> {
     let t0 = Instant::now();
     let settings = PhotonSettings { photons: a.photons, ..PhotonSettings::default() };
     let maps = trace_photons(&scene, &settings)?;
-    let photons = maps.global;
-    eprintln!("{}: {} global photons ({:.1} s)", a.scene, photons.len(), t0.elapsed().as_secs_f64());
+    // global and caustic photons together: all the light reflected at least once, as the
+    // truth counts it (a caustic through the glass sphere of cbox is part of it)
+    let n_caustic = maps.caustic.len();
+    let mut photons = maps.global;
+    photons.extend_from_slice(&maps.caustic);
+    eprintln!("{}: {} photons, {n_caustic} of them caustic ({:.1} s)", a.scene, photons.len(), t0.elapsed().as_secs_f64());
     // the flights: from each photon back to the surface it left
     let lengths: Vec<f32> = photons
         .par_iter()
@@ -163,7 +178,8 @@ fn main() -> Result<()> {
     let radius = 0.08 * extent;
     let free = free_points(&scene, a.free, 0.01 * extent, 101);
     let centres = free_points(&scene, a.objects, 1.3 * radius, 202);
-    let mut pts: Vec<(Vec3, Vec3, bool)> = free.iter().enumerate().map(|(i, &p)| (p, square_to_uniform_sphere(Sampler::new(303, i as u64, 0).next_2d()), false)).collect();
+    let mut pts: Vec<(Vec3, Vec3, bool)> =
+        free.iter().enumerate().map(|(i, &p)| (p, square_to_uniform_sphere(Sampler::new(303, i as u64, 0).next_2d()), false)).collect();
     for (k, &c) in centres.iter().enumerate() {
         for j in 0..a.per_object {
             let n = square_to_uniform_sphere(Sampler::new(404, (k * a.per_object + j) as u64, 0).next_2d());
@@ -172,10 +188,14 @@ fn main() -> Result<()> {
     }
     let t1 = Instant::now();
     let path = PathSettings::default();
-    let truth: Vec<(f64, f64)> = pts.par_iter().enumerate().map(|(i, &(p, n, _))| {
-        let (e, se) = indirect_irradiance(&path, &scene, p, n, a.rays, 77, i as u64);
-        (mean3(e), se)
-    }).collect();
+    let truth: Vec<(f64, f64)> = pts
+        .par_iter()
+        .enumerate()
+        .map(|(i, &(p, n, _))| {
+            let (e, se) = indirect_irradiance(&path, &scene, p, n, a.rays, 77, i as u64);
+            (mean3(e), se)
+        })
+        .collect();
     let split = |v: &[f64], obj: bool| -> Vec<f64> { v.iter().zip(&pts).filter(|(_, q)| q.2 == obj).map(|(x, _)| *x).collect() };
     let t_vals: Vec<f64> = truth.iter().map(|t| t.0).collect();
     let floor = |obj: bool| {
@@ -184,7 +204,12 @@ fn main() -> Result<()> {
     };
     eprintln!(
         "{} free points, {} sphere points; truth {} paths each ({:.1} s): its own relative RMSE {:.4} (free), {:.4} (spheres)",
-        free.len(), pts.len() - free.len(), a.rays, t1.elapsed().as_secs_f64(), floor(false), floor(true)
+        free.len(),
+        pts.len() - free.len(),
+        a.rays,
+        t1.elapsed().as_secs_f64(),
+        floor(false),
+        floor(true)
     );
 
     let tris = scene.mesh_triangles_where(Material::has_smooth_lobe);
@@ -208,7 +233,15 @@ fn main() -> Result<()> {
         let o = errors(&split(&est, true), &split(&t_vals, true));
         let line = format!(
             "| {} | {method} | {bytes} | {:.3} | {:.4} | {:.1}% / {:.1}% | {:.3} | {:.4} | {:.1}% / {:.1}% | {t_s:.1} |",
-            a.scene, f[0], f[1], 100.0 * f[2], 100.0 * f[3], o[0], o[1], 100.0 * o[2], 100.0 * o[3]
+            a.scene,
+            f[0],
+            f[1],
+            100.0 * f[2],
+            100.0 * f[3],
+            o[0],
+            o[1],
+            100.0 * o[2],
+            100.0 * o[3]
         );
         println!("{line}");
         rows.push(serde_json::json!({"scene": a.scene, "method": method, "bytes": bytes, "free": f, "object": o, "build_s": t_s}));
@@ -240,6 +273,16 @@ fn main() -> Result<()> {
                 tree.irradiance_volume(p, n, Some(&mut keep)).map_or(0.0, mean3)
             })
             .collect();
+        if std::env::var_os("PROBES_DEBUG").is_some() {
+            let mut worst: Vec<usize> = (0..pts.len()).collect();
+            worst.sort_by(|&i, &j| (leak[j] / t_vals[j]).abs().ln().abs().total_cmp(&(leak[i] / t_vals[i]).abs().ln().abs()));
+            for &i in worst.iter().take(12) {
+                eprintln!(
+                    "  worst: p {:.3} n {:.2} object {} truth {:.4} ± {:.4} octree {:.4}",
+                    pts[i].0, pts[i].1, pts[i].2, t_vals[i], truth[i].1, leak[i]
+                );
+            }
+        }
         report(format!("{label}, leak test"), bytes, leak, t_tree);
         let plain: Vec<f64> = pts.par_iter().map(|&(p, n, _)| tree.irradiance_volume(p, n, None).map_or(0.0, mean3)).collect();
         report(format!("{label}, no rays"), bytes, plain, t_tree);
@@ -250,7 +293,13 @@ fn main() -> Result<()> {
             let st = grid.stats().clone();
             let label = format!(
                 "probes {order:?} (levels {}..{}, scale {:.3}, {} bricks, spacing {:.4}, {:.1}% invalid, {:.0} flights/probe)",
-                s.base_level, s.max_level, s.root_scale, st.bricks, st.min_spacing / extent, 100.0 * st.invalid_probes as f64 / st.probes as f64, st.mean_flights
+                s.base_level,
+                s.max_level,
+                s.root_scale,
+                st.bricks,
+                st.min_spacing / extent,
+                100.0 * st.invalid_probes as f64 / st.probes as f64,
+                st.mean_flights
             );
             let est: Vec<f64> = pts.par_iter().map(|&(p, n, _)| mean3(grid.irradiance(p, n))).collect();
             report(label, grid.bytes(), est, t.elapsed().as_secs_f64());
@@ -265,7 +314,14 @@ fn main() -> Result<()> {
 
 /// The layout of `levels + 1` brick levels whose bytes at `order` come closest to `target`:
 /// each coarsest level, the lattice scale bisected in `[1, 2]`.
-fn match_bytes(scene: &Scene, tris: &[[Vec3; 3]], spheres: &[(Vec3, f32)], order: ShOrder, levels: u32, target: usize) -> Result<(BrickLayout, ProbeSettings)> {
+fn match_bytes(
+    scene: &Scene,
+    tris: &[[Vec3; 3]],
+    spheres: &[(Vec3, f32)],
+    order: ShOrder,
+    levels: u32,
+    target: usize,
+) -> Result<(BrickLayout, ProbeSettings)> {
     let mut best: Option<(f64, BrickLayout, ProbeSettings)> = None;
     for base in 0..=6u32 {
         let mut s = ProbeSettings { order, base_level: base, max_level: base + levels, ..ProbeSettings::default() };

@@ -150,7 +150,15 @@ pub fn li(
 /// an emitter counts 0: only reflected light, as the photon maps' global octree holds it),
 /// times π. Returns the estimate and the standard error of its channel mean. The truth of the
 /// free-space comparisons (`docs/baking.md`, "Bytes against error").
-pub fn indirect_irradiance(settings: &PathSettings, scene: &Scene, p: glam::Vec3, n: glam::Vec3, rays: u32, seed: u64, index: u64) -> (Color, f64) {
+pub fn indirect_irradiance(
+    settings: &PathSettings,
+    scene: &Scene,
+    p: glam::Vec3,
+    n: glam::Vec3,
+    rays: u32,
+    seed: u64,
+    index: u64,
+) -> (Color, f64) {
     let mut counters = RayCounters::default();
     let (mut sum, mut sum_m, mut sum_m2) = (glam::DVec3::ZERO, 0.0f64, 0.0f64);
     for k in 0..rays {

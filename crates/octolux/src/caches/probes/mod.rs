@@ -53,8 +53,8 @@ use crate::photon::Photon;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-pub use sh::MAX_COEFFS;
 use sh::PackedProbe;
+pub use sh::MAX_COEFFS;
 
 /// Probes per brick edge.
 pub const BRICK: usize = 4;
@@ -190,13 +190,15 @@ impl BrickLayout {
         let origin = bounds.center() - Vec3::splat(0.5 * size);
         let mut l = BrickLayout { origin, size, nodes: vec![0], bricks: Vec::new() };
         // (node, cell min, level, triangles meeting it, spheres meeting it)
-        let mut stack = vec![(0usize, origin, 0u32, (0..triangles.len() as u32).collect::<Vec<_>>(), (0..spheres.len() as u32).collect::<Vec<_>>())];
+        let mut stack =
+            vec![(0usize, origin, 0u32, (0..triangles.len() as u32).collect::<Vec<_>>(), (0..spheres.len() as u32).collect::<Vec<_>>())];
         while let Some((node, lo, level, tris, sphs)) = stack.pop() {
             let edge = size / (1u32 << level) as f32;
             let grow = edge / (2.0 * (BRICK - 1) as f32);
             let (glo, ghi) = (lo - grow, lo + Vec3::splat(edge) + grow);
             let tris: Vec<u32> = tris.into_iter().filter(|&i| triangle_meets_box(&triangles[i as usize], glo, ghi)).collect();
-            let sphs: Vec<u32> = sphs.into_iter().filter(|&i| sphere_meets_box(spheres[i as usize].0, spheres[i as usize].1, glo, ghi)).collect();
+            let sphs: Vec<u32> =
+                sphs.into_iter().filter(|&i| sphere_meets_box(spheres[i as usize].0, spheres[i as usize].1, glo, ghi)).collect();
             let split = level < s.base_level || (level < s.max_level && (!tris.is_empty() || !sphs.is_empty()));
             if split {
                 let first = l.nodes.len();
@@ -350,7 +352,12 @@ impl ProbeGrid {
 
     /// A grid from given probe values (radiance SH coefficients, world order of
     /// [`BrickLayout::probe_position`]) and validities: quantised as stored, nothing dilated.
-    pub fn from_probes(layout: BrickLayout, settings: &ProbeSettings, values: &[[Vec3; MAX_COEFFS]], valid: &[bool]) -> Result<ProbeGrid, ProbeError> {
+    pub fn from_probes(
+        layout: BrickLayout,
+        settings: &ProbeSettings,
+        values: &[[Vec3; MAX_COEFFS]],
+        valid: &[bool],
+    ) -> Result<ProbeGrid, ProbeError> {
         settings.validate()?;
         let n = layout.probes();
         if values.len() != n || valid.len() != n {
@@ -432,7 +439,8 @@ impl ProbeGrid {
         let mut valid_weight = 0.0;
         for (c, corner) in corners.iter_mut().enumerate() {
             let (dx, dy, dz) = (c & 1, (c >> 1) & 1, (c >> 2) & 1);
-            let w = (if dx == 1 { f.x } else { 1.0 - f.x }) * (if dy == 1 { f.y } else { 1.0 - f.y }) * (if dz == 1 { f.z } else { 1.0 - f.z });
+            let w =
+                (if dx == 1 { f.x } else { 1.0 - f.x }) * (if dy == 1 { f.y } else { 1.0 - f.y }) * (if dz == 1 { f.z } else { 1.0 - f.z });
             let (coef, valid) = self.probe(base + dx + BRICK * dy + BRICK * BRICK * dz);
             if valid {
                 valid_weight += w;
