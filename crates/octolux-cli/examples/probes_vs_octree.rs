@@ -115,8 +115,9 @@ fn look_around(scene: &Scene, p: Vec3, dirs: &[Vec3]) -> (f32, f32, f32) {
     (back as f32 / dirs.len() as f32, hits as f32 / dirs.len() as f32, nearest)
 }
 
-/// Random points of the scene's free space (no backface seen, at least half the directions
-/// closed, nearest surface farther than `clearance`).
+/// Random points of the scene's free space (at most 1/16 of the directions meet a backface:
+/// not inside an object or behind a wall, while a one-sided fitting may show its back; at
+/// least half the directions closed; nearest surface farther than `clearance`).
 fn free_points(scene: &Scene, n: usize, clearance: f32, stream: u64) -> Vec<Vec3> {
     let dirs = fibonacci(64);
     let (lo, ext) = (scene.bounds.min, scene.bounds.extent());
@@ -128,7 +129,7 @@ fn free_points(scene: &Scene, n: usize, clearance: f32, stream: u64) -> Vec<Vec3
         let mut s = Sampler::new(stream, i, 0);
         let p = lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * ext;
         let (back, hits, nearest) = look_around(scene, p, &dirs);
-        if back == 0.0 && hits >= 0.5 && nearest > clearance {
+        if back <= 1.0 / 16.0 && hits >= 0.5 && nearest > clearance {
             out.push(p);
         }
     }
@@ -312,8 +313,8 @@ fn main() -> Result<()> {
     Ok(())
 }
 
-/// The layout of `levels + 1` brick levels whose bytes at `order` come closest to `target`:
-/// each coarsest level, the lattice scale bisected in `[1, 2]`.
+/// The layout whose bytes at `order` come closest to `target`: for 1 to `levels` + 1 levels
+/// of refinement and each coarsest level, the lattice scale bisected in `[1, 2]`.
 fn match_bytes(
     scene: &Scene,
     tris: &[[Vec3; 3]],
@@ -323,27 +324,29 @@ fn match_bytes(
     target: usize,
 ) -> Result<(BrickLayout, ProbeSettings)> {
     let mut best: Option<(f64, BrickLayout, ProbeSettings)> = None;
-    for base in 0..=6u32 {
-        let mut s = ProbeSettings { order, base_level: base, max_level: base + levels, ..ProbeSettings::default() };
-        let (mut lo, mut hi) = (1.0f32, 2.0f32);
-        for _ in 0..10 {
-            s.root_scale = 0.5 * (lo + hi);
-            let l = BrickLayout::new(scene.bounds, tris, spheres, &s)?;
-            let b = l.bytes(order);
-            let score = (b as f64 / target as f64).ln().abs();
-            if best.as_ref().is_none_or(|x| score < x.0) {
-                best = Some((score, l, s));
+    for refine in 1..=levels + 1 {
+        for base in 0..=6u32 {
+            let mut s = ProbeSettings { order, base_level: base, max_level: base + refine, ..ProbeSettings::default() };
+            let (mut lo, mut hi) = (1.0f32, 2.0f32);
+            for _ in 0..10 {
+                s.root_scale = 0.5 * (lo + hi);
+                let l = BrickLayout::new(scene.bounds, tris, spheres, &s)?;
+                let b = l.bytes(order);
+                let score = (b as f64 / target as f64).ln().abs();
+                if best.as_ref().is_none_or(|x| score < x.0) {
+                    best = Some((score, l, s));
+                }
+                if b > target {
+                    lo = s.root_scale;
+                } else {
+                    hi = s.root_scale;
+                }
             }
-            if b > target {
-                lo = s.root_scale;
-            } else {
-                hi = s.root_scale;
+            // finer bases only grow
+            let l1 = BrickLayout::new(scene.bounds, tris, spheres, &ProbeSettings { root_scale: 2.0, ..s })?;
+            if l1.bytes(order) > 2 * target {
+                break;
             }
-        }
-        // finer bases only grow
-        let l1 = BrickLayout::new(scene.bounds, tris, spheres, &ProbeSettings { root_scale: 2.0, ..s })?;
-        if l1.bytes(order) > 2 * target {
-            break;
         }
     }
     let (_, l, s) = best.context("no layout")?;
