@@ -13,7 +13,7 @@
 //! fill (`fill_atmosphere`), and probe grids at SH order 1 and 2 whose layout (brick levels
 //! `base..base+2`, lattice scale) is searched so that their bytes match the octree's. Errors
 //! of the indirect irradiance (channel mean) at (a) random free points with random normals and
-//! (b) points of spheres placed in free space (radius 0.08 of the scene's extent; the field
+//! (b) points of spheres placed in free space (radius 0.08 of the free points' extent; the field
 //! of the scene *without* them: the object is not in the bake and the truth is the
 //! free-space field there), against `integrators::path::indirect_irradiance` (`--rays`
 //! cosine-distributed paths each).
@@ -176,8 +176,14 @@ fn main() -> Result<()> {
         .collect();
 
     // the points: free, and on spheres in free space
-    let radius = 0.08 * extent;
     let free = free_points(&scene, a.free, 0.01 * extent, 101);
+    // the spheres' radius from the room the free points found (a scene's bounds may hold far
+    // more than the room)
+    let room = free.iter().fold(octolux::math::Bounds3::default(), |mut b, &p| {
+        b.extend(p);
+        b
+    });
+    let radius = 0.08 * if room.is_empty() { extent } else { room.extent().max_element() };
     let centres = free_points(&scene, a.objects, 1.3 * radius, 202);
     let mut pts: Vec<(Vec3, Vec3, bool)> =
         free.iter().enumerate().map(|(i, &p)| (p, square_to_uniform_sphere(Sampler::new(303, i as u64, 0).next_2d()), false)).collect();
