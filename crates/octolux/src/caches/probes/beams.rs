@@ -97,10 +97,13 @@ impl<'a> Flights<'a> {
         Some(q.x as usize + n * (q.y as usize + n * q.z as usize))
     }
 
-    /// The flight's length as marched (clamped to twice the cube) and its step count.
+    /// The flight's length as marched (clamped to where it leaves the cube for good: its
+    /// landing point's distance to the cube's centre plus the cube's edge) and its step count.
     #[inline]
-    fn steps(&self, len: f32) -> (f32, usize) {
-        let len = len.min(2.0 * self.cell * self.n as f32);
+    fn steps(&self, ph: &Photon, len: f32) -> (f32, usize) {
+        let size = self.cell * self.n as f32;
+        let reach = (ph.p - (self.origin + Vec3::splat(0.5 * size))).length() + size;
+        let len = len.min(reach);
         (len, (len / self.cell).ceil() as usize)
     }
 
@@ -117,7 +120,7 @@ impl<'a> Flights<'a> {
             if !ph.is_finite() || !(len >= 0.0) {
                 continue;
             }
-            let (len, steps) = self.steps(len);
+            let (len, steps) = self.steps(ph, len);
             let mut last = usize::MAX;
             for k in 0..=steps {
                 if let Some(c) = self.step_cell(ph, len, k) {
@@ -150,7 +153,7 @@ impl<'a> Flights<'a> {
                     let c = xx + n * (y + n * z);
                     for &i in &self.index[self.start[c] as usize..self.start[c + 1] as usize] {
                         let ph = &self.photons[i as usize];
-                        let (len, steps) = self.steps(self.lengths[i as usize]);
+                        let (len, steps) = self.steps(ph, self.lengths[i as usize]);
                         let v = x - ph.p;
                         let t = v.dot(ph.wi);
                         if !(t >= 0.0 && t <= len) {
