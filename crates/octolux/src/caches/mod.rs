@@ -3,12 +3,16 @@
 //! - [`octree`]: the photon-built incident-radiance octree of Pacanowski, Granier & Schlick
 //!   (AFIG 2005, §3–§7): six 3x3 irradiance-vector matrices per leaf, compressed to 36
 //!   bytes, queried with an overlap-volume blend.
+//! - [`probes`]: adaptive grids of SH irradiance probes (Unreal's volumetric lightmap,
+//!   Unity's Adaptive Probe Volumes) from the same photons, for the bytes-against-error
+//!   comparison (`docs/baking.md`).
 //! - [`kdtree`], [`ward`], [`christensen`]: the k-nearest-neighbour photon search and the
 //!   paper's baselines (§9: Ward's irradiance cache, Christensen's irradiance photons).
 
 pub mod christensen;
 pub mod kdtree;
 pub mod octree;
+pub mod probes;
 pub mod ward;
 
 pub use octree::{Enlarge, Estimator, LeafInfo, Octree, OctreeError, OctreeSettings, OctreeStats, Split, Storage};

@@ -143,3 +143,42 @@ pub fn li(
     }
     result
 }
+
+/// Path-traced *indirect* irradiance (W m⁻², per channel) at a free point `p` for the normal
+/// `n`: `rays` cosine-distributed directions around `n` (streams of `Sampler::new(seed,
+/// index, k)`), the light reflected towards `p` by the surface each one meets (a ray meeting
+/// an emitter counts 0: only reflected light, as the photon maps' global octree holds it),
+/// times π. Returns the estimate and the standard error of its channel mean. The truth of the
+/// free-space comparisons (`docs/baking.md`, "Bytes against error").
+pub fn indirect_irradiance(
+    settings: &PathSettings,
+    scene: &Scene,
+    p: glam::Vec3,
+    n: glam::Vec3,
+    rays: u32,
+    seed: u64,
+    index: u64,
+) -> (Color, f64) {
+    let mut counters = RayCounters::default();
+    let (mut sum, mut sum_m, mut sum_m2) = (glam::DVec3::ZERO, 0.0f64, 0.0f64);
+    for k in 0..rays {
+        let mut s = Sampler::new(seed, index, k as u64);
+        let d = crate::sampling::around(n, crate::sampling::square_to_cosine_hemisphere(s.next_2d()));
+        let ray = Ray::new(p, d);
+        if let Some(h) = scene.intersect(&ray) {
+            if h.light.is_none() {
+                let l = li(settings, scene, ray, None, &mut s, &mut counters);
+                if l.is_finite() {
+                    let m = l.element_sum() as f64 / 3.0;
+                    sum += l.as_dvec3();
+                    sum_m += m;
+                    sum_m2 += m * m;
+                }
+            }
+        }
+    }
+    let n_f = rays.max(1) as f64;
+    let mean = sum_m / n_f;
+    let var = (sum_m2 / n_f - mean * mean).max(0.0) / n_f;
+    ((sum * (std::f64::consts::PI / n_f)).as_vec3(), std::f64::consts::PI * var.sqrt())
+}

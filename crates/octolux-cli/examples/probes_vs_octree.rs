@@ -1,0 +1,360 @@
+//! Bytes against error: the paper's octree against adaptive SH irradiance probe grids (Unreal's
+//! volumetric lightmap, Unity's Adaptive Probe Volumes; `octolux::caches::probes`) at equal
+//! memory, from the same photons (issue 13, item 6; `docs/baking.md`, "Bytes against error").
+//!
+//! ```sh
+//! cargo run --release -p octolux-cli --example probes_vs_octree -- --scene cbox [--photons 1000000]
+//!     [--n-max 2000,500,125] [--free 300] [--objects 10 --per-object 30] [--rays 16384] [--levels 2] [--out FILE.json]
+//! ```
+//!
+//! One photon pass (seed 0, unlimited depth with Russian roulette), its global and caustic
+//! photons together (all light reflected at least once, what the truth counts); per `n_max` an
+//! octree with the global tree's settings (the `octree` integrator's default global settings otherwise) with its volumetric
+//! fill (`fill_atmosphere`), and probe grids at SH order 1 and 2 whose layout (brick levels
+//! `base..base+2`, lattice scale) is searched so that their bytes match the octree's. Errors
+//! of the indirect irradiance (channel mean) at (a) random free points with random normals and
+//! (b) points of spheres placed in free space (radius 0.08 of the free points' extent; the field
+//! of the scene *without* them: the object is not in the bake and the truth is the
+//! free-space field there), against `integrators::path::indirect_irradiance` (`--rays`
+//! cosine-distributed paths each).
+
+use anyhow::{bail, Context, Result};
+use glam::Vec3;
+use octolux::accel::BackendKind;
+use octolux::caches::octree::{AnalyticSphere, QueryLeaf, Surfaces};
+use octolux::caches::probes::{BrickLayout, ProbeGrid, ProbeInputs, ProbeSettings, ShOrder};
+use octolux::caches::Octree;
+use octolux::integrators::octree::{OctreeIntegratorSettings, ANCHOR_LIFT};
+use octolux::integrators::path::{indirect_irradiance, PathSettings};
+use octolux::math::{offset_origin, Ray};
+use octolux::photon::trace::{trace_photons, PhotonSettings};
+use octolux::sampling::{square_to_uniform_sphere, Sampler};
+use octolux::scene::material::Material;
+use octolux::scene::Scene;
+use rayon::prelude::*;
+use std::time::Instant;
+
+struct Args {
+    scene: String,
+    photons: u64,
+    n_max: Vec<u32>,
+    free: usize,
+    objects: usize,
+    per_object: usize,
+    rays: u32,
+    levels: u32,
+    out: Option<String>,
+}
+
+fn parse() -> Result<Args> {
+    let mut a = Args {
+        scene: "cbox".into(),
+        photons: 1_000_000,
+        n_max: vec![2000, 500, 125],
+        free: 300,
+        objects: 10,
+        per_object: 30,
+        rays: 16384,
+        levels: 2,
+        out: None,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(k) = it.next() {
+        let mut v = || it.next().with_context(|| format!("{k} needs a value"));
+        match k.as_str() {
+            "--scene" => a.scene = v()?,
+            "--photons" => a.photons = v()?.parse()?,
+            "--n-max" => a.n_max = v()?.split(',').map(|s| s.parse()).collect::<Result<_, _>>()?,
+            "--free" => a.free = v()?.parse()?,
+            "--objects" => a.objects = v()?.parse()?,
+            "--per-object" => a.per_object = v()?.parse()?,
+            "--rays" => a.rays = v()?.parse()?,
+            "--levels" => a.levels = v()?.parse()?,
+            "--out" => a.out = Some(v()?),
+            _ => bail!("unknown argument {k}"),
+        }
+    }
+    Ok(a)
+}
+
+fn load(name: &str) -> Result<Option<Scene>> {
+    let rel = match name {
+        "cbox" => "mitsuba-tutorials-cbox/cbox.xml".to_string(),
+        "bitterli" => "bitterli-cornell-box/scene_mi3.xml".to_string(),
+        other => format!("bitterli-collection/{other}/scene.xml"),
+    };
+    let Some(path) = octolux_io::shared::shared_scene(&rel) else { return Ok(None) };
+    let loaded = octolux_io::load_scene(path.to_str().context("utf-8 path")?, &[])?;
+    Ok(Some(Scene::prepare(loaded.desc, BackendKind::Auto)?))
+}
+
+/// `n` directions of a Fibonacci sphere.
+fn fibonacci(n: usize) -> Vec<Vec3> {
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - (2.0 * i as f32 + 1.0) / n as f32;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = i as f32 * 2.399_963;
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        })
+        .collect()
+}
+
+/// From `p`: fraction of `dirs` meeting a backface, fraction meeting anything, nearest hit.
+fn look_around(scene: &Scene, p: Vec3, dirs: &[Vec3]) -> (f32, f32, f32) {
+    let (mut back, mut hits, mut nearest) = (0, 0, f32::INFINITY);
+    for &d in dirs {
+        if let Some(h) = scene.intersect(&Ray::new(p, d)) {
+            hits += 1;
+            nearest = nearest.min(h.t);
+            if d.dot(h.ng) > 0.0 {
+                back += 1;
+            }
+        }
+    }
+    (back as f32 / dirs.len() as f32, hits as f32 / dirs.len() as f32, nearest)
+}
+
+/// Random points of the scene's free space (at most 1/16 of the directions meet a backface:
+/// not inside an object or behind a wall, while a one-sided fitting may show its back; at
+/// least half the directions closed; nearest surface farther than `clearance`).
+fn free_points(scene: &Scene, n: usize, clearance: f32, stream: u64) -> Vec<Vec3> {
+    let dirs = fibonacci(64);
+    let (lo, ext) = (scene.bounds.min, scene.bounds.extent());
+    let mut out = Vec::new();
+    for i in 0..(n as u64 * 2000) {
+        if out.len() == n {
+            break;
+        }
+        let mut s = Sampler::new(stream, i, 0);
+        let p = lo + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * ext;
+        let (back, hits, nearest) = look_around(scene, p, &dirs);
+        if back <= 1.0 / 16.0 && hits >= 0.5 && nearest > clearance {
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// Errors of `est` against `truth` (channel means): relative RMSE, relMSE (per point, with
+/// `1e-2 · mean(truth)²` in the denominator), shares over 2x and under 0.5x the truth.
+fn errors(est: &[f64], truth: &[f64]) -> [f64; 4] {
+    let n = truth.len().max(1) as f64;
+    let mean_t = truth.iter().sum::<f64>() / n;
+    let (mut se, mut st, mut rel, mut over, mut under) = (0.0, 0.0, 0.0, 0, 0);
+    for (&e, &t) in est.iter().zip(truth) {
+        se += (e - t) * (e - t);
+        st += t * t;
+        rel += (e - t) * (e - t) / (t * t + 1e-2 * mean_t * mean_t);
+        over += (e > 2.0 * t) as usize;
+        under += (e < 0.5 * t) as usize;
+    }
+    [(se / st.max(1e-30)).sqrt(), rel / n, over as f64 / n, under as f64 / n]
+}
+
+fn mean3(c: Vec3) -> f64 {
+    c.element_sum() as f64 / 3.0
+}
+
+fn main() -> Result<()> {
+    let a = parse()?;
+    let Some(scene) = load(&a.scene)? else { return Ok(()) };
+    let extent = scene.bounds.extent().max_element();
+    let t0 = Instant::now();
+    let settings = PhotonSettings { photons: a.photons, ..PhotonSettings::default() };
+    let maps = trace_photons(&scene, &settings)?;
+    // global and caustic photons together: all the light reflected at least once, as the
+    // truth counts it (a caustic through the glass sphere of cbox is part of it)
+    let n_caustic = maps.caustic.len();
+    let mut photons = maps.global;
+    photons.extend_from_slice(&maps.caustic);
+    eprintln!("{}: {} photons, {n_caustic} of them caustic ({:.1} s)", a.scene, photons.len(), t0.elapsed().as_secs_f64());
+    // the flights: from each photon back to the surface it left
+    let lengths: Vec<f32> = photons
+        .par_iter()
+        .map(|p| scene.intersect(&Ray::new(offset_origin(p.p, p.ng, p.wi), p.wi)).map_or(2.0 * extent, |h| h.t))
+        .collect();
+
+    // the points: free, and on spheres in free space
+    let free = free_points(&scene, a.free, 0.01 * extent, 101);
+    // the spheres' radius from the room the free points found (a scene's bounds may hold far
+    // more than the room)
+    let room = free.iter().fold(octolux::math::Bounds3::default(), |mut b, &p| {
+        b.extend(p);
+        b
+    });
+    let radius = 0.08 * if room.is_empty() { extent } else { room.extent().max_element() };
+    let centres = free_points(&scene, a.objects, 1.3 * radius, 202);
+    let mut pts: Vec<(Vec3, Vec3, bool)> =
+        free.iter().enumerate().map(|(i, &p)| (p, square_to_uniform_sphere(Sampler::new(303, i as u64, 0).next_2d()), false)).collect();
+    for (k, &c) in centres.iter().enumerate() {
+        for j in 0..a.per_object {
+            let n = square_to_uniform_sphere(Sampler::new(404, (k * a.per_object + j) as u64, 0).next_2d());
+            pts.push((c + n * radius, n, true));
+        }
+    }
+    let t1 = Instant::now();
+    let path = PathSettings::default();
+    let truth: Vec<(f64, f64)> = pts
+        .par_iter()
+        .enumerate()
+        .map(|(i, &(p, n, _))| {
+            let (e, se) = indirect_irradiance(&path, &scene, p, n, a.rays, 77, i as u64);
+            (mean3(e), se)
+        })
+        .collect();
+    let split = |v: &[f64], obj: bool| -> Vec<f64> { v.iter().zip(&pts).filter(|(_, q)| q.2 == obj).map(|(x, _)| *x).collect() };
+    let t_vals: Vec<f64> = truth.iter().map(|t| t.0).collect();
+    let floor = |obj: bool| {
+        let (s2, t2) = truth.iter().zip(&pts).filter(|(_, q)| q.2 == obj).fold((0.0, 0.0), |(a, b), (t, _)| (a + t.1 * t.1, b + t.0 * t.0));
+        (s2 / f64::max(t2, 1e-30)).sqrt()
+    };
+    eprintln!(
+        "{} free points, {} sphere points; truth {} paths each ({:.1} s): its own relative RMSE {:.4} (free), {:.4} (spheres)",
+        free.len(),
+        pts.len() - free.len(),
+        a.rays,
+        t1.elapsed().as_secs_f64(),
+        floor(false),
+        floor(true)
+    );
+
+    let tris = scene.mesh_triangles_where(Material::has_smooth_lobe);
+    let spheres: Vec<AnalyticSphere> = scene
+        .analytic_spheres_where(Material::has_smooth_lobe)
+        .into_iter()
+        .map(|(center, radius, inward)| AnalyticSphere { center, radius, inward })
+        .collect();
+    let all_tris = scene.mesh_triangles_where(|_| true);
+    let all_spheres: Vec<(Vec3, f32)> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
+    let visible = |x: Vec3, y: Vec3| {
+        let d = y - x;
+        let len = d.length();
+        !(len > 0.0) || !scene.occluded(&Ray::segment(x, d / len, len))
+    };
+    let dirs32 = fibonacci(32);
+    let backface = |p: Vec3| look_around(&scene, p, &dirs32).0;
+    let mut rows = Vec::new();
+    let mut report = |method: String, bytes: usize, est: Vec<f64>, t_s: f64| {
+        let f = errors(&split(&est, false), &split(&t_vals, false));
+        let o = errors(&split(&est, true), &split(&t_vals, true));
+        let line = format!(
+            "| {} | {method} | {bytes} | {:.3} | {:.4} | {:.1}% / {:.1}% | {:.3} | {:.4} | {:.1}% / {:.1}% | {t_s:.1} |",
+            a.scene,
+            f[0],
+            f[1],
+            100.0 * f[2],
+            100.0 * f[3],
+            o[0],
+            o[1],
+            100.0 * o[2],
+            100.0 * o[3]
+        );
+        println!("{line}");
+        rows.push(serde_json::json!({"scene": a.scene, "method": method, "bytes": bytes, "free": f, "object": o, "build_s": t_s}));
+    };
+    println!("| scene | method | bytes | free rRMSE | free relMSE | free >2x / <0.5x | object rRMSE | object relMSE | object >2x / <0.5x | build s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for &n_max in &a.n_max {
+        let t = Instant::now();
+        let mut gs = OctreeIntegratorSettings::default().global;
+        gs.n_max = n_max;
+        gs.n_min = gs.n_min.min(n_max);
+        let mut tree = Octree::build_with_surfaces(&photons, scene.bounds, &gs, Some(Surfaces { triangles: &tris, spheres: &spheres }))?;
+        tree.fill_atmosphere(&visible);
+        let t_tree = t.elapsed().as_secs_f64();
+        let bytes = tree.stats().bytes;
+        let st = tree.stats();
+        let label = format!("octree n_max {n_max} ({} valid leaves, h_max {})", st.valid_leaves, st.h_max);
+        let leak: Vec<f64> = pts
+            .par_iter()
+            .map(|&(p, n, _)| {
+                let mut keep = |q: QueryLeaf| {
+                    q.samples.iter().any(|&(s, nrm)| {
+                        let t = s + nrm * (ANCHOR_LIFT * q.cell_size);
+                        let d = t - p;
+                        let len = d.length();
+                        !(len > 1e-6) || !scene.occluded(&Ray::segment(p, d / len, len))
+                    })
+                };
+                tree.irradiance_volume(p, n, Some(&mut keep)).map_or(0.0, mean3)
+            })
+            .collect();
+        if std::env::var_os("PROBES_DEBUG").is_some() {
+            let mut worst: Vec<usize> = (0..pts.len()).collect();
+            worst.sort_by(|&i, &j| (leak[j] / t_vals[j]).abs().ln().abs().total_cmp(&(leak[i] / t_vals[i]).abs().ln().abs()));
+            for &i in worst.iter().take(12) {
+                eprintln!(
+                    "  worst: p {:.3} n {:.2} object {} truth {:.4} ± {:.4} octree {:.4}",
+                    pts[i].0, pts[i].1, pts[i].2, t_vals[i], truth[i].1, leak[i]
+                );
+            }
+        }
+        report(format!("{label}, leak test"), bytes, leak, t_tree);
+        let plain: Vec<f64> = pts.par_iter().map(|&(p, n, _)| tree.irradiance_volume(p, n, None).map_or(0.0, mean3)).collect();
+        report(format!("{label}, no rays"), bytes, plain, t_tree);
+        for order in [ShOrder::L1, ShOrder::L2] {
+            let t = Instant::now();
+            let (layout, s) = match_bytes(&scene, &all_tris, &all_spheres, order, a.levels, bytes)?;
+            let grid = ProbeGrid::build(layout, ProbeInputs { photons: &photons, flight_lengths: &lengths }, &s, &backface)?;
+            let st = grid.stats().clone();
+            let label = format!(
+                "probes {order:?} (levels {}..{}, scale {:.3}, {} bricks, spacing {:.4}, {:.1}% invalid, {:.0} flights/probe)",
+                s.base_level,
+                s.max_level,
+                s.root_scale,
+                st.bricks,
+                st.min_spacing / extent,
+                100.0 * st.invalid_probes as f64 / st.probes as f64,
+                st.mean_flights
+            );
+            let est: Vec<f64> = pts.par_iter().map(|&(p, n, _)| mean3(grid.irradiance(p, n))).collect();
+            report(label, grid.bytes(), est, t.elapsed().as_secs_f64());
+        }
+    }
+    if let Some(out) = &a.out {
+        std::fs::write(out, serde_json::to_string_pretty(&rows)?).with_context(|| format!("cannot write {out}"))?;
+    }
+    eprintln!("total {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// The layout whose bytes at `order` come closest to `target`: for 1 to `levels` + 1 levels
+/// of refinement and each coarsest level, the lattice scale bisected in `[1, 2]`.
+fn match_bytes(
+    scene: &Scene,
+    tris: &[[Vec3; 3]],
+    spheres: &[(Vec3, f32)],
+    order: ShOrder,
+    levels: u32,
+    target: usize,
+) -> Result<(BrickLayout, ProbeSettings)> {
+    let mut best: Option<(f64, BrickLayout, ProbeSettings)> = None;
+    for refine in 1..=levels + 1 {
+        for base in 0..=6u32 {
+            let mut s = ProbeSettings { order, base_level: base, max_level: base + refine, ..ProbeSettings::default() };
+            let (mut lo, mut hi) = (1.0f32, 2.0f32);
+            for _ in 0..10 {
+                s.root_scale = 0.5 * (lo + hi);
+                let l = BrickLayout::new(scene.bounds, tris, spheres, &s)?;
+                let b = l.bytes(order);
+                let score = (b as f64 / target as f64).ln().abs();
+                if best.as_ref().is_none_or(|x| score < x.0) {
+                    best = Some((score, l, s));
+                }
+                if b > target {
+                    lo = s.root_scale;
+                } else {
+                    hi = s.root_scale;
+                }
+            }
+            // finer bases only grow
+            let l1 = BrickLayout::new(scene.bounds, tris, spheres, &ProbeSettings { root_scale: 2.0, ..s })?;
+            if l1.bytes(order) > 2 * target {
+                break;
+            }
+        }
+    }
+    let (_, l, s) = best.context("no layout")?;
+    Ok((l, s))
+}
