@@ -68,6 +68,25 @@ fn baked_box(photons: u64) -> (Scene, OctreeIntegrator) {
     (scene, o)
 }
 
+/// The test box with a cube (centre, half side) appended as its last shape, absent from any
+/// bake of the box: the prepared scene and the cube's shape index.
+fn box_with_cube(centre: Vec3, half: Vec3, width: u32) -> (Scene, u32) {
+    use crate::scene::{Geometry, ShapeDesc, TriMesh};
+    let mut desc = super::super::test_scenes::box_desc();
+    desc.film.width = width;
+    desc.film.height = width;
+    let first = desc.shapes.len() as u32;
+    let cube = glam::Mat4::from_translation(centre) * glam::Mat4::from_scale(half);
+    desc.shapes.push(ShapeDesc {
+        name: "inserted".into(),
+        geometry: Geometry::Mesh(TriMesh::cube(&cube)),
+        material: 0,
+        emission: None,
+        flip_normals: false,
+    });
+    (Scene::prepare(desc, crate::accel::BackendKind::Bvh).unwrap(), first)
+}
+
 /// Free-space points of the closed Cornell-like box (size 2, light under the ceiling), each of
 /// the six axis normals: the volume query's indirect irradiance against the path tracer's
 /// (512 rays each). Measured (400 000 photons): per (point, normal) the ratio spreads over
@@ -201,26 +220,8 @@ fn volume_query_is_continuous_across_cell_borders() {
 fn inserted_object_renders_from_the_bake() {
     use crate::integrators::Integrator;
     use crate::render::{render, RenderSettings};
-    use crate::scene::{Geometry, ShapeDesc, TriMesh};
-    let base = super::super::test_scenes::box_desc();
-    let mut s = OctreeIntegratorSettings::default();
-    s.photons.photons = 200_000;
-    let base_scene = Scene::prepare(base.clone(), crate::accel::BackendKind::Bvh).unwrap();
-    let mut o = OctreeIntegrator::build(&base_scene, s).unwrap();
-    o.fill_atmosphere(&base_scene);
-    let mut desc = base;
-    desc.film.width = 24;
-    desc.film.height = 24;
-    let first = desc.shapes.len() as u32;
-    let cube = glam::Mat4::from_translation(Vec3::new(0.1, 0.3, -0.2)) * glam::Mat4::from_scale(Vec3::new(0.3, 0.3, 0.3));
-    desc.shapes.push(ShapeDesc {
-        name: "inserted".into(),
-        geometry: Geometry::Mesh(TriMesh::cube(&cube)),
-        material: 0,
-        emission: None,
-        flip_normals: false,
-    });
-    let scene = Scene::prepare(desc, crate::accel::BackendKind::Bvh).unwrap();
+    let (_, mut o) = baked_box(200_000);
+    let (scene, first) = box_with_cube(Vec3::new(0.1, 0.3, -0.2), Vec3::splat(0.3), 24);
     o.inserted = Inserted { shapes: first..first + 1, ao: None };
     let rs = RenderSettings { spp: 16, ..Default::default() };
     let octree = Integrator::Octree(Box::new(o));
@@ -252,20 +253,9 @@ fn inserted_object_renders_from_the_bake() {
 #[test]
 fn the_inserted_objects_leak_test_looks_through_the_object() {
     use super::super::octree::keep_leaf;
-    use crate::scene::{Geometry, ShapeDesc, TriMesh};
     let (_, o) = baked_box(200_000);
-    let mut desc = super::super::test_scenes::box_desc();
-    let first = desc.shapes.len() as u32;
     let (centre, half) = (Vec3::new(-0.3, 1.0, 0.0), 0.15f32);
-    let cube = glam::Mat4::from_translation(centre) * glam::Mat4::from_scale(Vec3::splat(half));
-    desc.shapes.push(ShapeDesc {
-        name: "inserted".into(),
-        geometry: Geometry::Mesh(TriMesh::cube(&cube)),
-        material: 0,
-        emission: None,
-        flip_normals: false,
-    });
-    let scene = Scene::prepare(desc, crate::accel::BackendKind::Bvh).unwrap();
+    let (scene, first) = box_with_cube(centre, Vec3::splat(half), 8);
     let tree = &o.global;
     let (mut all_sum, mut blocked_sum, mut rays) = (0.0f64, 0.0f64, 0u64);
     let mut lowest_face = f64::MAX;
@@ -316,30 +306,14 @@ fn the_inserted_objects_leak_test_looks_through_the_object() {
 #[ignore]
 fn inserted_cube_faces_diagnostic() {
     use super::super::octree::keep_leaf;
-    use crate::scene::{Geometry, ShapeDesc, TriMesh};
-    let base = super::super::test_scenes::box_desc();
-    let mut s = OctreeIntegratorSettings::default();
-    s.photons.photons = 400_000;
-    let base_scene = Scene::prepare(base.clone(), crate::accel::BackendKind::Bvh).unwrap();
-    let mut o = OctreeIntegrator::build(&base_scene, s).unwrap();
-    o.fill_atmosphere(&base_scene);
+    let (base_scene, o) = baked_box(400_000);
     let leak = o.settings.leak;
     for (name, centre, half) in [
         ("floor", Vec3::new(0.1, 0.3, -0.2), 0.3f32),
         ("mid", Vec3::new(-0.3, 1.0, 0.0), 0.15),
         ("ceiling", Vec3::new(-0.5, 1.75, 0.2), 0.15),
     ] {
-        let mut desc = base.clone();
-        let first = desc.shapes.len() as u32;
-        let cube = glam::Mat4::from_translation(centre) * glam::Mat4::from_scale(Vec3::splat(half));
-        desc.shapes.push(ShapeDesc {
-            name: "inserted".into(),
-            geometry: Geometry::Mesh(TriMesh::cube(&cube)),
-            material: 0,
-            emission: None,
-            flip_normals: false,
-        });
-        let scene = Scene::prepare(desc, crate::accel::BackendKind::Bvh).unwrap();
+        let (scene, first) = box_with_cube(centre, Vec3::splat(half), 8);
         for (k, &n) in NORMALS.iter().enumerate() {
             let (mut a, mut b, mut c, mut d, mut e) = (0.0, 0.0, 0.0, 0.0, 0.0);
             let (t1, t2) = (n.any_orthonormal_pair().0, n.any_orthonormal_pair().1);
