@@ -227,11 +227,7 @@ fn main() -> Result<()> {
         .collect();
     let all_tris = scene.mesh_triangles_where(|_| true);
     let all_spheres: Vec<(Vec3, f32)> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
-    let visible = |x: Vec3, y: Vec3| {
-        let d = y - x;
-        let len = d.length();
-        !(len > 0.0) || !scene.occluded(&Ray::segment(x, d / len, len))
-    };
+    let visible = |x: Vec3, y: Vec3| scene.sees(x, y, 0.0);
     let dirs32 = fibonacci(32);
     let backface = |p: Vec3| look_around(&scene, p, &dirs32).0;
     let mut rows = Vec::new();
@@ -269,14 +265,7 @@ fn main() -> Result<()> {
         let leak: Vec<f64> = pts
             .par_iter()
             .map(|&(p, n, _)| {
-                let mut keep = |q: QueryLeaf| {
-                    q.samples.iter().any(|&(s, nrm)| {
-                        let t = s + nrm * (ANCHOR_LIFT * q.cell_size);
-                        let d = t - p;
-                        let len = d.length();
-                        !(len > 1e-6) || !scene.occluded(&Ray::segment(p, d / len, len))
-                    })
-                };
+                let mut keep = |q: QueryLeaf| q.samples.iter().any(|&(s, nrm)| scene.sees(p, s + nrm * (ANCHOR_LIFT * q.cell_size), 1e-6));
                 tree.irradiance_volume(p, n, Some(&mut keep)).map_or(0.0, mean3)
             })
             .collect();

@@ -54,11 +54,7 @@ impl OctreeIntegrator {
     /// missing matrices), never through a surface of `scene` (the baked scene, without any
     /// inserted object). The build statistics follow (bytes).
     pub fn fill_atmosphere(&mut self, scene: &Scene) -> AtmosphereStats {
-        let visible = |a: glam::Vec3, b: glam::Vec3| {
-            let d = b - a;
-            let len = d.length();
-            !(len > 0.0) || !scene.occluded(&Ray::segment(a, d / len, len))
-        };
+        let visible = |a: Vec3, b: Vec3| scene.sees(a, b, 0.0);
         let st = self.global.fill_atmosphere(&visible);
         self.stats.global = self.global.stats().clone();
         self.stats.bytes = self.global.stats().bytes + self.caustic.as_ref().map_or(0, |c| c.stats().bytes);

@@ -401,6 +401,15 @@ impl Scene {
         tri.map(|h| self.triangle_hit(ray, h.prim, h.t, Vec2::new(h.u, h.v)))
     }
 
+    /// True when nothing blocks the segment from `a` to `b` (scene units); a segment not
+    /// longer than `min_len` is clear without a ray.
+    #[inline]
+    pub fn sees(&self, a: Vec3, b: Vec3, min_len: f32) -> bool {
+        let d = b - a;
+        let len = d.length();
+        !(len > min_len) || !self.occluded(&Ray::segment(a, d / len, len))
+    }
+
     /// True when anything blocks the segment `[tmin, tmax]` of the ray.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {

@@ -42,14 +42,7 @@ fn path_irradiance(scene: &Scene, p: Vec3, n: Vec3, rays: u32, seed: u64) -> f64
 /// The leak test of a free point: a leaf counts when one of its sampled photons (lifted as the
 /// integrator lifts them), or an atmospheric leaf's centre, is visible from `p`.
 fn visible_from(scene: &Scene, p: Vec3) -> impl FnMut(QueryLeaf) -> bool + '_ {
-    move |q: QueryLeaf| {
-        q.samples.iter().any(|&(a, nrm)| {
-            let t = a + nrm * (ANCHOR_LIFT * q.cell_size);
-            let d = t - p;
-            let len = d.length();
-            !(len > 1e-6) || !scene.occluded(&Ray::segment(p, d / len, len))
-        })
-    }
+    move |q: QueryLeaf| q.samples.iter().any(|&(a, nrm)| scene.sees(p, a + nrm * (ANCHOR_LIFT * q.cell_size), 1e-6))
 }
 
 fn volume(tree: &Octree, scene: &Scene, p: Vec3, n: Vec3) -> f64 {
