@@ -15,6 +15,7 @@ pub mod common;
 #[cfg(test)]
 mod furnaces;
 pub mod octree;
+mod octree_corners;
 pub mod octree_insert;
 #[cfg(test)]
 mod octree_leak;

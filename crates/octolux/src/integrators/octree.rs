@@ -163,6 +163,23 @@ pub struct OctreeIntegratorSettings {
     pub gather: bool,
     /// Leak control of the octree queries.
     pub leak: LeakTest,
+    /// How a query blends the leaves ([`QueryMode`]).
+    pub query: QueryMode,
+}
+
+/// How the `octree` integrator evaluates the §7 blend at a shading point.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum QueryMode {
+    /// The paper's query: the leaves the box around the point meets, blended by overlap
+    /// volume, each passed through the leak test from the point.
+    #[default]
+    Blend,
+    /// The same blend precomputed at the corners of each valid leaf per query class and
+    /// interpolated trilinearly, with the leak test decided from the leaf's photons
+    /// (`integrators/octree_corners.rs`); the exact query where no table applies. With
+    /// `leak = none` or `visible_sample` only (the other tests take the exact query).
+    Corners,
 }
 
 /// Safety bound on specular chains from the camera when `max_depth` is unbounded (a closed
@@ -197,6 +214,7 @@ impl Default for OctreeIntegratorSettings {
             view: OctreeView::Render,
             gather: false,
             leak: LeakTest::default(),
+            query: QueryMode::default(),
         }
     }
 }
@@ -244,6 +262,9 @@ pub struct OctreeIntegrator {
     /// [`LeafPlanes`] of the global and the caustic tree for the leak test, computed from the
     /// scene at the first query (or by [`OctreeIntegrator::prepare_leak`]).
     planes: [std::sync::OnceLock<LeakData>; 2],
+    /// Corner tables of the global and the caustic tree ([`QueryMode::Corners`]), computed at
+    /// preparation or at the first query.
+    pub(super) corners: [std::sync::OnceLock<crate::caches::octree::CornerTables>; 2],
     /// Objects inserted into the baked lighting (`octree_insert.rs`); none by default.
     pub inserted: super::octree_insert::Inserted,
 }
@@ -286,7 +307,15 @@ impl OctreeIntegrator {
         stats.global = global.stats().clone();
         stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
         stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
-        let o = OctreeIntegrator { settings, global, caustic, stats, planes: Default::default(), inserted: Default::default() };
+        let o = OctreeIntegrator {
+            settings,
+            global,
+            caustic,
+            stats,
+            planes: Default::default(),
+            corners: Default::default(),
+            inserted: Default::default(),
+        };
         o.prepare_query();
         Ok(o)
     }
@@ -313,6 +342,12 @@ impl OctreeIntegrator {
                 self.planes_of(scene, c);
             }
         }
+        if self.uses_corners() {
+            self.corners_of(scene, &self.global);
+            if let Some(c) = &self.caustic {
+                self.corners_of(scene, c);
+            }
+        }
     }
 
     /// What the leak test found (for out.json's `render_report`): per tree that computed them,
@@ -326,7 +361,15 @@ impl OctreeIntegrator {
             let (entries, bytes) = t.query_lists();
             serde_json::json!({ "entries": entries, "bytes": bytes })
         };
+        let corners = |c: &std::sync::OnceLock<crate::caches::octree::CornerTables>| {
+            c.get().map(|c| {
+                let (tables, bytes) = c.size();
+                serde_json::json!({ "tables": tables, "bytes": bytes })
+            })
+        };
         serde_json::json!({
+            "corner_tables_global": corners(&self.corners[0]),
+            "corner_tables_caustic": corners(&self.corners[1]),
             "leak_planes_global": count(&self.planes[0]),
             "leak_planes_caustic": count(&self.planes[1]),
             "query_lists_global": lists(&self.global),
@@ -335,7 +378,7 @@ impl OctreeIntegrator {
     }
 
     /// The [`LeafPlanes`] and sample reaches of `tree` (one of this integrator's octrees) for `scene`.
-    fn planes_of(&self, scene: &Scene, tree: &Octree) -> &LeakData {
+    pub fn planes_of(&self, scene: &Scene, tree: &Octree) -> &LeakData {
         let i = if std::ptr::eq(tree, &self.global) { 0 } else { 1 };
         self.planes[i].get_or_init(|| {
             let tris = scene.mesh_triangles_where(|_| true);
@@ -393,7 +436,15 @@ impl OctreeIntegrator {
             caustic: caustic.as_ref().map(|c| c.stats().clone()),
             bytes: global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes),
         };
-        let o = OctreeIntegrator { settings, global, caustic, stats, planes: Default::default(), inserted: Default::default() };
+        let o = OctreeIntegrator {
+            settings,
+            global,
+            caustic,
+            stats,
+            planes: Default::default(),
+            corners: Default::default(),
+            inserted: Default::default(),
+        };
         o.prepare_leak(scene);
         o.prepare_query();
         Ok(o)
@@ -455,11 +506,18 @@ impl OctreeIntegrator {
     /// `tree`'s irradiance at `hit` for normal `n` (on the viewer's side), leak control applied.
     pub fn irradiance_at(&self, scene: &Scene, tree: &Octree, hit: &SurfaceHit, n: Vec3, counters: &mut RayCounters) -> Option<Color> {
         let mut rays = 0u64;
-        let e = counters.time_query(|| match self.settings.leak {
-            LeakTest::None => tree.irradiance(hit.p, n),
-            leak => {
-                let planes = self.leak_planes(scene, tree, leak);
-                tree.irradiance_where(hit.p, n, |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+        let e = counters.time_query(|| {
+            if self.uses_corners() {
+                if let Some((table, t)) = self.corner_table(scene, tree, hit, n, &mut rays) {
+                    return tree.irradiance_from(table, t, n);
+                }
+            }
+            match self.settings.leak {
+                LeakTest::None => tree.irradiance(hit.p, n),
+                leak => {
+                    let planes = self.leak_planes(scene, tree, leak);
+                    tree.irradiance_where(hit.p, n, |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+                }
             }
         });
         counters.shadow_rays += rays;
@@ -469,11 +527,18 @@ impl OctreeIntegrator {
     /// `tree`'s incident matrix at `hit` for normal `n`, leak control applied.
     fn incident_matrix(&self, scene: &Scene, tree: &Octree, hit: &SurfaceHit, n: Vec3, counters: &mut RayCounters) -> Option<Mat3> {
         let mut rays = 0u64;
-        let m = counters.time_query(|| match self.settings.leak {
-            LeakTest::None => tree.incident_matrix(hit.p, n),
-            leak => {
-                let planes = self.leak_planes(scene, tree, leak);
-                tree.incident_matrix_where(hit.p, n, |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+        let m = counters.time_query(|| {
+            if self.uses_corners() {
+                if let Some((table, t)) = self.corner_table(scene, tree, hit, n, &mut rays) {
+                    return tree.incident_matrix_from(table, t, n);
+                }
+            }
+            match self.settings.leak {
+                LeakTest::None => tree.incident_matrix(hit.p, n),
+                leak => {
+                    let planes = self.leak_planes(scene, tree, leak);
+                    tree.incident_matrix_where(hit.p, n, |q| keep_leaf(scene, tree, planes, hit, n, leak, q, &mut rays))
+                }
             }
         });
         counters.shadow_rays += rays;
@@ -620,6 +685,30 @@ fn hsv(h: f32, s: f32, v: f32) -> Color {
     }
 }
 
+/// [`LeakTest::VisibleSample`]'s rule: `o` sees one of leaf `q`'s sampled photons lifted by
+/// [`ANCHOR_LIFT`] cell edges along its incident direction (from `q`'s planes when they tell,
+/// else by a ray; `rays` counts them).
+pub(super) fn keep_sample_seen(scene: &Scene, planes: Option<&LeakData>, o: Vec3, q: &QueryLeaf, rays: &mut u64) -> bool {
+    let lift = ANCHOR_LIFT * q.cell_size;
+    q.samples.iter().any(|&(p, w)| {
+        let b = p + w * lift;
+        if let Some(pl) = planes {
+            match pl.planes.segment(q.index, o, b) {
+                Segment::Free => return true,
+                Segment::Blocked => return false,
+                Segment::Unknown => {}
+            }
+        }
+        let d = b - o;
+        let len = d.length();
+        if !(len > 1e-4 * q.cell_size) {
+            return true;
+        }
+        *rays += 1;
+        !scene.occluded(&Ray::segment(o, d / len, len))
+    })
+}
+
 /// Whether the light of a leaf met by a query at `hit` (normal `n`, on the viewer's side) can
 /// reach it ([`LeakTest`]): `None` drops the leaf, `Some(f)` keeps it with its value scaled by
 /// `f`. `planes`: the [`LeafPlanes`] and sample reaches of `tree` for the tests that use them
@@ -665,7 +754,7 @@ pub(super) fn keep_leaf(
         LeakTest::None => Some(1.0),
         LeakTest::Plane => keep((q.position - hit.p).dot(n).abs() <= 0.5 * q.cell_size),
         LeakTest::Visibility => keep(free(q.position + q.normal * lift, rays)),
-        LeakTest::VisibleSample => keep(q.samples.iter().any(|&(p, w)| free(p + w * lift, rays))),
+        LeakTest::VisibleSample => keep(keep_sample_seen(scene, planes, o, &q, rays)),
         LeakTest::VisibleLight => {
             // the leaf keeps its weight when the query point sees any of its photons
             // (`VisibleSample`); its value is scaled by the share of its sampled photons whose

@@ -1,0 +1,234 @@
+//! The octree's query against the rest of a camera sample, per query, on one core (issue 14
+//! item 4, `docs/performance.md`, "The octree's query").
+//!
+//! ```sh
+//! cargo run --release -p octolux-cli --example query_cost -- cornell-box [--photons 1000000] [--res 128] [--rounds 3]
+//! ```
+//!
+//! Builds the `octree` integrator with its default settings, finds the first diffuse vertex of
+//! `res²` camera rays (one per pixel centre), then times, on this thread (CPU time of the
+//! thread), the global tree's query at those vertices with each leak test, and the integrator's
+//! whole `li` for the same rays; prints ns per query, ns per `li`, their ratio, and the leaves a
+//! query meets (mean and histogram) and the visibility rays it casts.
+
+use anyhow::{bail, Context, Result};
+use glam::Vec2;
+use octolux::accel::BackendKind;
+use octolux::integrators::common::walk_specular;
+use octolux::integrators::octree::{LeakTest, OctreeIntegrator, OctreeIntegratorSettings, QueryMode};
+use octolux::integrators::RayCounters;
+use octolux::math::Ray;
+use octolux::sampling::Sampler;
+use octolux::scene::Scene;
+
+fn load(name: &str) -> Result<Option<Scene>> {
+    let path = match name {
+        "cornell-box" | "cornell-spheres" => name.to_string(),
+        "cbox" => "mitsuba-tutorials-cbox/cbox.xml".to_string(),
+        "bitterli" => "bitterli-cornell-box/scene_mi3.xml".to_string(),
+        other => format!("bitterli-collection/{other}/scene.xml"),
+    };
+    let path = if path.contains('/') {
+        match octolux_io::shared::shared_scene(&path) {
+            Some(p) => p.to_str().context("utf-8 path")?.to_string(),
+            None => return Ok(None),
+        }
+    } else {
+        path
+    };
+    let loaded = octolux_io::load_scene(&path, &[])?;
+    Ok(Some(Scene::prepare(loaded.desc, BackendKind::Auto)?))
+}
+
+/// CPU time of this thread, seconds.
+fn thread_cpu() -> f64 {
+    let mut ts = nix::libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: a valid pointer to a timespec
+    unsafe { nix::libc::clock_gettime(nix::libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
+}
+
+fn main() -> Result<()> {
+    let mut args = std::env::args().skip(1);
+    let (mut scene_name, mut photons, mut res, mut rounds) = ("cornell-box".to_string(), 1_000_000u64, 128u32, 3u32);
+    while let Some(a) = args.next() {
+        let mut val = || args.next().context("missing value");
+        match a.as_str() {
+            "--photons" => photons = val()?.parse()?,
+            "--res" => res = val()?.parse()?,
+            "--rounds" => rounds = val()?.parse()?,
+            s if !s.starts_with("--") => scene_name = s.to_string(),
+            other => bail!("unknown argument {other}"),
+        }
+    }
+    let Some(scene) = load(&scene_name)? else {
+        println!("skip: {scene_name} (shared scenes not found)");
+        return Ok(());
+    };
+    let mut st = OctreeIntegratorSettings::default();
+    st.photons.photons = photons;
+    let o = OctreeIntegrator::build(&scene, st)?;
+    o.prepare_query();
+    o.prepare_leak(&scene);
+    let (w, h) = (scene.film.width as f32, scene.film.height as f32);
+    let rays: Vec<Ray> = (0..res * res)
+        .map(|i| {
+            let film = Vec2::new(((i % res) as f32 + 0.5) * w / res as f32, ((i / res) as f32 + 0.5) * h / res as f32);
+            let (org, d, tmin) = scene.camera.generate_ray(film);
+            let mut r = Ray::new(org, d);
+            r.tmin = tmin;
+            r
+        })
+        .collect();
+    let mut c = RayCounters::default();
+    let verts: Vec<_> = rays
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| walk_specular(&scene, *r, None, 64, false, &mut Sampler::new(0, i as u64, 0), &mut c).vertex)
+        .collect();
+    println!("{scene_name}: {} photons, {} vertices of {} rays", photons, verts.len(), rays.len());
+    // leaves met per query and rays per query (default leak test)
+    let mut hist = [0u64; 33];
+    let (mut met, mut own_only) = (0u64, 0u64);
+    for v in &verts {
+        let mut k = 0usize;
+        o.global.irradiance_where(v.hit.p, v.n, |_| {
+            k += 1;
+            Some(1.0)
+        });
+        hist[k.min(32)] += 1;
+        met += k as u64;
+        own_only += (k == 1) as u64;
+    }
+    let nq = verts.len().max(1) as f64;
+    println!("leaves met per query: mean {:.2}, exactly one {:.3}", met as f64 / nq, own_only as f64 / nq);
+    println!(
+        "histogram (leaves: share): {}",
+        (0..33).filter(|&i| hist[i] > 0).map(|i| format!("{i}:{:.3}", hist[i] as f64 / nq)).collect::<Vec<_>>().join(" ")
+    );
+    let parts = o.to_parts();
+    let configs = [
+        (QueryMode::Blend, LeakTest::None),
+        (QueryMode::Blend, LeakTest::VisibleSample),
+        (QueryMode::Corners, LeakTest::None),
+        (QueryMode::Corners, LeakTest::VisibleSample),
+    ];
+    let integrators: Vec<OctreeIntegrator> = configs
+        .iter()
+        .map(|&(query, leak)| {
+            let mut p = parts.clone();
+            p.settings.query = query;
+            p.settings.leak = leak;
+            let o = OctreeIntegrator::from_parts(p).expect("same parts");
+            let t0 = thread_cpu();
+            o.prepare_leak(&scene);
+            let t = thread_cpu() - t0;
+            let mut r = 0u64;
+            let tabled = if query == QueryMode::Corners {
+                verts.iter().filter(|v| o.corner_table(&scene, &o.global, &v.hit, v.n, &mut r).is_some()).count() as f64 / nq
+            } else {
+                0.0
+            };
+            println!(
+                "{query:?}/{leak:?}: preparation {:.3} s of CPU (one thread), queries with a table {tabled:.3}, report {}",
+                t,
+                o.leak_report()
+            );
+            o
+        })
+        .collect();
+    // the corner query's parts (Corners/None)
+    {
+        let o = &integrators[2];
+        let t0 = thread_cpu();
+        let mut acc = 0u64;
+        for v in &verts {
+            acc += o.global.valid_leaf_at(v.hit.p).map_or(0, |x| x.0 as u64);
+        }
+        let t_loc = thread_cpu() - t0;
+        let mut r = 0u64;
+        let t0 = thread_cpu();
+        let tabs: Vec<_> = verts.iter().map(|v| o.corner_table(&scene, &o.global, &v.hit, v.n, &mut r)).collect();
+        let t_tab = thread_cpu() - t0;
+        let t0 = thread_cpu();
+        let mut sum = 0.0f32;
+        for (v, tb) in verts.iter().zip(&tabs) {
+            if let Some((table, t)) = tb {
+                sum += o.global.irradiance_from(table, *t, v.n).map_or(0.0, |e| e.x);
+            }
+        }
+        let t_ev = thread_cpu() - t0;
+        println!(
+            "corners/none parts: locate {:.0} ns, table lookup (with locate) {:.0} ns, interpolation {:.0} ns [{acc} {sum:.3e}]",
+            1e9 * t_loc / nq,
+            1e9 * t_tab / nq,
+            1e9 * t_ev / nq
+        );
+    }
+    // the corner query's check (Corners/VisibleSample): what the planes say per origin
+    {
+        use octolux::caches::octree::{query_class, Segment};
+        let o = &integrators[3];
+        let planes = &o.planes_of(&scene, &o.global).planes;
+        let tables = o.corners_of(&scene, &o.global);
+        let (mut no_leaf, mut no_table, mut free, mut blocked, mut unknown, mut all_unknown_planes) = (0, 0, 0, 0, 0, 0);
+        for v in &verts {
+            let Some((l, _)) = o.global.valid_leaf_at(v.hit.p) else {
+                no_leaf += 1;
+                continue;
+            };
+            let ngf = octolux::math::facing(v.hit.ng, v.n);
+            let Some(t) = tables.get(l, query_class(ngf)) else {
+                no_table += 1;
+                continue;
+            };
+            if planes.get(l).is_none() {
+                all_unknown_planes += 1;
+            }
+            let p = octolux::math::offset_origin(v.hit.p, ngf, ngf);
+            let r: Vec<Segment> = t.origins[..t.origins_len as usize].iter().map(|&a| planes.segment(l, p, a)).collect();
+            if r.contains(&Segment::Free) {
+                free += 1;
+            } else if r.contains(&Segment::Unknown) {
+                unknown += 1;
+            } else {
+                blocked += 1;
+            }
+        }
+        println!("check: no valid leaf {no_leaf}, no table {no_table}, free {free}, blocked {blocked}, unknown (ray) {unknown} (of which leaf planes unknown {all_unknown_planes})");
+    }
+    for round in 0..rounds {
+        let mut line = format!("round {round}:");
+        let only: Option<usize> = std::env::var("QUERY_COST_ONLY").ok().and_then(|v| v.parse().ok());
+        for (i, (o, (query, leak))) in integrators.iter().zip(configs).enumerate() {
+            if only.is_some_and(|k| k != i) {
+                continue;
+            }
+            let mut c = RayCounters::default();
+            let t0 = thread_cpu();
+            let mut sum = 0.0f64;
+            for v in &verts {
+                sum += o.irradiance_at(&scene, &o.global, &v.hit, v.n, &mut c).map_or(0.0, |e| e.x as f64);
+            }
+            let tq = thread_cpu() - t0;
+            let mut c2 = RayCounters::default();
+            let t0 = thread_cpu();
+            let mut li = 0.0f64;
+            for (i, r) in rays.iter().enumerate() {
+                li += o.li(&scene, *r, None, &mut Sampler::new(1, i as u64, 0), &mut c2).x as f64;
+            }
+            let tl = thread_cpu() - t0;
+            let per_li = tl / rays.len() as f64;
+            let per_q = tq / nq;
+            let share = per_q * c2.cache_queries as f64 / rays.len() as f64 / per_li;
+            line += &format!(
+                "\n  {query:?}/{leak:?}: query {:.0} ns ({:.2} rays) [{sum:.4e}], li {:.0} ns/ray [{li:.4e}], est. share {share:.3}",
+                1e9 * per_q,
+                c.shadow_rays as f64 / nq,
+                1e9 * per_li
+            );
+        }
+        println!("{line}");
+    }
+    Ok(())
+}
