@@ -215,15 +215,17 @@ mod tests {
     }
 
     /// The thin-wall test of `octree_leak.rs` with the corner tables and the default leak
-    /// test: at most 1% of the lit floor's irradiance on the dark side at every thickness
-    /// (queries there take the exact path: the photons of the leaf holding the wall lie on
-    /// the lit side).
+    /// test: at most 1% of the lit floor's irradiance on the dark side at every thickness. The
+    /// leaf holding the wall has a table for the floor's class from its lit-side photons; the
+    /// dark-side points in it must not use it (they do not see its photons) and take the
+    /// exact path.
     #[test]
     fn corner_tables_do_not_leak_through_a_thin_wall() {
         use crate::caches::octree::Depth;
         let root = 2.0 * (1.0 + 2e-5);
         let s = root / 32.0;
         let x_lit = -1.0 - 1e-5 * 2.0 + (16.0 + 0.3) * s;
+        let mut checked = 0;
         for t_leaves in [0.05f32, 0.25, 1.0] {
             let scene = two_rooms(x_lit, t_leaves * s);
             let mut st = OctreeIntegratorSettings { query: QueryMode::Corners, ..Default::default() };
@@ -240,23 +242,32 @@ mod tests {
             };
             let lit: f64 = (0..8).map(|i| e(Vec3::new(-0.9 + 0.1 * i as f32, 0.5, 0.5), -Vec3::Y, &mut c)).sum::<f64>() / 8.0;
             let x_dark = x_lit + t_leaves * s;
-            let (mut worst, mut tabled, mut r) = (0.0f64, 0, 0u64);
+            let (mut worst, mut tabled, mut exists, mut r) = (0.0f64, 0, 0, 0u64);
             for d in [0.1f32, 0.3, 0.6, 1.0, 1.5] {
                 for z in [0.3f32, 0.5, 0.7] {
                     for dir in [-Vec3::Y, Vec3::Y] {
                         let p = Vec3::new(x_dark + d * s, 0.5, z);
                         worst = worst.max(e(p, dir, &mut c));
                         let hit = scene.intersect(&Ray::new(p, dir)).expect("closed rooms");
-                        tabled += o.corner_table(&scene, &o.global, &hit, crate::math::facing(hit.frame.n, -dir), &mut r).is_some() as u32;
+                        let n = crate::math::facing(hit.frame.n, -dir);
+                        tabled += o.corner_table(&scene, &o.global, &hit, n, &mut r).is_some() as u32;
+                        let class = query_class(crate::math::facing(hit.ng, n));
+                        exists +=
+                            o.global.valid_leaf_at(hit.p).is_some_and(|(v, _)| o.corners_of(&scene, &o.global).get(v, class).is_some())
+                                as u32;
                     }
                 }
             }
-            eprintln!("thickness {t_leaves}: {tabled} of 30 dark-side floor and ceiling queries used a table");
+            eprintln!("thickness {t_leaves}: of 30 dark-side floor and ceiling queries, {exists} in a leaf with a table of their class, {tabled} used it");
+            checked += exists - tabled;
             for y in [0.1f32, 0.5, 0.9] {
                 worst = worst.max(e(Vec3::new(x_dark + 0.5, y, 0.5), -Vec3::X, &mut c));
             }
             eprintln!("thickness {t_leaves}: dark side {:.3}% of the lit floor ({lit:.3})", 100.0 * worst / lit);
             assert!(lit > 0.0 && worst <= 0.01 * lit, "thickness {t_leaves}: {:.2}% of the lit floor", 100.0 * worst / lit);
         }
+        // the per-query check is what kept them out: dark-side points in leaves whose table
+        // holds the lit side's light
+        assert!(checked > 0, "no dark-side query met a table: the test does not exercise the check");
     }
 }
