@@ -685,28 +685,32 @@ fn hsv(h: f32, s: f32, v: f32) -> Color {
     }
 }
 
+/// The segment from `a` to `b` (within reach of valid leaf `q`) is unblocked: from the planes
+/// around the leaf when they tell (`caches::octree::planes`), else by a ray (`rays` counts
+/// them); a segment shorter than 1e-4 of the cell is clear.
+#[inline]
+fn segment_clear(scene: &Scene, planes: Option<&LeakData>, q: &QueryLeaf, a: Vec3, b: Vec3, rays: &mut u64) -> bool {
+    if let Some(p) = planes {
+        match p.planes.segment(q.index, a, b) {
+            Segment::Free => return true,
+            Segment::Blocked => return false,
+            Segment::Unknown => {}
+        }
+    }
+    let d = b - a;
+    let len = d.length();
+    if !(len > 1e-4 * q.cell_size) {
+        return true;
+    }
+    *rays += 1;
+    !scene.occluded(&Ray::segment(a, d / len, len))
+}
+
 /// [`LeakTest::VisibleSample`]'s rule: `o` sees one of leaf `q`'s sampled photons lifted by
-/// [`ANCHOR_LIFT`] cell edges along its incident direction (from `q`'s planes when they tell,
-/// else by a ray; `rays` counts them).
+/// [`ANCHOR_LIFT`] cell edges along its incident direction ([`segment_clear`]).
 pub(super) fn keep_sample_seen(scene: &Scene, planes: Option<&LeakData>, o: Vec3, q: &QueryLeaf, rays: &mut u64) -> bool {
     let lift = ANCHOR_LIFT * q.cell_size;
-    q.samples.iter().any(|&(p, w)| {
-        let b = p + w * lift;
-        if let Some(pl) = planes {
-            match pl.planes.segment(q.index, o, b) {
-                Segment::Free => return true,
-                Segment::Blocked => return false,
-                Segment::Unknown => {}
-            }
-        }
-        let d = b - o;
-        let len = d.length();
-        if !(len > 1e-4 * q.cell_size) {
-            return true;
-        }
-        *rays += 1;
-        !scene.occluded(&Ray::segment(o, d / len, len))
-    })
+    q.samples.iter().any(|&(p, w)| segment_clear(scene, planes, q, o, p + w * lift, rays))
 }
 
 /// Whether the light of a leaf met by a query at `hit` (normal `n`, on the viewer's side) can
@@ -729,24 +733,8 @@ pub(super) fn keep_leaf(
     // leave from the viewer's side of the surface, whatever side the target is on
     let ngf = crate::math::facing(hit.ng, n);
     let o = crate::math::offset_origin(hit.p, ngf, ngf);
-    // the segment from `a` to `b` is unblocked: from the planes around the leaf when they
-    // tell (`caches::octree::planes`), else by a ray
-    let clear = |a: Vec3, b: Vec3, rays: &mut u64| {
-        if let Some(p) = planes {
-            match p.planes.segment(q.index, a, b) {
-                Segment::Free => return true,
-                Segment::Blocked => return false,
-                Segment::Unknown => {}
-            }
-        }
-        let d = b - a;
-        let len = d.length();
-        if !(len > 1e-4 * q.cell_size) {
-            return true;
-        }
-        *rays += 1;
-        !scene.occluded(&Ray::segment(a, d / len, len))
-    };
+    // the segment from `a` to `b` is unblocked
+    let clear = |a: Vec3, b: Vec3, rays: &mut u64| segment_clear(scene, planes, &q, a, b, rays);
     // the query point sees `target`
     let free = |target: Vec3, rays: &mut u64| clear(o, target, rays);
     let lift = ANCHOR_LIFT * q.cell_size;
