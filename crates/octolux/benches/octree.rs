@@ -1,12 +1,15 @@
 //! Octree benchmarks: build rate (photons/s) for 1M and 4M photons on a synthetic
 //! Cornell-box-like distribution (photons on the 6 inner walls of the unit box, diffuse
-//! directions), and query rate (irradiance queries/s) on the walls.
+//! directions) with the paper's settings, the geometry-area estimator and the `octree`
+//! integrator's default global tree, and query rate (irradiance queries/s) on the walls.
+//! The build rate on real scenes: `crates/octolux-cli/examples/build_rate.rs`.
 //!
 //! Run: `cargo bench -p octolux --bench octree`.
 
 use criterion::{black_box, criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use glam::Vec3;
 use octolux::caches::octree::{Estimator, Octree, OctreeSettings, Storage};
+use octolux::integrators::octree::OctreeIntegratorSettings;
 use octolux::math::Bounds3;
 use octolux::photon::Photon;
 use octolux::sampling::{around, square_to_cosine_hemisphere, Sampler};
@@ -77,6 +80,9 @@ fn bench_build(c: &mut Criterion) {
         for (name, s) in [
             ("paper", OctreeSettings::default()),
             ("geometry_area", OctreeSettings { estimator: Estimator::GeometryArea, ..OctreeSettings::default() }),
+            // the `octree` integrator's global tree: geometry-area estimator, split by the
+            // surface normal (`add_by_surface`), depth from the photon count
+            ("integrator_default", OctreeIntegratorSettings::default().global),
         ] {
             let t = Octree::build(&photons, unit_box(), &s, Some(&geometry)).unwrap();
             eprintln!("{name} {n}: {}", serde_json::to_string(t.stats()).unwrap());

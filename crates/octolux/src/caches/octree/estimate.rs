@@ -24,6 +24,42 @@ pub(super) struct Scratch {
     pos: Vec<Vec3>,
     ng: Vec<Vec3>,
     areas: Vec<OrientedArea>,
+    sides: SideAreas,
+}
+
+/// The lit areas of a leaf sorted by half-axis for [`Accumulator::add_by_surface`], built
+/// once per leaf: half-axis `k` (order `+X, −X, +Y, −Y, +Z, −Z`) holds, in the order of the
+/// areas, those whose normal has a non-zero component of its sign on its axis, with their
+/// weights `n_a² A`, and the sum of the weights (f32, summed in that order).
+#[derive(Default)]
+struct SideAreas {
+    /// Entries of half-axis `k`: `start[k]..start[k + 1]`.
+    start: [usize; 7],
+    g: Vec<f32>,
+    n: Vec<Vec3>,
+    total: [f32; 6],
+}
+
+impl SideAreas {
+    fn fill(&mut self, areas: &[OrientedArea]) {
+        self.g.clear();
+        self.n.clear();
+        for k in 0..6 {
+            let (a, neg) = (k / 2, k % 2 == 1);
+            self.start[k] = self.g.len();
+            let mut total = 0.0f32;
+            for e in areas {
+                if e.n[a] != 0.0 && (e.n[a] < 0.0) == neg {
+                    let g = e.n[a] * e.n[a] * e.area;
+                    total += g;
+                    self.g.push(g);
+                    self.n.push(e.n);
+                }
+            }
+            self.total[k] = total;
+        }
+        self.start[6] = self.g.len();
+    }
 }
 
 /// Result of one leaf estimate.
@@ -116,30 +152,28 @@ impl Accumulator {
     /// the surfaces of the cell (which would average a dim face with the bright floor
     /// beside it). For one plane of normal `N`: `M_a^{s(N_a)} = ∫ L w dω` for every axis, so
     /// the query's `Σ_a N_a² = 1` returns it exactly.
-    #[inline]
-    fn add_by_surface(&mut self, w: Vec3, c: Vec3, ng: Vec3, areas: &[OrientedArea], min_cos: f32, a_min: f32) {
+    #[inline(always)]
+    fn add_by_surface(&mut self, w: Vec3, c: Vec3, ng: Vec3, sides: &SideAreas, min_cos: f32, a_min: f32) {
         for a in 0..3 {
             if ng[a] == 0.0 {
                 continue;
             }
             let neg = ng[a] < 0.0;
-            let (mut proj, mut total) = (0.0f32, 0.0f32);
-            for e in areas {
-                if e.n[a] != 0.0 && (e.n[a] < 0.0) == neg {
-                    let g = e.n[a] * e.n[a] * e.area;
-                    total += g;
-                    proj += g * e.n.dot(w).max(0.0);
-                }
+            let k = 2 * a + neg as usize;
+            let (lo, hi) = (sides.start[k], sides.start[k + 1]);
+            let mut proj = 0.0f32;
+            for (g, n) in sides.g[lo..hi].iter().zip(&sides.n[lo..hi]) {
+                proj += g * n.dot(w).max(0.0);
             }
             // `ng_a² min_cos a_min`: the photon's own surface, of normal `ng`, has at least
             // `a_min` in the box (see `EstimateCtx::estimate`)
-            let den = proj.max(min_cos * total).max(ng[a] * ng[a] * min_cos * a_min);
+            let den = proj.max(min_cos * sides.total[k]).max(ng[a] * ng[a] * min_cos * a_min);
             if !(den > 0.0) {
                 continue;
             }
             let f = (ng[a] * ng[a] / den) as f64;
             let wd = DVec3::from(w) * f;
-            let m = &mut self.zero[2 * a + neg as usize];
+            let m = &mut self.zero[k];
             m[0] += wd * c.x as f64;
             m[1] += wd * c.y as f64;
             m[2] += wd * c.z as f64;
@@ -329,29 +363,38 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         let areas = &sc.areas;
         let mut acc = Accumulator::new();
         let by_normal = self.settings.split == Split::Normal;
-        let mut add = |i: u32| {
-            let r = &recs[i as usize];
-            let w = r.w();
-            if by_normal && estimator == Estimator::GeometryArea {
-                // per-matrix areas: no single weight
-                acc.add_by_surface(w, r.c(), r.ng(), areas, min_cos, a_min);
-                return;
-            }
-            let weight = match estimator {
-                // `w` carries the cosine weight
-                Estimator::Paper | Estimator::Cosine => inv_da,
-                Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total.max(a_min)),
+        if by_normal && estimator == Estimator::GeometryArea {
+            // per-matrix areas: no single weight
+            sc.sides.fill(areas);
+            let sides = &sc.sides;
+            let mut add = |i: u32| {
+                let r = &recs[i as usize];
+                acc.add_by_surface(r.w(), r.c(), r.ng(), sides, min_cos, a_min);
             };
-            if by_normal {
-                acc.add_by_normal(w, r.c(), weight, r.ng());
-            } else {
-                acc.add(w, r.c(), weight);
+            for &(lo, hi) in &sc.segs {
+                (lo..hi).for_each(&mut add);
             }
-        };
-        for &(lo, hi) in &sc.segs {
-            (lo..hi).for_each(&mut add);
+            sc.singles.iter().for_each(|&i| add(i));
+        } else {
+            let mut add = |i: u32| {
+                let r = &recs[i as usize];
+                let w = r.w();
+                let weight = match estimator {
+                    // `w` carries the cosine weight
+                    Estimator::Paper | Estimator::Cosine => inv_da,
+                    Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total.max(a_min)),
+                };
+                if by_normal {
+                    acc.add_by_normal(w, r.c(), weight, r.ng());
+                } else {
+                    acc.add(w, r.c(), weight);
+                }
+            };
+            for &(lo, hi) in &sc.segs {
+                (lo..hi).for_each(&mut add);
+            }
+            sc.singles.iter().for_each(|&i| add(i));
         }
-        sc.singles.iter().for_each(|&i| add(i));
         let mut normals: [Vec3; 6] = std::array::from_fn(|k| {
             let mut v = Vec3::ZERO;
             v[k / 2] = if k % 2 == 0 { 1.0 } else { -1.0 };
@@ -397,6 +440,69 @@ fn compact(lo: u32, pos: &[Vec3], out: &mut [u32], inside: impl Fn(Vec3) -> bool
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The half-axis lists give `add_by_surface` the same sums, bit for bit, as the loop over
+    /// all the lit areas that tests each normal's sign per photon (the form before the lists),
+    /// with normals of both signs and with zero components, in the areas and in `ng`.
+    #[test]
+    fn side_lists_give_the_sums_of_the_loop_over_all_areas() {
+        use crate::sampling::square_to_uniform_sphere;
+        let mut s = crate::sampling::Sampler::new(5, 5, 5);
+        let mut areas = Vec::new();
+        for i in 0..40 {
+            let mut n = square_to_uniform_sphere(s.next_2d());
+            if i % 5 == 0 {
+                n[i % 3] = 0.0; // in no list of that axis
+            }
+            if i % 7 == 0 {
+                n = if i % 2 == 0 { Vec3::Z } else { -Vec3::Z };
+            }
+            areas.push(OrientedArea { n, area: 0.01 + s.next_1d() });
+        }
+        let mut sides = SideAreas::default();
+        sides.fill(&areas);
+        assert!((0..6).all(|k| sides.start[k + 1] > sides.start[k]), "every half-axis has areas");
+        let (min_cos, a_min) = (0.1, 0.05);
+        let mut acc = Accumulator::new();
+        let mut direct = [[DVec3::ZERO; 3]; 6];
+        for i in 0..2000 {
+            let w = square_to_uniform_sphere(s.next_2d());
+            let mut ng = square_to_uniform_sphere(s.next_2d());
+            if i % 4 == 0 {
+                ng[i % 3] = 0.0;
+            }
+            let c = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+            acc.add_by_surface(w, c, ng, &sides, min_cos, a_min);
+            for a in 0..3 {
+                if ng[a] == 0.0 {
+                    continue;
+                }
+                let neg = ng[a] < 0.0;
+                let (mut proj, mut total) = (0.0f32, 0.0f32);
+                for e in &areas {
+                    if e.n[a] != 0.0 && (e.n[a] < 0.0) == neg {
+                        let g = e.n[a] * e.n[a] * e.area;
+                        total += g;
+                        proj += g * e.n.dot(w).max(0.0);
+                    }
+                }
+                let den = proj.max(min_cos * total).max(ng[a] * ng[a] * min_cos * a_min);
+                if !(den > 0.0) {
+                    continue;
+                }
+                let wd = DVec3::from(w) * (ng[a] * ng[a] / den) as f64;
+                let m = &mut direct[2 * a + neg as usize];
+                m[0] += wd * c.x as f64;
+                m[1] += wd * c.y as f64;
+                m[2] += wd * c.z as f64;
+            }
+        }
+        for (k, (got, want)) in acc.zero.iter().zip(&direct).enumerate() {
+            for (j, (g, d)) in got.iter().zip(want).enumerate() {
+                assert_eq!(g.to_array().map(f64::to_bits), d.to_array().map(f64::to_bits), "matrix {k}, column {j}");
+            }
+        }
+    }
 
     #[test]
     fn accumulator_matches_the_direct_sums() {
