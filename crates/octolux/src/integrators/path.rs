@@ -89,15 +89,22 @@ pub fn li(
         if material.has_smooth_lobe() {
             let u_sel = sampler.next_1d();
             let u = sampler.next_2d();
-            if let Some(ls) = scene.lights.sample_li(hit.p, u_sel, u) {
-                if ls.pdf > 0.0 && ls.li != Color::ZERO {
+            // An environment sample's radiance is looked up only once the shadow ray is clear
+            // (`sample_li_deferred`): the same sum, without the sky model for occluded samples.
+            if let Some((mut ls, env)) = scene.lights.sample_li_deferred(hit.p, u_sel, u) {
+                if ls.pdf > 0.0 && (env || ls.li != Color::ZERO) {
                     let wi = hit.frame.to_local(ls.wi);
                     let f = material.eval(&scene.images, hit.uv, wo, wi) * hit.shading_factor(ls.wi);
                     if f != Color::ZERO {
                         counters.shadow_rays += 1;
                         if !scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
-                            let w = if ls.delta { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
-                            result += throughput * f * ls.li * (w / ls.pdf);
+                            if env {
+                                ls.li = scene.lights.env_le(ls.wi);
+                            }
+                            if ls.li != Color::ZERO {
+                                let w = if ls.delta { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
+                                result += throughput * f * ls.li * (w / ls.pdf);
+                            }
                         }
                     }
                 }
