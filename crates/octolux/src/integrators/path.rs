@@ -69,7 +69,10 @@ pub fn li(
             break;
         };
         if let Some(d) = diff.take() {
-            hit.set_ray_differential(d);
+            // Only MIP-mapped textures read the partials: skip them for the others.
+            if scene.materials[hit.material as usize].reads_uv_partials() {
+                hit.set_ray_differential(d);
+            }
         }
         // Emission from an area light hit by the ray.
         if let Some(light) = hit.light {
@@ -83,6 +86,7 @@ pub fn li(
             break;
         }
         let material = &scene.materials[hit.material as usize];
+        material.prefetch(&scene.images, hit.uv);
         let wo = hit.frame.to_local(-ray.d);
 
         // Next-event estimation.

@@ -102,6 +102,30 @@ impl Texture {
         }
     }
 
+    /// Whether [`Texture::eval`] reads the partials of its [`TexCoord`] (a MIP-mapped bitmap).
+    #[inline]
+    pub fn reads_partials(&self) -> bool {
+        matches!(self, Texture::Bitmap { filter: TexFilter::Trilinear { .. }, .. })
+    }
+
+    /// Prefetch the texels [`Texture::eval`] at `uv` will read ([`Image::prefetch`]), for a
+    /// lookup without footprint (zero partials: bilinear on level 0, as every lookup but the
+    /// camera ray's). Nothing for constants, nearest lookups and footprints.
+    #[inline]
+    pub fn prefetch(&self, images: &[Image], tc: TexCoord) {
+        if let Texture::Bitmap { image, uv_scale, filter } = self {
+            let footprint = tc.duv_dx != Vec2::ZERO || tc.duv_dy != Vec2::ZERO;
+            let bilinear = match filter {
+                TexFilter::Nearest => false,
+                TexFilter::Bilinear => true,
+                TexFilter::Trilinear { .. } => !footprint,
+            };
+            if let (true, Some(im)) = (bilinear, images.get(*image as usize)) {
+                im.prefetch(tc.uv * *uv_scale);
+            }
+        }
+    }
+
     /// The texture read as a scalar (Mitsuba's `eval_1`): a grey value as it is, a colour
     /// through its luminance.
     #[inline]
