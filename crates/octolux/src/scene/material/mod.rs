@@ -40,6 +40,7 @@ mod tests_models;
 #[cfg(test)]
 mod tests_wrappers;
 pub mod texture;
+mod textures;
 pub mod ward;
 
 // The pieces stay reachable at their old paths (`material::fresnel_dielectric`, ...).
@@ -428,64 +429,6 @@ impl Material {
         match self {
             Material::Mask { opacity, .. } => mask::opacity(opacity, images, uv),
             _ => 1.0,
-        }
-    }
-
-    /// Whether evaluating or sampling this material reads the uv partials of its [`TexCoord`]
-    /// (some texture is MIP-mapped, [`Texture::reads_partials`]): without, a camera hit's ray
-    /// differential changes nothing and the path tracer skips it.
-    pub fn reads_uv_partials(&self) -> bool {
-        match self {
-            Material::Diffuse { reflectance: t }
-            | Material::Plastic { diffuse_reflectance: t, .. }
-            | Material::RoughPlastic { diffuse_reflectance: t, .. } => t.reads_partials(),
-            Material::Ward { diffuse_reflectance: a, specular_reflectance: b, .. }
-            | Material::Phong { diffuse_reflectance: a, specular_reflectance: b, .. } => a.reads_partials() || b.reads_partials(),
-            Material::TwoSided { front: a, back: b } => a.reads_uv_partials() || b.reads_uv_partials(),
-            Material::Blend { weight, first, second } => weight.reads_partials() || first.reads_uv_partials() || second.reads_uv_partials(),
-            Material::Mask { opacity: t, nested }
-            | Material::BumpMap { height: t, nested, .. }
-            | Material::NormalMap { normals: t, nested } => t.reads_partials() || nested.reads_uv_partials(),
-            Material::Conductor { .. }
-            | Material::RoughConductor { .. }
-            | Material::Dielectric { .. }
-            | Material::ThinDielectric { .. }
-            | Material::RoughDielectric { .. } => false,
-        }
-    }
-
-    /// Prefetch the texels that evaluating or sampling this material at `tc` will read
-    /// ([`Texture::prefetch`]; no effect on any value): the path tracer calls it as soon as it
-    /// has a hit, so that the memory reads overlap the light sampling before `eval`.
-    pub fn prefetch(&self, images: &[Image], tc: TexCoord) {
-        match self {
-            Material::Diffuse { reflectance: t }
-            | Material::Plastic { diffuse_reflectance: t, .. }
-            | Material::RoughPlastic { diffuse_reflectance: t, .. } => t.prefetch(images, tc),
-            Material::Ward { diffuse_reflectance: a, specular_reflectance: b, .. }
-            | Material::Phong { diffuse_reflectance: a, specular_reflectance: b, .. } => {
-                a.prefetch(images, tc);
-                b.prefetch(images, tc);
-            }
-            Material::TwoSided { front, back } => {
-                front.prefetch(images, tc);
-                back.prefetch(images, tc);
-            }
-            Material::Blend { weight, first, second } => {
-                weight.prefetch(images, tc);
-                first.prefetch(images, tc);
-                second.prefetch(images, tc);
-            }
-            Material::Mask { opacity, nested } => {
-                opacity.prefetch(images, tc);
-                nested.prefetch(images, tc);
-            }
-            Material::BumpMap { nested, .. } | Material::NormalMap { nested, .. } => nested.prefetch(images, tc),
-            Material::Conductor { .. }
-            | Material::RoughConductor { .. }
-            | Material::Dielectric { .. }
-            | Material::ThinDielectric { .. }
-            | Material::RoughDielectric { .. } => {}
         }
     }
 
