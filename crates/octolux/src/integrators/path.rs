@@ -69,7 +69,10 @@ pub fn li(
             break;
         };
         if let Some(d) = diff.take() {
-            hit.set_ray_differential(d);
+            // Only MIP-mapped textures read the partials: skip them for the others.
+            if scene.materials[hit.material as usize].reads_uv_partials() {
+                hit.set_ray_differential(d);
+            }
         }
         // Emission from an area light hit by the ray.
         if let Some(light) = hit.light {
@@ -83,21 +86,29 @@ pub fn li(
             break;
         }
         let material = &scene.materials[hit.material as usize];
+        material.prefetch(&scene.images, hit.uv);
         let wo = hit.frame.to_local(-ray.d);
 
         // Next-event estimation.
         if material.has_smooth_lobe() {
             let u_sel = sampler.next_1d();
             let u = sampler.next_2d();
-            if let Some(ls) = scene.lights.sample_li(hit.p, u_sel, u) {
-                if ls.pdf > 0.0 && ls.li != Color::ZERO {
+            // An environment sample's radiance is looked up only once the shadow ray is clear
+            // (`sample_li_deferred`): the same sum, without the sky model for occluded samples.
+            if let Some((mut ls, env)) = scene.lights.sample_li_deferred(hit.p, u_sel, u) {
+                if ls.pdf > 0.0 && (env || ls.li != Color::ZERO) {
                     let wi = hit.frame.to_local(ls.wi);
                     let f = material.eval(&scene.images, hit.uv, wo, wi) * hit.shading_factor(ls.wi);
                     if f != Color::ZERO {
                         counters.shadow_rays += 1;
                         if !scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
-                            let w = if ls.delta { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
-                            result += throughput * f * ls.li * (w / ls.pdf);
+                            if env {
+                                ls.li = scene.lights.env_le(ls.wi);
+                            }
+                            if ls.li != Color::ZERO {
+                                let w = if ls.delta { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
+                                result += throughput * f * ls.li * (w / ls.pdf);
+                            }
                         }
                     }
                 }

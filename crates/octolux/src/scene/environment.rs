@@ -33,6 +33,16 @@ impl Environment {
         }
     }
 
+    /// [`Environment::sample`] without the radiance: (direction, solid-angle pdf), `None` in
+    /// the same cases.
+    #[inline]
+    pub fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        match self {
+            Environment::Map(m) => m.sample_direction(u),
+            Environment::SunSky(s) => s.sample_direction(u),
+        }
+    }
+
     /// Solid-angle density of [`Environment::sample`] for world direction `dir`.
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {

@@ -216,12 +216,20 @@ impl EnvMap {
     /// Sample a world direction towards the map; returns it, its radiance and its solid-angle pdf.
     #[inline]
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Color, f32)> {
-        let (d, _, _) = self.table.sample(u)?;
-        // Radiance and pdf of the world direction itself, so that they agree exactly with
+        let (w, pdf) = self.sample_direction(u)?;
+        Some((w, self.eval(w), pdf))
+    }
+
+    /// [`Self::sample`] without the radiance: the direction and its solid-angle pdf (`None` in
+    /// the same cases).
+    #[inline]
+    pub fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        let (d, _) = self.table.sample_direction(u)?;
+        // Pdf (and radiance) of the world direction itself, so that they agree exactly with
         // `eval` and `pdf` (the round trip through `to_world` moves directions by an ulp).
         let w = (self.to_world * d).normalize();
         let pdf = self.pdf(w);
-        (pdf > 0.0).then(|| (w, self.eval(w), pdf))
+        (pdf > 0.0).then_some((w, pdf))
     }
 
     /// Solid-angle density of [`Self::sample`] for world direction `dir`.

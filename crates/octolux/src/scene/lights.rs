@@ -223,8 +223,32 @@ impl LightSet {
 
     /// Sample a light (by power) and a point on it as seen from `p`.
     pub fn sample_li(&self, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        let (mut ls, env) = self.sample_li_deferred(p, u_select, u)?;
+        if env {
+            ls.li = self.env_le(ls.wi);
+        }
+        Some(ls)
+    }
+
+    /// [`Self::sample_li`] that leaves the radiance of an environment sample to the caller:
+    /// `(sample, true)` when `sample.li` is not filled in (zero) and is `self.env_le(sample.wi)`.
+    /// The sky model's radiance costs six `exp` and an `asin`; a path tracer needs it only when
+    /// the light sample is unoccluded, which indoors is the exception. Same samples, same
+    /// values as `sample_li`.
+    pub fn sample_li_deferred(&self, p: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, bool)> {
         let (l, psel) = self.pick(u_select)?;
-        match &self.lights[l] {
+        if let Light::Constant { .. } | Light::Envmap { .. } | Light::Sunsky(_) = &self.lights[l] {
+            // All environment lights act as one emitter (module docs): the sampled direction
+            // carries the radiance of all of them and their mixture density.
+            let wi = match &self.lights[l] {
+                Light::Constant { .. } => square_to_uniform_sphere(u),
+                _ => self.env_maps.get(*self.env_map_of.get(l)? as usize)?.1.sample_direction(u)?.0,
+            };
+            let pdf = self.pdf_li_env(wi);
+            let keep = matches!(&self.lights[l], Light::Constant { .. }) || pdf > 0.0;
+            return keep.then_some((LightSample { wi, dist: f32::INFINITY, li: Color::ZERO, pdf, delta: false }, true));
+        }
+        let ls = match &self.lights[l] {
             Light::Area { radiance, .. } => {
                 let geom = self.area[l].as_ref()?;
                 if let Some(one_minus_cos_max) = geom.visible_cone(p) {
@@ -244,7 +268,7 @@ impl LightSet {
                         return None;
                     }
                     let pdf = psel / (2.0 * PI * one_minus_cos_max);
-                    return Some(LightSample { wi, dist, li: *radiance, pdf, delta: false });
+                    return Some((LightSample { wi, dist, li: *radiance, pdf, delta: false }, false));
                 }
                 let (q, ng) = geom.sample_point(u);
                 let pdf_area = 1.0 / geom.area();
@@ -291,19 +315,9 @@ impl LightSet {
             Light::Directional { direction, irradiance } => {
                 Some(LightSample { wi: -*direction, dist: f32::INFINITY, li: *irradiance, pdf: psel, delta: true })
             }
-            // All environment lights act as one emitter (module docs): the sampled direction
-            // carries the radiance of all of them and their mixture density.
-            Light::Constant { .. } => {
-                let wi = square_to_uniform_sphere(u);
-                Some(LightSample { wi, dist: f32::INFINITY, li: self.env_le(wi), pdf: self.pdf_li_env(wi), delta: false })
-            }
-            Light::Envmap { .. } | Light::Sunsky(_) => {
-                let (_, env) = self.env_maps.get(*self.env_map_of.get(l)? as usize)?;
-                let (wi, _, _) = env.sample(u)?;
-                let pdf = self.pdf_li_env(wi);
-                (pdf > 0.0).then(|| LightSample { wi, dist: f32::INFINITY, li: self.env_le(wi), pdf, delta: false })
-            }
-        }
+            Light::Constant { .. } | Light::Envmap { .. } | Light::Sunsky(_) => None,
+        };
+        ls.map(|ls| (ls, false))
     }
 
     /// Radiance emitted by area light `light` at a point with geometric normal `ng` towards

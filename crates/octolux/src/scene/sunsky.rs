@@ -378,6 +378,13 @@ impl SunSky {
 
     /// Sample a world direction; returns it, its radiance and its solid-angle pdf.
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Color, f32)> {
+        let (dir, pdf) = self.sample_direction(u)?;
+        Some((dir, self.eval(dir), pdf))
+    }
+
+    /// [`Self::sample`] without the radiance (the sky model's six `exp` and an `asin`): the
+    /// direction and its solid-angle pdf (`None` in the same cases).
+    pub fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32)> {
         let local = if u.x < self.p_sun {
             let ux = (u.x / self.p_sun).min(1.0 - f32::EPSILON) as f64;
             let one_minus = 1.0 - self.cos_half as f64;
@@ -394,7 +401,7 @@ impl SunSky {
         };
         let dir = (self.to_world * local).normalize();
         let pdf = self.pdf(dir);
-        (pdf > 0.0).then(|| (dir, self.eval(dir), pdf))
+        (pdf > 0.0).then_some((dir, pdf))
     }
 
     /// Solid-angle density of [`Self::sample`] for world direction `dir`.

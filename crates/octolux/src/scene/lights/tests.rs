@@ -360,3 +360,50 @@ fn delta_and_environment_lights() {
     );
     assert_eq!(empty.total_power(), Color::ZERO);
 }
+
+/// `sample_li_deferred` (the path tracer's light sampling, which looks up an environment
+/// sample's radiance only once its shadow ray is clear) gives the samples of `sample_li`
+/// bit for bit, with `li` left to `env_le(wi)` exactly for the environment lights; the
+/// environment samples' radiance and density are those of `env_le` and `pdf_li_env` in the
+/// sampled direction (the values the path tracer's MIS weights of escaped rays use).
+#[test]
+fn deferred_light_samples_are_sample_li_s_with_the_environment_radiance_left_out() {
+    let image = Image {
+        width: 8,
+        height: 4,
+        data: (0..32).map(|i| Color::new(0.2 + (i % 5) as f32, 0.5 + (i % 3) as f32, 1.0 + (i % 7) as f32 * 0.3)).collect(),
+    };
+    let rot = glam::Mat3::from_rotation_x(0.4) * glam::Mat3::from_rotation_z(1.1);
+    let lights = [
+        Light::Point { position: Vec3::new(0.5, 0.5, 3.0), intensity: Color::splat(3.0) },
+        Light::Constant { radiance: Color::new(0.1, 0.2, 0.3) },
+        Light::Sunsky(crate::scene::sunsky::SunSkyDesc { to_world: rot, ..Default::default() }),
+        Light::Envmap { image: 0, scale: 0.7, to_world: rot.transpose() },
+    ];
+    let shapes = [shape(Geometry::Mesh(split_rectangle(1.0)), Some(Color::new(2.0, 3.0, 4.0)), true)];
+    let set = LightSet::with_images(&lights, &shapes, &[image], bounds_of(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0)));
+    let mut s = Sampler::new(5, 0, 0);
+    let mut seen = [0usize; 2];
+    let bits = |ls: &LightSample| {
+        let mut v: Vec<u32> = [ls.wi.x, ls.wi.y, ls.wi.z, ls.dist, ls.li.x, ls.li.y, ls.li.z, ls.pdf].map(f32::to_bits).to_vec();
+        v.push(ls.delta as u32);
+        v
+    };
+    for _ in 0..20_000 {
+        let p = Vec3::new(s.next_1d() * 2.0, s.next_1d(), s.next_1d() * 0.9);
+        let (u_sel, u) = (s.next_1d(), s.next_2d());
+        let eager = set.sample_li(p, u_sel, u);
+        let deferred = set.sample_li_deferred(p, u_sel, u);
+        assert_eq!(eager.is_some(), deferred.is_some());
+        let (Some(eager), Some((mut ls, env))) = (eager, deferred) else { continue };
+        seen[env as usize] += 1;
+        if env {
+            assert_eq!(ls.li, Color::ZERO);
+            assert!(ls.dist.is_infinite() && !ls.delta);
+            assert_eq!(ls.pdf.to_bits(), set.pdf_li_env(ls.wi).to_bits());
+            ls.li = set.env_le(ls.wi);
+        }
+        assert_eq!(bits(&ls), bits(&eager));
+    }
+    assert!(seen.iter().all(|&n| n > 2000), "area/point and environment samples: {seen:?}");
+}

@@ -40,6 +40,7 @@ mod tests_models;
 #[cfg(test)]
 mod tests_wrappers;
 pub mod texture;
+mod textures;
 pub mod ward;
 
 // The pieces stay reachable at their old paths (`material::fresnel_dielectric`, ...).

@@ -102,6 +102,30 @@ impl Texture {
         }
     }
 
+    /// Whether [`Texture::eval`] reads the partials of its [`TexCoord`] (a MIP-mapped bitmap).
+    #[inline]
+    pub fn reads_partials(&self) -> bool {
+        matches!(self, Texture::Bitmap { filter: TexFilter::Trilinear { .. }, .. })
+    }
+
+    /// Prefetch the texels [`Texture::eval`] at `uv` will read ([`Image::prefetch`]), for a
+    /// lookup without footprint (zero partials: bilinear on level 0, as every lookup but the
+    /// camera ray's). Nothing for constants, nearest lookups and footprints.
+    #[inline]
+    pub fn prefetch(&self, images: &[Image], tc: TexCoord) {
+        if let Texture::Bitmap { image, uv_scale, filter } = self {
+            let footprint = tc.duv_dx != Vec2::ZERO || tc.duv_dy != Vec2::ZERO;
+            let bilinear = match filter {
+                TexFilter::Nearest => false,
+                TexFilter::Bilinear => true,
+                TexFilter::Trilinear { .. } => !footprint,
+            };
+            if let (true, Some(im)) = (bilinear, images.get(*image as usize)) {
+                im.prefetch(tc.uv * *uv_scale);
+            }
+        }
+    }
+
     /// The texture read as a scalar (Mitsuba's `eval_1`): a grey value as it is, a colour
     /// through its luminance.
     #[inline]
@@ -254,6 +278,37 @@ mod tests {
             m[2] += c.z as f64;
         }
         m.map(|v| v / im.data.len() as f64)
+    }
+
+    /// The path tracer gives a camera hit its uv partials only when the material reads them
+    /// (`Material::reads_uv_partials`): that must be exactly the materials with a MIP-mapped
+    /// texture, the only lookups that the partials change. Prefetching reads nothing.
+    #[test]
+    fn only_mip_mapped_textures_read_the_partials() {
+        let mut images = vec![checker(16)];
+        let bilinear = Texture::bitmap(0, Vec2::ONE);
+        let mipmapped = bilinear.with_mipmaps(&mut images);
+        assert!(!bilinear.reads_partials() && !Texture::Const(Color::ONE).reads_partials() && mipmapped.reads_partials());
+        let tc = TexCoord { uv: Vec2::new(0.3, 0.7), duv_dx: Vec2::new(0.1, 0.0), duv_dy: Vec2::new(0.0, 0.1) };
+        assert_eq!(bilinear.eval(&images, tc), bilinear.eval(&images, TexCoord::at(tc.uv)));
+        assert_ne!(mipmapped.eval(&images, tc), mipmapped.eval(&images, TexCoord::at(tc.uv)));
+        let diffuse = |t: &Texture| Box::new(Material::Diffuse { reflectance: t.clone() });
+        assert!(!diffuse(&bilinear).reads_uv_partials() && diffuse(&mipmapped).reads_uv_partials());
+        let two = |a: &Texture, b: &Texture| Material::TwoSided { front: diffuse(a), back: diffuse(b) };
+        assert!(!two(&bilinear, &bilinear).reads_uv_partials() && two(&bilinear, &mipmapped).reads_uv_partials());
+        let bump = |h: &Texture, t: &Texture| Material::BumpMap { height: h.clone(), scale: 1.0, nested: diffuse(t) };
+        assert!(!bump(&bilinear, &bilinear).reads_uv_partials() && bump(&mipmapped, &bilinear).reads_uv_partials());
+        let blend = |w: &Texture, t: &Texture| Material::Blend { weight: w.clone(), first: diffuse(&bilinear), second: diffuse(t) };
+        assert!(!blend(&bilinear, &bilinear).reads_uv_partials() && blend(&mipmapped, &bilinear).reads_uv_partials());
+        assert!(blend(&bilinear, &mipmapped).reads_uv_partials());
+        // Prefetches of any lookup, an empty image and non-finite uvs included, are no-ops.
+        let before = images[0].data.clone();
+        for uv in [Vec2::new(0.3, 0.7), Vec2::new(-7.2, 1e9), Vec2::NAN] {
+            two(&bilinear, &mipmapped).prefetch(&images, TexCoord { uv, ..tc });
+            mipmapped.prefetch(&images, TexCoord::at(uv));
+            Image::default().prefetch(uv);
+        }
+        assert_eq!(images[0].data, before);
     }
 
     #[test]
