@@ -216,9 +216,9 @@ pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
     if width == 0 || height == 0 {
         return Err(IoError::invalid(path, "the image is empty"));
     }
-    let color = decoded.color();
-    let data = if srgb && color.bytes_per_pixel() == color.channel_count() {
-        // 8 bits per channel: the 256 possible codes through a table, same values as below
+    let data = if srgb && matches!(decoded.color(), image::ColorType::Rgb8 | image::ColorType::Rgba8) {
+        // 8-bit RGB(A): the 256 possible codes through a table, same values as below (grey
+        // images are left to the decoder's own conversion to RGB)
         let lut = srgb8_to_linear_table();
         decoded.into_rgb8().pixels().map(|p| Color::new(lut[p.0[0] as usize], lut[p.0[1] as usize], lut[p.0[2] as usize])).collect()
     } else {

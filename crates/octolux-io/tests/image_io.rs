@@ -160,8 +160,8 @@ fn failed_writes_leave_no_file_and_keep_the_previous_one() {
     assert!(others(&dir, &["result.txt"]).is_empty());
 }
 
-/// PNG/JPEG textures of every 8-bit layout (grey, grey+alpha, RGB, RGBA) go through a table of
-/// the 256 codes, and 16-bit ones through `powf` per texel: both give the bits of the
+/// PNG/JPEG textures in 8-bit RGB(A) go through a table of the 256 codes, the other layouts
+/// (grey, grey+alpha, 16 bits) through `powf` per texel: all give the bits of the
 /// straightforward conversion (the decoder's float values through `srgb_to_linear`).
 #[test]
 fn srgb_textures_equal_the_per_texel_conversion() {
