@@ -287,7 +287,8 @@ def main(argv=None) -> int:
                                                "ttfs_s": med(r["ttfs_s"] for r in runs),
                                                "all": runs}
                         if t == max(threads):
-                            row[f"octolux@{t}"]["ttfs_cpu_s"] = octolux_ttfs_cpu(args.octolux, ours, depth, t, tmp)
+                            row[f"octolux@{t}"]["ttfs_cpu_s"] = med(octolux_ttfs_cpu(args.octolux, ours, depth, t, tmp)
+                                                                    for _ in range(args.repeat))
                     except Exception as e:  # keep going: report what worked
                         log(f"octolux {scene}:{depth} failed: {e}")
                         row[f"octolux@{t}"] = {"error": str(e)}

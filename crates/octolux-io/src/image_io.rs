@@ -212,12 +212,29 @@ pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
     limits.max_alloc = Some(octolux::budget::memory_limit());
     reader.limits(limits);
     let decoded = reader.decode().map_err(decode_err)?;
-    let rgb = decoded.to_rgb32f();
-    let (width, height) = rgb.dimensions();
+    let (width, height) = (decoded.width(), decoded.height());
     if width == 0 || height == 0 {
         return Err(IoError::invalid(path, "the image is empty"));
     }
-    let conv = |v: f32| if srgb { srgb_to_linear(v) } else { v };
-    let data = rgb.pixels().map(|p| Color::new(conv(p.0[0]), conv(p.0[1]), conv(p.0[2]))).collect();
+    let data = if srgb && matches!(decoded.color(), image::ColorType::Rgb8 | image::ColorType::Rgba8) {
+        // 8-bit RGB(A): the 256 possible codes through a table, same values as below (grey
+        // images are left to the decoder's own conversion to RGB)
+        let lut = srgb8_to_linear_table();
+        decoded.into_rgb8().pixels().map(|p| Color::new(lut[p.0[0] as usize], lut[p.0[1] as usize], lut[p.0[2] as usize])).collect()
+    } else {
+        let conv = |v: f32| if srgb { srgb_to_linear(v) } else { v };
+        decoded.to_rgb32f().pixels().map(|p| Color::new(conv(p.0[0]), conv(p.0[1]), conv(p.0[2]))).collect()
+    };
     Ok(Image { width, height, data })
+}
+
+/// [`srgb_to_linear`] of each 8-bit code as the decoder's conversion to float gives it (the
+/// codes of a 256-texel ramp through `to_rgb32f`), so that a table lookup equals the
+/// per-texel `powf` bit for bit.
+fn srgb8_to_linear_table() -> &'static [f32; 256] {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let ramp = image::DynamicImage::ImageRgb8(image::RgbImage::from_fn(256, 1, |x, _| image::Rgb([x as u8; 3]))).to_rgb32f();
+        std::array::from_fn(|i| srgb_to_linear(ramp.get_pixel(i as u32, 0).0[0]))
+    })
 }

@@ -159,3 +159,42 @@ fn failed_writes_leave_no_file_and_keep_the_previous_one() {
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "the PNG replaced the old content");
     assert!(others(&dir, &["result.txt"]).is_empty());
 }
+
+/// PNG/JPEG textures in 8-bit RGB(A) go through a table of the 256 codes, the other layouts
+/// (grey, grey+alpha, 16 bits) through `powf` per texel: all give the bits of the
+/// straightforward conversion (the decoder's float values through `srgb_to_linear`).
+#[test]
+fn srgb_textures_equal_the_per_texel_conversion() {
+    use image::{DynamicImage, ImageFormat};
+    let (w, h) = (256u32, 3u32);
+    let code = |x: u32, y: u32, c: u32| ((x * (1 + 2 * c) + 37 * y + 11 * c) % 256) as u8;
+    let rgba8 = image::RgbaImage::from_fn(w, h, |x, y| image::Rgba([code(x, y, 0), code(x, y, 1), code(x, y, 2), code(x, y, 3)]));
+    let images = [
+        ("l8", DynamicImage::ImageRgba8(rgba8.clone()).into_luma8().into()),
+        ("la8", DynamicImage::ImageLumaA8(DynamicImage::ImageRgba8(rgba8.clone()).into_luma_alpha8())),
+        ("rgb8", DynamicImage::ImageRgb8(DynamicImage::ImageRgba8(rgba8.clone()).into_rgb8())),
+        ("rgba8", DynamicImage::ImageRgba8(rgba8.clone())),
+        (
+            "rgb16",
+            DynamicImage::ImageRgb16(image::ImageBuffer::from_fn(w, h, |x, y| {
+                image::Rgb([(x * 257 + y) as u16, (65535 - x * 200) as u16, (x * 131) as u16])
+            })),
+        ),
+    ];
+    for (name, im) in images {
+        for (ext, format) in [("png", ImageFormat::Png), ("jpg", ImageFormat::Jpeg)] {
+            if ext == "jpg" && !matches!(name, "l8" | "rgb8") {
+                continue; // JPEG holds 8-bit grey or RGB only
+            }
+            let mut bytes = std::io::Cursor::new(Vec::new());
+            im.write_to(&mut bytes, format).unwrap();
+            let bytes = bytes.into_inner();
+            let read = octolux_io::image_io::decode_image(std::path::Path::new(&format!("t.{ext}")), &bytes).unwrap();
+            let want: Vec<[u32; 3]> =
+                image::load_from_memory(&bytes).unwrap().to_rgb32f().pixels().map(|p| p.0.map(|v| srgb_to_linear(v).to_bits())).collect();
+            let got: Vec<[u32; 3]> = read.data.iter().map(|c| c.to_array().map(f32::to_bits)).collect();
+            assert_eq!((read.width, read.height), (w, h), "{name} {ext}");
+            assert!(got == want, "{name} {ext}: the texels differ from the per-texel conversion");
+        }
+    }
+}

@@ -233,3 +233,38 @@ fn phong_exponent_mapping_is_monotone_and_clamped() {
     assert!(phong_exponent_to_alpha(1e9) >= 1e-3);
     assert_eq!(phong_exponent_to_alpha(f32::NAN), 1.0);
 }
+
+/// Mitsuba scenes read their OBJ files ahead, in parallel: each shape still gets its own mesh
+/// and warnings (a file used twice is read twice), and errors come in document order (a shape
+/// whose file is missing is reported before a later shape's bad file, read ahead already).
+#[test]
+fn mesh_files_read_ahead_keep_document_order() {
+    let scene = |shapes: &str| format!("<scene version=\"3.0.0\">{shapes}</scene>");
+    let obj = |file: &str| format!("<shape type=\"obj\"><string name=\"filename\" value=\"{file}\"/></shape>");
+    let at = data("scene.xml");
+    let twice = scene(&[obj("degenerate.obj"), obj("quad_uv_normals.obj"), obj("degenerate.obj")].concat());
+    let loaded = octolux_io::mitsuba::load_str(&twice, &at, &[]).unwrap();
+    let meshes: Vec<&TriMesh> = loaded
+        .desc
+        .shapes
+        .iter()
+        .map(|s| match &s.geometry {
+            Geometry::Mesh(m) => m,
+            other => panic!("expected a mesh, got {other:?}"),
+        })
+        .collect();
+    assert_eq!(meshes.len(), 3);
+    let same = |a: &TriMesh, b: &TriMesh| a.positions == b.positions && a.normals == b.normals && a.uvs == b.uvs && a.indices == b.indices;
+    assert!(same(meshes[0], meshes[2]), "the same file gives the same mesh each time");
+    let alone = octolux_io::mitsuba::load_str(&scene(&obj("quad_uv_normals.obj")), &at, &[]).unwrap();
+    assert!(matches!(&alone.desc.shapes[0].geometry, Geometry::Mesh(m) if same(m, meshes[1])), "the mesh of a scene of its own");
+    let degenerate = loaded.warnings.iter().filter(|w| w.contains("degenerate triangle")).count();
+    assert_eq!(degenerate, 2, "one warning per shape that reads the file: {:?}", loaded.warnings);
+    // the first error in document order, though the later bad file was read first
+    let bad = scene(&[obj("quad_uv_normals.obj"), obj("no_such_file.obj"), obj("bad_index.obj")].concat());
+    let err = octolux_io::mitsuba::load_str(&bad, &at, &[]).unwrap_err().to_string();
+    assert!(err.contains("no_such_file.obj") && err.contains("not found"), "{err}");
+    let bad = scene(&[obj("quad_uv_normals.obj"), obj("bad_index.obj")].concat());
+    let err = octolux_io::mitsuba::load_str(&bad, &at, &[]).unwrap_err().to_string();
+    assert!(err.contains("bad_index.obj:5:"), "{err}");
+}

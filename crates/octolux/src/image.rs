@@ -90,33 +90,33 @@ impl Image {
         let (nw, nh) = (w.div_ceil(2).max(1), h.div_ceil(2).max(1));
         let wx = box_weights(w, nw);
         let wy = box_weights(h, nh);
-        // Rows first (w → nw), then columns (h → nh); f64 sums.
-        let mut rows = vec![[0.0f64; 3]; nw * h];
-        for y in 0..h {
-            for (j, taps) in wx.iter().enumerate() {
-                let mut acc = [0.0f64; 3];
-                for &(i, wt) in taps {
-                    let c = self.data[y * w + i];
-                    acc[0] += wt * c.x as f64;
-                    acc[1] += wt * c.y as f64;
-                    acc[2] += wt * c.z as f64;
-                }
-                rows[y * nw + j] = acc;
-            }
-        }
+        // Rows first (w → nw), then columns (h → nh); f64 sums. Each output row sums the
+        // horizontal sums of its input rows (an input row shared by two output rows is summed
+        // again for each, the same bits), so the rows are independent: computed in parallel,
+        // without a buffer of the whole image.
+        use rayon::prelude::*;
         let mut data = vec![Color::ZERO; nw * nh];
-        for (k, taps) in wy.iter().enumerate() {
-            for x in 0..nw {
-                let mut acc = [0.0f64; 3];
-                for &(i, wt) in taps {
-                    let c = rows[i * nw + x];
-                    acc[0] += wt * c[0];
-                    acc[1] += wt * c[1];
-                    acc[2] += wt * c[2];
+        data.par_chunks_mut(nw).zip(wy.par_iter()).for_each(|(out, taps_y)| {
+            let mut acc = vec![[0.0f64; 3]; nw];
+            for &(iy, wt_y) in taps_y {
+                let src = &self.data[iy * w..(iy + 1) * w];
+                for (a, taps) in acc.iter_mut().zip(&wx) {
+                    let mut row = [0.0f64; 3];
+                    for &(i, wt) in taps {
+                        let c = src[i];
+                        row[0] += wt * c.x as f64;
+                        row[1] += wt * c.y as f64;
+                        row[2] += wt * c.z as f64;
+                    }
+                    a[0] += wt_y * row[0];
+                    a[1] += wt_y * row[1];
+                    a[2] += wt_y * row[2];
                 }
-                data[k * nw + x] = Color::new(acc[0] as f32, acc[1] as f32, acc[2] as f32);
             }
-        }
+            for (o, a) in out.iter_mut().zip(&acc) {
+                *o = Color::new(a[0] as f32, a[1] as f32, a[2] as f32);
+            }
+        });
         Image { width: nw as u32, height: nh as u32, data }
     }
 
@@ -196,5 +196,48 @@ mod tests {
         // textures go through the uv scale
         let tex = Texture::bitmap(0, Vec2::splat(2.0));
         assert!(near(tex.eval(std::slice::from_ref(&im), Vec2::new(0.125, 0.125)), Color::X));
+    }
+
+    /// The next MIP level, row by row in parallel, holds the bits of the two-pass form (every
+    /// row's horizontal sums first, then the columns), for even, odd and unit sizes.
+    #[test]
+    fn downsampled_equals_the_two_pass_box_filter() {
+        let two_pass = |im: &Image| -> Vec<[u32; 3]> {
+            let (w, h) = (im.width as usize, im.height as usize);
+            let (nw, nh) = (w.div_ceil(2).max(1), h.div_ceil(2).max(1));
+            let (wx, wy) = (box_weights(w, nw), box_weights(h, nh));
+            let rows: Vec<[f64; 3]> = (0..h)
+                .flat_map(|y| {
+                    wx.iter().map(move |taps| {
+                        let mut a = [0.0f64; 3];
+                        for &(i, wt) in taps {
+                            let c = im.data[y * w + i];
+                            (0..3).for_each(|k| a[k] += wt * c[k] as f64);
+                        }
+                        a
+                    })
+                })
+                .collect();
+            let mut out = Vec::new();
+            for taps in &wy {
+                for x in 0..nw {
+                    let mut a = [0.0f64; 3];
+                    for &(i, wt) in taps {
+                        (0..3).for_each(|k| a[k] += wt * rows[i * nw + x][k]);
+                    }
+                    out.push(a.map(|v| (v as f32).to_bits()));
+                }
+            }
+            out
+        };
+        for (w, h) in [(1usize, 1usize), (1, 7), (6, 1), (8, 6), (7, 5), (33, 18), (64, 63)] {
+            let data =
+                (0..w * h).map(|i| Color::new((i as f32 * 0.37).sin().abs(), (i % 13) as f32 / 7.0, 1.0 / (1.0 + i as f32))).collect();
+            let im = Image { width: w as u32, height: h as u32, data };
+            let next = im.downsampled();
+            assert_eq!((next.width as usize, next.height as usize), (w.div_ceil(2), h.div_ceil(2)));
+            let got: Vec<[u32; 3]> = next.data.iter().map(|c| c.to_array().map(f32::to_bits)).collect();
+            assert!(got == two_pass(&im), "{w}x{h}");
+        }
     }
 }

@@ -53,6 +53,43 @@ use std::path::Path;
 // Shared helpers
 // ---------------------------------------------------------------------------------------------
 
+/// Hasher of the meshes' vertex maps (small integer keys: OBJ corner triples, vertex groups):
+/// the multiply–rotate hash of rustc's `FxHasher`, several times cheaper than the default
+/// SipHash there. The maps' contents and the order of first appearance that the loaders keep
+/// do not depend on the hash.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct VertexHasher(u64);
+
+impl std::hash::Hasher for VertexHasher {
+    #[inline]
+    fn write(&mut self, bytes: &[u8]) {
+        for c in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..c.len()].copy_from_slice(c);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+    #[inline]
+    fn write_u32(&mut self, v: u32) {
+        self.write_u64(v as u64);
+    }
+    #[inline]
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+    #[inline]
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// A hash map keyed by vertex indices, with [`VertexHasher`].
+pub(crate) type VertexMap<K, V> = std::collections::HashMap<K, V, std::hash::BuildHasherDefault<VertexHasher>>;
+
 fn lower_extension(path: &Path) -> String {
     path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default()
 }

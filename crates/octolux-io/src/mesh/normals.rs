@@ -21,7 +21,6 @@
 
 use glam::{Mat4, Vec2, Vec3};
 use octolux::scene::TriMesh;
-use std::collections::HashMap;
 
 /// Angle-weighted smooth vertex normals (Thürmer & Wüthrich 1998, the scheme of Mitsuba's
 /// `Mesh::recompute_vertex_normals`). Degenerate triangles contribute nothing; a vertex whose
@@ -158,7 +157,7 @@ pub fn rebuild_topology(mesh: &TriMesh, max_angle_deg: f32) -> TriMesh {
         })
         .collect();
     // Corners (triangle, corner) grouped by vertex key, groups in order of first appearance.
-    let mut group_of: HashMap<[u32; 5], usize> = HashMap::new();
+    let mut group_of: super::VertexMap<[u32; 5], usize> = super::VertexMap::default();
     let mut groups: Vec<Vec<(usize, usize)>> = Vec::new();
     for (t, tri) in mesh.indices.iter().enumerate() {
         for (c, &v) in tri.iter().enumerate() {

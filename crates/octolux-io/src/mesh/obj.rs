@@ -1,7 +1,9 @@
 //! OBJ meshes (and their MTL materials when an OBJ file is rendered as a scene); conventions in
 //! the documentation of [`super`].
 
-use super::{compute_vertex_normals, merge_normals, push_fan, read_file, remove_degenerate_with_warning, RawMesh, DEFAULT_REFLECTANCE};
+use super::{
+    compute_vertex_normals, merge_normals, push_fan, read_file, remove_degenerate_with_warning, RawMesh, VertexMap, DEFAULT_REFLECTANCE,
+};
 use crate::image_io::read_image;
 use crate::IoError;
 use glam::{Vec2, Vec3};
@@ -73,13 +75,17 @@ fn parse_obj(path: &Path) -> Result<ObjData, IoError> {
 const BUDGET_STEP: usize = 1 << 20;
 
 fn parse_obj_bytes(path: &Path, bytes: &[u8]) -> Result<ObjData, IoError> {
-    let text = String::from_utf8_lossy(bytes);
+    // (valid UTF-8, the usual case, is checked by the faster `from_utf8`; the text is the same)
+    let text = match std::str::from_utf8(bytes) {
+        Ok(t) => std::borrow::Cow::Borrowed(t),
+        Err(_) => String::from_utf8_lossy(bytes),
+    };
 
     let mut v: Vec<Vec3> = Vec::new();
     let mut vt: Vec<Vec2> = Vec::new();
     let mut vn: Vec<Vec3> = Vec::new();
     // (position, texcoord + 1 or 0, normal + 1 or 0) -> output vertex
-    let mut vertex_map: HashMap<(u32, u32, u32), u32> = HashMap::new();
+    let mut vertex_map: VertexMap<(u32, u32, u32), u32> = VertexMap::default();
     let mut out_pos: Vec<Vec3> = Vec::new();
     let mut out_uv: Vec<Option<Vec2>> = Vec::new();
     let mut out_n: Vec<Option<Vec3>> = Vec::new();
@@ -92,7 +98,7 @@ fn parse_obj_bytes(path: &Path, bytes: &[u8]) -> Result<ObjData, IoError> {
 
     for (lineno, raw) in text.lines().enumerate() {
         let line = (lineno + 1) as u32;
-        let content = raw.split('#').next().unwrap_or("");
+        let content = raw.as_bytes().iter().position(|&b| b == b'#').map_or(raw, |i| &raw[..i]);
         let mut tokens = content.split_whitespace();
         let Some(keyword) = tokens.next() else { continue };
         match keyword {
@@ -253,7 +259,7 @@ pub fn phong_exponent_to_alpha(ns: f32) -> f32 {
 
 /// The sub-mesh made of the triangles `tris` of `mesh`, with only the vertices they use.
 fn submesh(mesh: &TriMesh, tris: &[usize]) -> TriMesh {
-    let mut remap: HashMap<u32, u32> = HashMap::new();
+    let mut remap: VertexMap<u32, u32> = VertexMap::default();
     let mut out =
         TriMesh { normals: mesh.normals.as_ref().map(|_| Vec::new()), uvs: mesh.uvs.as_ref().map(|_| Vec::new()), ..Default::default() };
     for &t in tris {

@@ -85,11 +85,14 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
             }
         }
     }
+    let main_dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let prefetched = shape::prefetch_meshes(&tree.root, &main_dir, &tree.search_dirs);
     let mut b = Builder {
         ids,
         referenced,
-        main_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
+        main_dir,
         search_dirs: &tree.search_dirs,
+        prefetched,
         desc: SceneDesc::default(),
         warnings,
         notes: Vec::new(),
@@ -160,6 +163,8 @@ struct Builder<'t> {
     sensors: Vec<octolux::scene::camera::CameraDesc>,
     /// Black diffuse: the bsdf Mitsuba (3 and 0.6) gives an emitting shape that names none.
     default_emitter_material: Option<u32>,
+    /// Mesh files read ahead in parallel ([`shape::prefetch_meshes`]), taken on first use.
+    prefetched: HashMap<PathBuf, Result<crate::mesh::RawMesh, IoError>>,
 }
 
 /// Mitsuba 3's film when a scene gives none.

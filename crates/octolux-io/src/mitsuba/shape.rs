@@ -20,10 +20,12 @@
 use super::props::{ColorKind, Props};
 use super::tree::{resolve_file, Elem};
 use super::Builder;
-use crate::mesh::{load_mesh_raw, load_serialized, mirrors, orient_to_given_normals, place_mesh, rebuild_topology, NormalSource};
+use crate::mesh::{load_mesh_raw, load_serialized, mirrors, orient_to_given_normals, place_mesh, rebuild_topology, NormalSource, RawMesh};
 use crate::IoError;
 use glam::{Mat4, Vec3};
 use octolux::scene::{Geometry, ShapeDesc, TriMesh};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 
 /// How a shape's warning names a singular `to_world`.
 const SINGULAR: &str = "to_world is singular (determinant 0)";
@@ -209,7 +211,10 @@ impl<'t> Builder<'t> {
             stem = format!("{stem}@{index}");
             (s.mesh, s.normals_from_file, s.face_normals)
         } else {
-            let raw = load_mesh_raw(&path)?;
+            let raw = match self.prefetched.remove(&path) {
+                Some(read) => read?,
+                None => load_mesh_raw(&path)?,
+            };
             for w in raw.warnings {
                 self.warn(e, w);
             }
@@ -249,4 +254,29 @@ impl<'t> Builder<'t> {
         };
         Ok((mesh, stem, given))
     }
+}
+
+/// The OBJ and PLY files of the scene's top-level shapes, read in parallel (rayon's pool) before
+/// the scene is built in document order: [`Builder::mesh_file`] takes each file's result from
+/// here the first time it meets it (the same mesh, warnings or error as reading it then; a
+/// file used twice is read again the second time). Files that cannot be found are left to
+/// `mesh_file`'s error.
+pub(super) fn prefetch_meshes(root: &Elem, main_dir: &Path, search_dirs: &[PathBuf]) -> HashMap<PathBuf, Result<RawMesh, IoError>> {
+    use rayon::prelude::*;
+    let mut paths: Vec<PathBuf> = Vec::new();
+    for e in root.children.iter().filter(|c| c.tag == "shape" && matches!(c.attr("type"), Some("obj" | "ply"))) {
+        let file = e.children.iter().find(|c| c.tag == "string" && c.attr("name") == Some("filename")).and_then(|c| c.attr("value"));
+        if let Some(path) = file.and_then(|f| resolve_file(&e.loc, f, main_dir, search_dirs)) {
+            if !paths.contains(&path) {
+                paths.push(path);
+            }
+        }
+    }
+    paths
+        .into_par_iter()
+        .map(|p| {
+            let read = load_mesh_raw(&p);
+            (p, read)
+        })
+        .collect()
 }

@@ -123,36 +123,23 @@ impl Microfacet {
     /// upper side first). Density [`Microfacet::visible_pdf`].
     #[inline]
     pub fn sample_visible(&self, v: Vec3, u: Vec2) -> Vec3 {
-        let (au, av) = self.alphas();
-        match self.kind {
-            MicrofacetKind::Ggx => {
-                let vh = Vec3::new(au * v.x, av * v.y, v.z).normalize();
-                let lensq = vh.x * vh.x + vh.y * vh.y;
-                let t1 = if lensq > 0.0 { Vec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt() } else { Vec3::X };
-                let t2 = vh.cross(t1);
-                let r = u.x.sqrt();
-                let (sp, cp) = (2.0 * PI * u.y).sin_cos();
-                let p1 = r * cp;
-                let s = 0.5 * (1.0 + vh.z);
-                let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * (r * sp);
-                let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
-                Vec3::new(au * nh.x, av * nh.y, nh.z.max(1e-6)).normalize()
-            }
-            MicrofacetKind::Beckmann => {
-                // Stretch, sample the slopes of the alpha = 1 distribution, rotate, unstretch.
-                let vs = Vec3::new(au * v.x, av * v.y, v.z).normalize();
-                let sin2 = vs.x * vs.x + vs.y * vs.y;
-                let (sin_phi, cos_phi) = if sin2 > 1e-12 {
-                    let inv = 1.0 / sin2.sqrt();
-                    ((vs.y * inv).clamp(-1.0, 1.0), (vs.x * inv).clamp(-1.0, 1.0))
-                } else {
-                    (0.0, 1.0)
-                };
-                let slope = beckmann_visible_slope_11(vs.z, u);
-                let sx = (cos_phi * slope.x - sin_phi * slope.y) * au;
-                let sy = (sin_phi * slope.x + cos_phi * slope.y) * av;
-                Vec3::new(-sx, -sy, 1.0).normalize()
-            }
+        let frame = VisibleFrame::new(self, v);
+        frame.normal(frame.part_x(u.x), VisibleFrame::part_y(self.kind, u.y))
+    }
+
+    /// [`Microfacet::sample_visible`] from `v` at every point `(ux[i], uy[j])` of a tensor grid,
+    /// into `out` row by row (`uy` outer, `ux` inner): the same bits, with what depends on one
+    /// coordinate of `u` only computed once per coordinate (Beckmann's inversion of its slope
+    /// distribution, GGX's square root and sine/cosine). For quadratures over the sample
+    /// space, such as the rough plastic's tables at scene preparation.
+    pub(crate) fn sample_visible_grid(&self, v: Vec3, ux: &[f32], uy: &[f32], out: &mut Vec<Vec3>) {
+        let frame = VisibleFrame::new(self, v);
+        let xs: Vec<[f32; 2]> = ux.iter().map(|&x| frame.part_x(x)).collect();
+        out.clear();
+        out.reserve(ux.len() * uy.len());
+        for &y in uy {
+            let py = VisibleFrame::part_y(self.kind, y);
+            out.extend(xs.iter().map(|&px| frame.normal(px, py)));
         }
     }
 
@@ -175,17 +162,103 @@ impl Microfacet {
     }
 }
 
-/// Slopes of visible normals of the Beckmann distribution with `alpha = 1` seen at
-/// `cos θ_i` (Jakob 2014, as in Mitsuba 3), computed in f64.
-fn beckmann_visible_slope_11(cos_theta_i: f32, u: Vec2) -> Vec2 {
+/// What [`Microfacet::sample_visible`] computes from `v` alone: the stretched view direction
+/// and, for GGX, its orthonormal frame (Heitz 2018), for Beckmann its azimuth. The sample is
+/// `normal(part_x(u.x), part_y(u.y))`.
+struct VisibleFrame {
+    kind: MicrofacetKind,
+    au: f32,
+    av: f32,
+    /// The view direction stretched by the roughness (unit).
+    vs: Vec3,
+    /// GGX: the frame's tangents `t1`, `t2`; Beckmann: `t1 = (sin φ, cos φ, 0)` of `vs`.
+    t1: Vec3,
+    t2: Vec3,
+}
+
+impl VisibleFrame {
+    #[inline]
+    fn new(m: &Microfacet, v: Vec3) -> VisibleFrame {
+        let (au, av) = m.alphas();
+        let vs = Vec3::new(au * v.x, av * v.y, v.z).normalize();
+        match m.kind {
+            MicrofacetKind::Ggx => {
+                let lensq = vs.x * vs.x + vs.y * vs.y;
+                let t1 = if lensq > 0.0 { Vec3::new(-vs.y, vs.x, 0.0) / lensq.sqrt() } else { Vec3::X };
+                VisibleFrame { kind: m.kind, au, av, vs, t1, t2: vs.cross(t1) }
+            }
+            MicrofacetKind::Beckmann => {
+                let sin2 = vs.x * vs.x + vs.y * vs.y;
+                let (sin_phi, cos_phi) = if sin2 > 1e-12 {
+                    let inv = 1.0 / sin2.sqrt();
+                    ((vs.y * inv).clamp(-1.0, 1.0), (vs.x * inv).clamp(-1.0, 1.0))
+                } else {
+                    (0.0, 1.0)
+                };
+                VisibleFrame { kind: m.kind, au, av, vs, t1: Vec3::new(sin_phi, cos_phi, 0.0), t2: Vec3::ZERO }
+            }
+        }
+    }
+
+    /// The part of the sample that depends on `u.x` (and `v`): GGX `sqrt(u.x)`; Beckmann the
+    /// slope along the azimuth of the `alpha = 1` distribution.
+    #[inline]
+    fn part_x(&self, ux: f32) -> [f32; 2] {
+        match self.kind {
+            MicrofacetKind::Ggx => [ux.sqrt(), 0.0],
+            MicrofacetKind::Beckmann => [beckmann_visible_slope_x(self.vs.z, ux), 0.0],
+        }
+    }
+
+    /// The part that depends on `u.y` only: GGX `sin, cos (2π u.y)`; Beckmann the slope across
+    /// the azimuth of the `alpha = 1` distribution.
+    #[inline]
+    fn part_y(kind: MicrofacetKind, uy: f32) -> [f32; 2] {
+        match kind {
+            MicrofacetKind::Ggx => {
+                let (sp, cp) = (2.0 * PI * uy).sin_cos();
+                [sp, cp]
+            }
+            MicrofacetKind::Beckmann => [beckmann_visible_slope_y(uy), 0.0],
+        }
+    }
+
+    /// The sampled micro-normal from the two parts.
+    #[inline]
+    fn normal(&self, px: [f32; 2], py: [f32; 2]) -> Vec3 {
+        let (au, av) = (self.au, self.av);
+        match self.kind {
+            MicrofacetKind::Ggx => {
+                let (r, sp, cp) = (px[0], py[0], py[1]);
+                let (vh, t1, t2) = (self.vs, self.t1, self.t2);
+                let p1 = r * cp;
+                let s = 0.5 * (1.0 + vh.z);
+                let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * (r * sp);
+                let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
+                Vec3::new(au * nh.x, av * nh.y, nh.z.max(1e-6)).normalize()
+            }
+            MicrofacetKind::Beckmann => {
+                // Rotate the slopes of the alpha = 1 distribution to the azimuth, unstretch.
+                let (slope_x, slope_y) = (px[0], py[0]);
+                let (sin_phi, cos_phi) = (self.t1.x, self.t1.y);
+                let sx = (cos_phi * slope_x - sin_phi * slope_y) * au;
+                let sy = (sin_phi * slope_x + cos_phi * slope_y) * av;
+                Vec3::new(-sx, -sy, 1.0).normalize()
+            }
+        }
+    }
+}
+
+/// Slope along the azimuth of visible normals of the Beckmann distribution with `alpha = 1`
+/// seen at `cos θ_i` (Jakob 2014, as in Mitsuba 3), computed in f64.
+fn beckmann_visible_slope_x(cos_theta_i: f32, ux: f32) -> f32 {
     const INV_SQRT_PI: f64 = 0.564_189_583_547_756_3;
     let c = (cos_theta_i as f64).clamp(1e-7, 1.0);
     let tan_theta_i = (1.0 - c * c).max(0.0).sqrt() / c;
     let cot_theta_i = 1.0 / tan_theta_i;
     // Search interval, parameterised in the erf() domain.
     let maxval = erf(cot_theta_i);
-    let ux = (u.x as f64).clamp(1e-6, 1.0 - 1e-6);
-    let uy = (u.y as f64).clamp(1e-6, 1.0 - 1e-6);
+    let ux = (ux as f64).clamp(1e-6, 1.0 - 1e-6);
     // Initial guess: the analytic solution for θ_i = π/2.
     let mut x = maxval - (maxval + 1.0) * erf((-ux.ln()).sqrt());
     // Normalisation of the CDF.
@@ -198,7 +271,14 @@ fn beckmann_visible_slope_11(cos_theta_i: f32, u: Vec2) -> Vec2 {
         x -= value / derivative;
     }
     x = x.clamp(-1.0 + 1e-12, 1.0 - 1e-12);
-    Vec2::new(erfinv(x) as f32, erfinv(2.0 * uy - 1.0) as f32)
+    erfinv(x) as f32
+}
+
+/// Slope across the azimuth of visible normals of the Beckmann distribution with
+/// `alpha = 1`: a normal deviate (independent of the view direction).
+fn beckmann_visible_slope_y(uy: f32) -> f32 {
+    let uy = (uy as f64).clamp(1e-6, 1.0 - 1e-6);
+    erfinv(2.0 * uy - 1.0) as f32
 }
 
 /// The error function (Numerical Recipes' Chebyshev fit of erfc, fractional error < 1.2e-7).

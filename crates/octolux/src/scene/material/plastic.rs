@@ -10,8 +10,9 @@
 //! Rough (`roughplastic.cpp`): specular `F D G / (4 cos θ_o)`, diffuse
 //! `kd / (1 - R_int) · T(θ_i) T(θ_o) cos θ_i / (π η²)` with `T` the tabulated directional
 //! transmittance of the rough interface and `R_int` its internal reflectance, tabulated like
-//! Mitsuba 3 (Gauss–Legendre over the visible-normal sample space, 64 entries in cos θ) and
-//! cached per `(distribution, alpha, eta)`. `R_int` is Mitsuba's estimate
+//! Mitsuba 3 (Gauss–Legendre over the visible-normal sample space, 64 entries in cos θ; the
+//! nodes' normals from `Microfacet::sample_visible_grid`, docs/performance.md "Time to first
+//! sample") and cached per `(distribution, alpha, eta)`. `R_int` is Mitsuba's estimate
 //! `mean_i 2 μ_i R(μ_i)` over 64 equally spaced `μ_i ∈ [0,1]`, about 1.5% below the exact
 //! hemispherical integral; we keep it for agreement. The specular lobe is sampled with
 //! probability `(1 - T(θ_o))·s / (…)`.
@@ -56,15 +57,21 @@ impl PlasticTables {
         let mus: Vec<f32> = (0..PLASTIC_TABLE_RES).map(|i| (i as f32 / (PLASTIC_TABLE_RES - 1) as f32).max(1e-6)).collect();
         // Integrate over the visible-normal sample space [0,1]² like Mitsuba's
         // eval_transmittance / eval_reflectance (Gauss–Legendre, 32² or 128² nodes).
-        let (gl32, gl128) = (gauss_legendre(32), gauss_legendre(128));
+        let rule = |n: usize| {
+            let (nodes, weights) = gauss_legendre(n);
+            let us: Vec<f32> = nodes.iter().map(|x| (0.5 * x + 0.5) as f32).collect();
+            (us, weights)
+        };
+        let (gl32, gl128) = (rule(32), rule(128));
         let quad = |eta_q: f32, mu: f32, transmit: bool| -> f64 {
-            let (nodes, weights) = if eta_q > 1.0 { &gl32 } else { &gl128 };
+            let (us, weights) = if eta_q > 1.0 { &gl32 } else { &gl128 };
             let wi = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+            // the micro-normals of the whole grid at once (their costly parts per coordinate)
+            let mut normals = Vec::new();
+            ggx.sample_visible_grid(wi, us, us, &mut normals);
             let mut acc = 0.0f64;
-            for (ny, wy) in nodes.iter().zip(weights.iter()) {
-                for (nx, wx) in nodes.iter().zip(weights.iter()) {
-                    let u = Vec2::new((0.5 * nx + 0.5) as f32, (0.5 * ny + 0.5) as f32);
-                    let m = ggx.sample_visible(wi, u);
+            for (row, wy) in normals.chunks_exact(us.len()).zip(weights.iter()) {
+                for (&m, wx) in row.iter().zip(weights.iter()) {
                     let (f, cos_t, _, eta_ti) = fresnel_dielectric(wi.dot(m), eta_q);
                     let v = if transmit {
                         let wo = refract(wi, m, cos_t, eta_ti);
