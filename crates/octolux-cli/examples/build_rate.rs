@@ -17,11 +17,10 @@
 
 use anyhow::{bail, Context, Result};
 use octolux::accel::BackendKind;
-use octolux::caches::octree::{AnalyticSphere, Surfaces};
+use octolux::caches::octree::Surfaces;
 use octolux::caches::{Octree, Storage};
-use octolux::integrators::octree::OctreeIntegratorSettings;
+use octolux::integrators::octree::{estimator_surfaces, OctreeIntegratorSettings};
 use octolux::photon::trace::trace_photons;
-use octolux::scene::material::Material;
 use octolux::scene::Scene;
 use std::time::Instant;
 
@@ -86,12 +85,7 @@ fn main() -> Result<()> {
         settings.caustic.storage = Storage::Full;
     }
     let maps = trace_photons(&scene, &settings.photons)?;
-    let tris = scene.mesh_triangles_where(Material::has_smooth_lobe);
-    let spheres: Vec<AnalyticSphere> = scene
-        .analytic_spheres_where(Material::has_smooth_lobe)
-        .into_iter()
-        .map(|(center, radius, inward)| AnalyticSphere { center, radius, inward })
-        .collect();
+    let (tris, spheres) = estimator_surfaces(&scene);
     let surfaces = Some(Surfaces { triangles: &tris, spheres: &spheres });
     let n = maps.global.len() + maps.caustic.len();
     println!(

@@ -21,15 +21,14 @@
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use octolux::accel::BackendKind;
-use octolux::caches::octree::{AnalyticSphere, QueryLeaf, Surfaces};
+use octolux::caches::octree::{QueryLeaf, Surfaces};
 use octolux::caches::probes::{BrickLayout, ProbeGrid, ProbeInputs, ProbeSettings, ShOrder};
 use octolux::caches::Octree;
-use octolux::integrators::octree::{OctreeIntegratorSettings, ANCHOR_LIFT};
+use octolux::integrators::octree::{estimator_surfaces, OctreeIntegratorSettings, ANCHOR_LIFT};
 use octolux::integrators::path::{indirect_irradiance, PathSettings};
 use octolux::math::{offset_origin, Ray};
 use octolux::photon::trace::{trace_photons, PhotonSettings};
 use octolux::sampling::{square_to_uniform_sphere, Sampler};
-use octolux::scene::material::Material;
 use octolux::scene::Scene;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -219,12 +218,7 @@ fn main() -> Result<()> {
         floor(true)
     );
 
-    let tris = scene.mesh_triangles_where(Material::has_smooth_lobe);
-    let spheres: Vec<AnalyticSphere> = scene
-        .analytic_spheres_where(Material::has_smooth_lobe)
-        .into_iter()
-        .map(|(center, radius, inward)| AnalyticSphere { center, radius, inward })
-        .collect();
+    let (tris, spheres) = estimator_surfaces(&scene);
     let all_tris = scene.mesh_triangles_where(|_| true);
     let all_spheres: Vec<(Vec3, f32)> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
     let visible = |x: Vec3, y: Vec3| scene.sees(x, y, 0.0);

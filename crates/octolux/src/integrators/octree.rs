@@ -406,12 +406,7 @@ impl OctreeIntegrator {
         // Meshes as triangles, spheres analytic: a tessellated sphere would leave its photons
         // off the triangles, its lit side undetected (docs/octree.md, "Analytic shapes").
         let (tris, spheres) = if needs_geometry(&settings.global) || needs_geometry(&settings.caustic) {
-            let spheres = scene
-                .analytic_spheres_where(Material::has_smooth_lobe)
-                .into_iter()
-                .map(|(center, radius, inward)| AnalyticSphere { center, radius, inward })
-                .collect();
-            (scene.mesh_triangles_where(Material::has_smooth_lobe), spheres)
+            estimator_surfaces(scene)
         } else {
             (Vec::new(), Vec::new())
         };
@@ -650,6 +645,18 @@ impl OctreeIntegrator {
             base
         }
     }
+}
+
+/// The surfaces the geometry-area estimator clips its gathering boxes to (`caches::octree`'s
+/// [`Surfaces`]): the meshes' triangles and the analytic spheres of the materials with a smooth
+/// lobe (those that store photons), world space.
+pub fn estimator_surfaces(scene: &Scene) -> (Vec<[Vec3; 3]>, Vec<AnalyticSphere>) {
+    let spheres = scene
+        .analytic_spheres_where(Material::has_smooth_lobe)
+        .into_iter()
+        .map(|(center, radius, inward)| AnalyticSphere { center, radius, inward })
+        .collect();
+    (scene.mesh_triangles_where(Material::has_smooth_lobe), spheres)
 }
 
 /// `Σ_c f_c(wo, d_c) cos θ(d_c) |m_c|` with `m_c` the columns of the blended matrix.
