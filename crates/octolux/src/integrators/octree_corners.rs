@@ -54,6 +54,9 @@ impl OctreeIntegrator {
         n: Vec3,
         rays: &mut u64,
     ) -> Option<(&'a CornerTable, Vec3)> {
+        if !n.is_finite() {
+            return None; // the exact query answers it (with `None`)
+        }
         let tables = self.corners_of(scene, tree);
         let (v, t) = tree.valid_leaf_at(hit.p)?;
         let ngf = crate::math::facing(hit.ng, n);
