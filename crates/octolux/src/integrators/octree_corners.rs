@@ -19,7 +19,6 @@ use super::octree::{keep_sample_seen, LeakTest, OctreeIntegrator, QueryMode, ANC
 use super::octree_reach::LeakData;
 use crate::caches::octree::{class_axis, query_class, CornerTable, CornerTables, Segment, Verdicts, QUERY_CLASSES};
 use crate::caches::Octree;
-use crate::math::Ray;
 use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
 
@@ -39,7 +38,7 @@ impl OctreeIntegrator {
             let leak = self.settings.leak;
             let planes = (leak == LeakTest::VisibleSample).then(|| self.planes_of(scene, tree));
             let leaves = tree.valid_leaves();
-            tree.corner_tables(leak != LeakTest::None, |v, class, list| verdicts(scene, planes, &leaves, v, class, list, leak))
+            tree.corner_tables(leak != LeakTest::None, |v, class, list| verdicts(scene, planes, leaves, v, class, list, leak))
         })
     }
 
@@ -80,10 +79,8 @@ impl OctreeIntegrator {
             }
         }
         let a = unknown?;
-        let d = a - o;
-        let len = d.length();
         *rays += 1;
-        let seen = !(len > 0.0) || !scene.occluded(&Ray::segment(o, d / len, len));
+        let seen = scene.sees(o, a, 0.0);
         seen.then_some((table, t))
     }
 }
@@ -141,6 +138,7 @@ mod tests {
     use crate::integrators::octree_leak::two_rooms;
     use crate::integrators::test_scenes::{box_scene, check_furnace, furnace_box_scene, image_mean};
     use crate::integrators::{Integrator, RayCounters};
+    use crate::math::Ray;
     use crate::render::{render, RenderSettings};
     use crate::sampling::Sampler;
 

@@ -202,25 +202,29 @@ impl Octree {
                     let origins_len = ver.origins.len().min(ANCHOR_SAMPLES);
                     origins[..origins_len].copy_from_slice(&ver.origins[..origins_len]);
                     let mut t = CornerTable { sums: [[[Vec4::ZERO; 2]; 10]; 6], origins, origins_len: origins_len as u8 };
-                    for c in 0..8 {
-                        let corner = Vec3::new(
+                    let corners: [Vec3; 8] = std::array::from_fn(|c| {
+                        Vec3::new(
                             if c & 1 != 0 { cell.max.x } else { cell.min.x },
                             if c & 2 != 0 { cell.max.y } else { cell.min.y },
                             if c & 4 != 0 { cell.max.z } else { cell.min.z },
-                        );
-                        let (qmin, qmax) = (corner - h, corner + h);
-                        for (&j, &keep) in list.iter().zip(&ver.keep) {
-                            let b = flat.cell(j as usize);
-                            if !(keep && qmin.cmplt(b.upper).all() && qmax.cmpgt(b.min).all()) {
+                        )
+                    });
+                    // per kept leaf its matrices, decoded once; then its weight at each corner
+                    // (the sums of each corner and matrix still add the leaves in list order)
+                    for (&j, _) in list.iter().zip(&ver.keep).filter(|(_, &keep)| keep) {
+                        let b = flat.cell(j as usize);
+                        let bits = self.facing.get(j as usize).copied().unwrap_or(super::ALL_FACING);
+                        let m: [Option<[f32; 9]>; 6] =
+                            std::array::from_fn(|k| (bits & (1 << k) != 0).then(|| matrix(j as usize, k).to_cols_array()));
+                        for (c, corner) in corners.iter().enumerate() {
+                            let (qmin, qmax) = (*corner - h, *corner + h);
+                            if !(qmin.cmplt(b.upper).all() && qmax.cmpgt(b.min).all()) {
                                 continue;
                             }
                             let o = b.max.min(qmax) - b.min.max(qmin);
                             let g = o.x * o.y * o.z;
-                            let bits = self.facing.get(j as usize).copied().unwrap_or(super::ALL_FACING);
-                            for k in 0..6 {
-                                if bits & (1 << k) != 0 {
-                                    let m = matrix(j as usize, k).to_cols_array();
-                                    let sums = &mut t.sums[k];
+                            for (sums, m) in t.sums.iter_mut().zip(&m) {
+                                if let Some(m) = m {
                                     for i in 0..9 {
                                         sums[i][c / 4][c % 4] += m[i] * g;
                                     }

@@ -378,21 +378,9 @@ impl Octree {
 
     /// The anchors of every valid leaf in world space, in value order (`QueryLeaf::index`
     /// is the position in the result): what a caller precomputes per leaf for its leak test.
-    pub fn valid_leaves(&self) -> Vec<QueryLeaf> {
-        let view = self.view();
-        let mut out = vec![None; self.anchors.len()];
-        let b = self.bounds();
-        view.visit(b.min, b.max, |node, depth, ijk, _| {
-            let v = self.nodes[node as usize].value();
-            if v != NO_VALUE {
-                let (cmin, s) = (view.cell_min(depth, ijk), self.cell_size[depth as usize]);
-                let a = &self.anchors[v as usize];
-                let samples = a.samples.map(|x| (x.position(cmin, s), x.normal().normalize_or_zero()));
-                out[v as usize] =
-                    Some(QueryLeaf { position: a.mean.position(cmin, s), normal: a.mean.normal(), cell_size: s, samples, index: v });
-            }
-        });
-        out.into_iter().flatten().collect()
+    /// Those the query decodes once per tree (`flat.rs`).
+    pub fn valid_leaves(&self) -> &[QueryLeaf] {
+        &self.flat().leaves
     }
 }
 
