@@ -1,18 +1,22 @@
 #!/usr/bin/env python3
-"""Time to error on every reference scene: octree against octolux path, Mitsuba 3 path and the
-baselines, in one run (issue 11, item 5).
+"""Time to error on every reference scene: the octree (its default `mode=terminate` and the
+paper's `mode=paper`) against octolux path and Mitsuba 3 path, and optionally the baselines, in
+one run.
 
-    .venv-peers/bin/python bench/time_to_error.py                 # everything (~30 min on 2 busy cores)
+    .venv-peers/bin/python bench/time_to_error.py --budget 60     # the four methods, ten scenes
     .venv-peers/bin/python bench/time_to_error.py --scenes cornell-box box --budget 10
+    .venv-peers/bin/python bench/time_to_error.py --methods octree path ward --scenes cbox
     .venv-peers/bin/python bench/time_to_error.py --plot-only target/tte/results.json
 
-Scenes: the six of ../shared/scenes/bitterli-collection/ at the resolution, spp-independent
-settings and max depth of their references (tests/refs/collection/manifest.json, 320 wide) and the
-four of tests/refs/manifest.json (cornell-box, cornell-spheres, cbox, bitterli; 128x128).
+Scenes: the six of ../shared/scenes/bitterli-collection/ at the resolution and max depth of their
+time-to-error references (tests/refs/tte/manifest.json, 160 wide, each with its own noise at about
+1e-3 or below; tests/refs/collection/ where a scene has none) and the four of
+tests/refs/manifest.json (cornell-box, cornell-spheres, cbox, bitterli; 128x128).
 Methods, each a ladder of runs, one process per run, all threads of the machine:
-  octree, ward, christensen, photonmap   (photons, spp) = (1e5, 1), (3e5, 4), (1e6, 16), (3e6, 64)
+  octree, octree-paper (--set mode=paper), ward, christensen, photonmap
+      (photons, spp) = (1e5, 1), (3e5, 4), (1e6, 16), (2e6, 64), (4e6, 256), (8e6, 1024)
   path (octolux), mitsuba (Mitsuba 3 path, llvm_ad_rgb, tools/mitsuba/render.py, independent sampler)
-                                         spp = 1, 4, 16, 64, 256, 1024
+      spp = 1, 4, 16, 64, 256, 1024, 4096, 16384
 A ladder stops when its spent cost plus the next rung's predicted cost (this rung's times the
 growth) would pass --budget CPU seconds (a second rung is run up to 3x the budget).
 
@@ -55,10 +59,13 @@ DOCS = ROOT / "docs" / "benchmarks.md"
 IMG = ROOT / "docs" / "img" / "time_to_error.png"
 COLLECTION = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"]
 CLASSIC = ["cornell-box", "cornell-spheres", "cbox", "bitterli"]
-CACHES = ["octree", "ward", "christensen", "photonmap"]
-METHODS = ["octree", "path", "mitsuba", "ward", "christensen", "photonmap"]
-CACHE_RUNGS = [(100_000, 1), (300_000, 4), (1_000_000, 16), (3_000_000, 64)]
-SPP_RUNGS = [1, 4, 16, 64, 256, 1024]
+CACHES = ["octree", "octree-paper", "ward", "christensen", "photonmap"]
+METHODS = ["octree", "octree-paper", "path", "mitsuba", "ward", "christensen", "photonmap"]
+DEFAULT_METHODS = ["octree", "octree-paper", "path", "mitsuba"]
+# --set flags of the octree variants (the integrator is `octree`)
+VARIANTS = {"octree-paper": ["--set", "mode=paper"]}
+CACHE_RUNGS = [(100_000, 1), (300_000, 4), (1_000_000, 16), (2_000_000, 64), (4_000_000, 256), (8_000_000, 1024)]
+SPP_RUNGS = [1, 4, 16, 64, 256, 1024, 4096, 16384]
 TARGETS = [1.0, 0.3, 0.1, 0.03, 0.01, 0.003, 0.001]
 SEED = 7
 BEGIN, END = "<!-- tte:begin (bench/time_to_error.py --write-docs) -->", "<!-- tte:end -->"
@@ -72,11 +79,13 @@ def scenes() -> dict[str, dict]:
     """name -> {scene (octolux argument), mi_scene (Mitsuba file or None: export), ref, res, depth, ref_noise}."""
     out = {}
     coll = json.loads((ROOT / "tests/refs/collection/manifest.json").read_text())["references"]
+    tte_manifest = ROOT / "tests/refs/tte/manifest.json"
+    tte = json.loads(tte_manifest.read_text())["references"] if tte_manifest.exists() else {}
     for name in COLLECTION:
-        r = coll[name]
+        folder, r = ("tests/refs/tte", tte[name]) if name in tte else ("tests/refs/collection", coll[name])
         src = r["source_scene"]
         path = SHARED / src.removeprefix("../shared/") if src.startswith("../shared/") else ROOT / src
-        out[name] = {"scene": str(path), "mi_scene": str(path), "ref": str(ROOT / "tests/refs/collection" / r["file"]),
+        out[name] = {"scene": str(path), "mi_scene": str(path), "ref": str(ROOT / folder / r["file"]),
                      "res": r["resolution"], "depth": int(r["max_depth"]),
                      "ref_noise": float(r["self_noise"]["ref_rel_mse"])}
     old = json.loads((ROOT / "tests/refs/manifest.json").read_text())["references"]
@@ -112,11 +121,12 @@ def compare(img: Path, ref: str) -> dict:
     return json.loads(subprocess.run([str(BIN), "compare", str(img), ref], check=True, capture_output=True, text=True).stdout)
 
 
-def octolux_cmd(sc: dict, integrator: str, spp: int, photons: int | None, out: Path, res=None) -> list[str]:
+def octolux_cmd(sc: dict, method: str, spp: int, photons: int | None, out: Path, res=None) -> list[str]:
     w, h = res or sc["res"]
+    integrator = "octree" if method in VARIANTS else method
     cmd = [str(BIN), "render", sc["scene"], "--integrator", integrator, "--spp", str(spp), "--resolution", f"{w}x{h}",
            "--max-depth", str(sc["depth"]), "--seed", str(SEED), "-q", "-o", str(out)]
-    return cmd + (["--photons", str(photons)] if photons else [])
+    return cmd + VARIANTS.get(method, []) + (["--photons", str(photons)] if photons else [])
 
 
 def setup_cpu(name: str, sc: dict) -> float:
@@ -169,7 +179,7 @@ def run_rung(name: str, sc: dict, method: str, rung, setup: float) -> dict:
 
 def ladder(name: str, sc: dict, method: str, budget: float, setup: float) -> list[dict]:
     rungs = CACHE_RUNGS if method in CACHES else SPP_RUNGS
-    growth = 3.5 if method in CACHES else 4.0
+    growth = 3.8 if method in CACHES else 4.0
     pts, spent = [], 0.0
     for i, rung in enumerate(rungs):
         try:
@@ -313,8 +323,8 @@ def write_docs(md: str, results: dict) -> None:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", nargs="+", default=COLLECTION + CLASSIC)
-    ap.add_argument("--methods", nargs="+", default=METHODS, choices=METHODS)
-    ap.add_argument("--budget", type=float, default=10.0, help="CPU seconds per method and scene (default 10)")
+    ap.add_argument("--methods", nargs="+", default=DEFAULT_METHODS, choices=METHODS)
+    ap.add_argument("--budget", type=float, default=60.0, help="CPU seconds per method and scene (default 60)")
     ap.add_argument("--plot", action="store_true", help=f"write {IMG.relative_to(ROOT)}")
     ap.add_argument("--write-docs", action="store_true", help="replace the results block of docs/benchmarks.md")
     ap.add_argument("--plot-only", type=Path, help="re-plot and re-tabulate a results.json")

@@ -26,6 +26,8 @@ and the generated test scenes of tests/scenes/ (tools/make_testdata.py), each 32
 (COLLECTION_WIDTHS: `wrappers` 160) with
 the file's aspect ratio and max depth, independent sampler, the file's rfilter:
     .venv-mitsuba/bin/python tools/mitsuba/make_refs.py --collection [--only box] [--spp 1024]
+--tte makes the time-to-error bench's references the same way into tests/refs/tte/ (160 pixels
+wide, the research scenes only, each at the spp of TTE_SPP: its noise about 1e-3 or below).
 Each reference is the mean of two half-spp renders (seeds 1 and 2), stored as half-float EXR; the
 relMSE between the halves (/4) is the reference's own noise. The translation's notes and its
 approximations (phong, ward, sunsky: what Mitsuba 3 renders differently from 0.6) are recorded.
@@ -235,6 +237,12 @@ COLLECTION = {
 }
 # Widths other than COLLECTION_WIDTH (small generated scenes, to keep their tests fast).
 COLLECTION_WIDTHS = {"wrappers": 160}
+# --tte: the time-to-error bench's references (bench/time_to_error.py), 160 pixels wide, each with
+# the spp that brings its own noise to about 1e-3 relMSE or below (scaled from the 320-wide
+# references' noise at 1024 spp), so that errors down to 0.01 can be told from the reference's.
+TTE_DIR = os.path.join(REFS, "tte")
+TTE_WIDTH = 160
+TTE_SPP = {"sponza": 4096, "dining-room": 16384, "veach-lamp": 32768, "torus": 32768, "box": 65536, "classroom": 65536}
 
 
 def collection_scene(src: str) -> str:
@@ -255,13 +263,14 @@ def write_half_exr(path: str, img) -> str:
     return fmt
 
 
-def make_collection_one(name: str, spp: int, variant: str, threads: int | None, tmp: str) -> dict:
+def make_collection_one(name: str, spp: int, variant: str, threads: int | None, tmp: str,
+                        out_dir: str = COLLECTION_DIR, width: int | None = None) -> dict:
     from render import patch_scene
     import numpy as np
     scene = collection_scene(COLLECTION[name])
     _, info = patch_scene(scene)
     w0, h0 = info["width"], info["height"]
-    width = COLLECTION_WIDTHS.get(name, COLLECTION_WIDTH)
+    width = width or COLLECTION_WIDTHS.get(name, COLLECTION_WIDTH)
     res = (width, max(1, round(width * h0 / w0)))
     depth = info["max_depth"] if info["max_depth"] is not None else -1
     half = spp // 2
@@ -285,8 +294,8 @@ def make_collection_one(name: str, spp: int, variant: str, threads: int | None, 
             rd = down(ref)
             hb = float(np.mean((down(imgs[0]) - down(imgs[1])) ** 2 / (rd * rd + compare.REL_EPS)))
             blocks[str(k)] = {"rel_mse_halves": hb, "ref_rel_mse": hb / 4}
-    os.makedirs(COLLECTION_DIR, exist_ok=True)
-    path = os.path.join(COLLECTION_DIR, f"{name}.exr")
+    os.makedirs(out_dir, exist_ok=True)
+    path = os.path.join(out_dir, f"{name}.exr")
     fmt = write_half_exr(path, ref)
     stored = compare.read_exr(path)
     quant = float(np.mean((stored - ref) ** 2 / norm))
@@ -334,7 +343,8 @@ def make_collection_one(name: str, spp: int, variant: str, threads: int | None, 
             "blocks_what": ("the same two numbers after averaging both halves (and normalising by the "
                             "reference averaged likewise) over k x k pixel blocks, per k"),
         },
-        "command": (f".venv-mitsuba/bin/python tools/mitsuba/make_refs.py --collection --only {name} --spp {spp}"
+        "command": (f".venv-mitsuba/bin/python tools/mitsuba/make_refs.py "
+                    f"{'--tte' if out_dir == TTE_DIR else '--collection'} --only {name} --spp {spp}"
                     f"  (= render.py {shown} --spp {half} --resolution {res[0]}x{res[1]} --max-depth {depth}"
                     f" --seed {REF_SEED}|{CHECK_SEED} --variant {variant} --sampler independent, averaged)"),
         "date": datetime.date.today().isoformat(),
@@ -342,22 +352,25 @@ def make_collection_one(name: str, spp: int, variant: str, threads: int | None, 
 
 
 def main_collection(args) -> int:
-    manifest_path = os.path.join(COLLECTION_DIR, "manifest.json")
+    tte = args.tte
+    out_dir = TTE_DIR if tte else COLLECTION_DIR
+    manifest_path = os.path.join(out_dir, "manifest.json")
     manifest = {}
     if os.path.exists(manifest_path):
         with open(manifest_path) as f:
             manifest = json.load(f)
     manifest["about"] = {
-        "made_by": "tools/mitsuba/make_refs.py --collection (see its docstring)",
+        "made_by": f"tools/mitsuba/make_refs.py {'--tte' if tte else '--collection'} (see its docstring)",
         "rel_mse": "mean over pixels and channels of (a-b)^2 / (b^2 + 1e-2), b = the reference",
         "noise": ("each reference is the mean of two independent half-spp renders; their relMSE / 4 is "
                   "the reference's own noise (self_noise.ref_rel_mse), used by "
                   "crates/octolux-cli/tests/agreement_collection.rs in its bound"),
-        "size": f"{COLLECTION_WIDTH} pixels wide (except {COLLECTION_WIDTHS}), the scene file's aspect ratio",
+        "size": (f"{TTE_WIDTH} pixels wide, the scene file's aspect ratio" if tte else
+                 f"{COLLECTION_WIDTH} pixels wide (except {COLLECTION_WIDTHS}), the scene file's aspect ratio"),
         "scenes": "shared: scenes read from ../shared/scenes (never copied); tests/scenes: made by tools/make_testdata.py",
     }
     refs = manifest.setdefault("references", {})
-    names = args.only or list(COLLECTION)
+    names = args.only or (list(TTE_SPP) if tte else list(COLLECTION))
     tmp = tempfile.mkdtemp(prefix="octolux-refs-")
     try:
         for name in names:
@@ -365,7 +378,8 @@ def main_collection(args) -> int:
             if not os.path.exists(scene):
                 log(f"skip: {name}: {scene} is absent")
                 continue
-            refs[name] = make_collection_one(name, args.spp or COLLECTION_SPP, args.variant, args.threads, tmp)
+            spp = args.spp or (TTE_SPP.get(name, 16384) if tte else COLLECTION_SPP)
+            refs[name] = make_collection_one(name, spp, args.variant, args.threads, tmp, out_dir, TTE_WIDTH if tte else None)
             manifest["references"] = dict(sorted(refs.items()))
             with open(manifest_path, "w") as f:
                 json.dump(manifest, f, indent=2)
@@ -386,6 +400,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--collection", action="store_true",
                     help=f"the research scenes and generated test scenes -> tests/refs/collection/ ({COLLECTION_SPP} spp)")
+    ap.add_argument("--tte", action="store_true",
+                    help="the time-to-error bench's references -> tests/refs/tte/ (160 wide, spp per scene: TTE_SPP)")
     ap.add_argument("--only", action="append", choices=sorted(set(REFERENCES) | set(COLLECTION)),
                     help="make only these (repeatable)")
     ap.add_argument("--spp", type=int, default=None, help="reference spp (default 8192; --collection: 1024)")
@@ -394,7 +410,7 @@ def main(argv=None) -> int:
     ap.add_argument("--octolux", default=None, help="octolux binary for `export` (default: cargo run --release)")
     ap.add_argument("--keep-tmp", action="store_true")
     args = ap.parse_args(argv)
-    if args.collection:
+    if args.collection or args.tte:
         return main_collection(args)
     if args.only and not set(args.only) <= set(REFERENCES):
         ap.error("--only: names of the collection need --collection")

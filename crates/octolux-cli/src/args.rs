@@ -108,9 +108,9 @@ pub struct OctreeArgs {
     /// Photon paths emitted from the lights (octree and the baselines; default 1000000).
     #[arg(long)]
     pub photons: Option<u64>,
-    /// octree: read the global octree one bounce away (a BSDF-sampled gather ray per sample)
-    /// instead of at the first surface: less bias, a little noise.
-    #[arg(long)]
+    /// Removed: the octree reads its cache one bounce away by default now (`mode = terminate`);
+    /// `--set mode=paper` reads it at the first surface, as the paper did.
+    #[arg(long, hide = true)]
     pub gather: bool,
     /// octree: maximum octree depth h_max, a number or `auto` (the global tree's default: from
     /// the photon count, n_max and the scene's surface area).
@@ -169,6 +169,18 @@ fn depth_value(v: &str) -> Value {
 }
 
 impl OctreeArgs {
+    /// Refuse the flags that were removed, saying what replaced them.
+    pub fn check_removed(&self) -> anyhow::Result<()> {
+        if self.gather {
+            anyhow::bail!(
+                "--gather was removed: the octree now reads its cache one bounce from the camera where the path is wide enough \
+                 (the default, `--set mode=terminate`; docs/octree.md, \"Ending paths in the cache\"); `--set mode=paper` reads it at \
+                 the first surface, as the paper did"
+            );
+        }
+        Ok(())
+    }
+
     /// The settings keys the given flags write, in the order given above. A flag scoped to one
     /// integrator (`octree:` in its help) warns with any other; an unscoped one warns with an
     /// integrator that has none of its keys.
@@ -184,7 +196,6 @@ impl OctreeArgs {
         };
         let oct = Some("octree");
         add("--photons", None, vec![keys::PHOTON_COUNT.into()], self.photons.map(|v| json!(v)));
-        add("--gather", oct, vec!["gather".into()], self.gather.then_some(Value::Bool(true)));
         add("--h-max", oct, both_trees("h_max"), self.h_max.as_deref().map(depth_value));
         add("--n-min", oct, both_trees("n_min"), self.n_min.map(|v| json!(v)));
         add("--n-max", oct, both_trees("n_max"), self.n_max.map(|v| json!(v)));

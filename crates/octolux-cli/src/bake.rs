@@ -8,7 +8,7 @@
 //! output, so an interrupt, which exits at once as before `render`'s loop, never leaves a
 //! half-written cache under the final name). `render --cache` reads and
 //! checks the file before the scene is even loaded, takes the cache's settings as the base of
-//! its own (so only the render-time keys `view` and `gather` may change; a key that shaped the
+//! its own (so only the render-time keys may change; a key that shaped the
 //! octrees is refused), and compares the fingerprints once the scene is prepared.
 
 use crate::args::{keys, BakeArgs};
@@ -46,6 +46,7 @@ pub fn check_run_flags(threads: Option<usize>, memory_limit: Option<&str>, max_d
 pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
     let t0 = Instant::now();
     check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
+    args.octree.check_removed()?;
     if args.octree.cache_scene.is_some() {
         bail!("--cache-scene does not apply to bake: bake that scene itself");
     }

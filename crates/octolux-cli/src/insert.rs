@@ -4,7 +4,7 @@
 //! (`octolux::scene::object_path`). The lighting is the bake's: the cache's fingerprint is
 //! compared with the scene *without* the object (which the object does not change), and the
 //! `octree` integrator reads the object's indirect light from its volumetric values
-//! (`octolux::integrators::octree_insert`). Any other integrator renders the scene with the
+//! (`octolux::integrators::octree::insert`). Any other integrator renders the scene with the
 //! object as it is (`--integrator path` gives the truth to compare with).
 //!
 //! The object's shapes are appended after the scene's, its materials after the scene's (their
@@ -15,7 +15,7 @@
 use crate::args::RenderArgs;
 use anyhow::{bail, Context, Result};
 use glam::{Mat4, Vec3};
-use octolux::integrators::octree_insert::{InsertAo, Inserted};
+use octolux::integrators::octree::insert::{InsertAo, Inserted};
 use octolux::math::Ray;
 use octolux::scene::material::Material;
 use octolux::scene::object_path::ObjectPath;

@@ -80,6 +80,7 @@ pub(crate) fn backend_kind(b: BackendArg) -> BackendKind {
 fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let t0 = Instant::now();
     bake::check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
+    args.octree.check_removed()?;
     if let Some(b) = args.time_budget {
         if !(b.is_finite() && b > 0.0) {
             bail!("--time-budget must be a positive number of seconds, got {b}");
@@ -202,7 +203,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
             }
             let report = bake::report(path, &c, load_s, &stale);
             let mut integrator = c.integrator;
-            // only the render-time keys (view, gather) may differ: check_cache_settings
+            // only the render-time keys may differ: check_cache_settings
             if let (Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&mut integrator, &integrator_settings) {
                 o.settings = s.clone();
             }

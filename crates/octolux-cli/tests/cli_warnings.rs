@@ -9,7 +9,7 @@ fn octree_options_with_another_integrator_are_reported_as_ignored() {
     let out = dir.join("x.exr");
     let run = |integrator: &str| {
         let o = Command::new(env!("CARGO_BIN_EXE_octolux"))
-            .args(["render", "cornell-box", "--integrator", integrator, "--gather", "--split", "normal"])
+            .args(["render", "cornell-box", "--integrator", integrator, "--caustic-n-max", "40", "--split", "normal"])
             .args(["--spp", "1", "--resolution", "4x4", "--photons", "2000", "-q", "-o"])
             .arg(&out)
             .output()
@@ -18,9 +18,20 @@ fn octree_options_with_another_integrator_are_reported_as_ignored() {
         String::from_utf8_lossy(&o.stderr).into_owned()
     };
     let path = run("path");
-    assert!(path.contains("warning: --gather applies to --integrator octree only"), "{path}");
+    assert!(path.contains("warning: --caustic-n-max applies to --integrator octree only"), "{path}");
     assert!(path.contains("warning: --split applies to --integrator octree only"), "{path}");
     let octree = run("octree");
     assert!(!octree.contains("applies to --integrator octree only"), "{octree}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_removed_gather_flag_is_refused_with_what_replaced_it() {
+    let o = Command::new(env!("CARGO_BIN_EXE_octolux"))
+        .args(["render", "cornell-box", "--integrator", "octree", "--gather", "--spp", "1", "--resolution", "4x4", "-q"])
+        .args(["-o", "/nonexistent-dir-octolux/x.exr"])
+        .output()
+        .expect("octolux runs");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--gather was removed") && err.contains("mode=paper"), "{err}");
 }

@@ -80,14 +80,14 @@ fn setting<'a>(json: &'a Value, key: &str) -> &'a Value {
 #[test]
 fn a_json_settings_file_chooses_the_integrator_and_its_settings() {
     let d = Scratch::new("json");
-    let f = d.file("s.json", r#"{ "type": "octree", "photons": { "photons": 3000 }, "global": { "h_max": 4 }, "gather": true }"#);
+    let f = d.file("s.json", r#"{ "type": "octree", "photons": { "photons": 3000 }, "global": { "h_max": 4 }, "mode": "paper" }"#);
     let (json, _) = rendered(&d.0, &["--settings", f.to_str().unwrap()]);
     assert_eq!(json["integrator"], "octree");
     assert_eq!(setting(&json, "type"), "octree");
     assert_eq!(setting(&json, "photons.photons"), 3000);
     assert_eq!(setting(&json, "global.h_max"), 4);
     assert_eq!(setting(&json, "caustic.h_max"), 10, "keys the file does not give keep the integrator's defaults");
-    assert_eq!(setting(&json, "gather"), true);
+    assert_eq!(setting(&json, "mode"), "paper");
     assert_eq!(json["build"]["photons_emitted"], 3000);
 }
 
@@ -140,14 +140,14 @@ fn set_values_are_json_when_they_parse_and_strings_otherwise() {
             "--set",
             "photons.photons=2000",
             "--set",
-            "gather=true",
+            "footprint=2",
             "--set",
             "view=irradiance",
             "--set",
             "global.epsilon=0.5",
         ],
     );
-    assert_eq!(setting(&json, "gather"), true);
+    assert_eq!(setting(&json, "footprint"), 2.0);
     assert_eq!(setting(&json, "view"), "irradiance");
     assert_eq!(setting(&json, "global.epsilon"), 0.5);
     assert_eq!(setting(&json, "caustic.epsilon").as_f64(), Some(0.2f32 as f64), "--set writes one key; --epsilon writes both trees");
@@ -174,10 +174,10 @@ fn options_the_integrator_does_not_have_warn_and_name_it() {
     // an octree key set for ward, and a file key of christensen's
     let f = d.file("s.toml", "every = 8\n");
     let (json, err) =
-        rendered(&d.0, &["--integrator", "ward", "--photons", "2000", "--set", "gather=true", "--settings", f.to_str().unwrap()]);
-    assert!(err.contains("warning: --set gather=true: `gather` is a setting of --integrator octree, not of ward; ignored"), "{err}");
+        rendered(&d.0, &["--integrator", "ward", "--photons", "2000", "--set", "footprint=2", "--settings", f.to_str().unwrap()]);
+    assert!(err.contains("warning: --set footprint=2: `footprint` is a setting of --integrator octree, not of ward; ignored"), "{err}");
     assert!(err.contains("s.toml: `every` is a setting of --integrator christensen, not of ward; ignored"), "{err}");
-    assert!(setting(&json, "gather").is_null() && setting(&json, "every").is_null());
+    assert!(setting(&json, "footprint").is_null() && setting(&json, "every").is_null());
 }
 
 #[test]

@@ -453,16 +453,25 @@ pub fn cache_base(c: &LoadedCache) -> Result<Value> {
     Ok(v)
 }
 
-/// Refuse resolved settings that differ from the cache's in a key that shaped the octrees.
+/// Refuse resolved settings that differ from the cache's in a key that shaped the octrees:
+/// [`BAKE_KEYS`], and `mode` when `max_depth` is bounded (the photons' bounces then depend on
+/// the vertex the mode reads the cache at).
 pub fn check_cache_settings(path: &Path, c: &LoadedCache, resolved: &IntegratorSettings) -> Result<()> {
     let (baked, now) = (serde_json::to_value(c.integrator.settings())?, serde_json::to_value(resolved)?);
-    let changed: Vec<&str> = BAKE_KEYS.iter().copied().filter(|k| baked.get(k) != now.get(k)).collect();
+    let bounded = baked.get("max_depth").and_then(Value::as_i64).is_some_and(|d| d >= 0);
+    let keys = BAKE_KEYS.iter().copied().chain(bounded.then_some("mode"));
+    let changed: Vec<&str> = keys.clone().filter(|k| baked.get(k) != now.get(k)).collect();
     if !changed.is_empty() {
+        let free: Vec<&str> = match &baked {
+            Value::Object(m) => m.keys().map(String::as_str).filter(|k| *k != "type" && !keys.clone().any(|b| b == *k)).collect(),
+            _ => vec![],
+        };
         bail!(
             "lighting cache {}: the settings {} differ from the bake's, and they shape the octrees: re-bake with them, or drop \
-             them (with --cache only `view` and `gather` may change)",
+             them (with --cache only {} may change)",
             path.display(),
-            changed.join(", ")
+            changed.join(", "),
+            free.join(", ")
         );
     }
     Ok(())

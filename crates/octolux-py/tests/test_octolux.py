@@ -52,11 +52,11 @@ def test_deterministic_for_any_thread_count():
 
 def test_stats_and_settings_dict():
     img, stats = octolux.render(
-        "cornell-box", "octree", spp=2, resolution=(32, 32), settings={"photons": {"photons": 20000}, "gather": True}, stats=True
+        "cornell-box", "octree", spp=2, resolution=(32, 32), settings={"photons": {"photons": 20000}, "mode": "paper"}, stats=True
     )
     assert img.shape == (32, 32, 3)
     assert stats["integrator"] == "octree"
-    assert stats["settings"]["photons"]["photons"] == 20000 and stats["settings"]["gather"] is True
+    assert stats["settings"]["photons"]["photons"] == 20000 and stats["settings"]["mode"] == "paper"
     assert stats["render"]["spp"] == 2 and stats["render"]["samples"] == 32 * 32 * 2
 
 

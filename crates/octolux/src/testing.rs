@@ -378,8 +378,8 @@ pub fn check_bsdf(cfg: &Chi2Config, material: &Material, images: &[Image], uv: V
     out
 }
 
-/// The cache integrators with test-sized photon counts, `octree` twice (direct read and
-/// `gather`): `octree_photons` for the octree, `photons` and `n_max` 50 for the baselines,
+/// The cache integrators with test-sized photon counts, `octree` twice (`mode = terminate`,
+/// the default, and `mode = paper`): `octree_photons` for the octree, `photons` and `n_max` 50 for the baselines,
 /// `gather_rays` for the photon map's final gathering. The furnace tests and the random-scene
 /// property test run them all.
 pub fn cache_integrators(
@@ -387,12 +387,12 @@ pub fn cache_integrators(
     photons: u64,
     gather_rays: u32,
 ) -> Vec<(&'static str, crate::integrators::IntegratorSettings)> {
-    use crate::integrators::octree::OctreeIntegratorSettings;
+    use crate::integrators::octree::{Mode, OctreeIntegratorSettings};
     use crate::integrators::photon::{christensen::ChristensenSettings, photonmap::PhotonMapSettings, ward::WardSettings};
     use crate::integrators::IntegratorSettings;
     let mut octree = OctreeIntegratorSettings::default();
     octree.photons.photons = octree_photons;
-    let gather = OctreeIntegratorSettings { gather: true, ..octree.clone() };
+    let paper = OctreeIntegratorSettings { mode: Mode::Paper, ..octree.clone() };
     let mut pm = PhotonMapSettings { gather_rays, ..Default::default() };
     pm.photons.photons = photons;
     pm.global.n_max = 50;
@@ -406,7 +406,7 @@ pub fn cache_integrators(
     chr.caustic.n_max = 50;
     vec![
         ("octree", IntegratorSettings::Octree(octree)),
-        ("octree --gather", IntegratorSettings::Octree(gather)),
+        ("octree mode=paper", IntegratorSettings::Octree(paper)),
         ("photonmap", IntegratorSettings::Photonmap(pm)),
         ("ward", IntegratorSettings::Ward(ward)),
         ("christensen", IntegratorSettings::Christensen(chr)),

@@ -1,7 +1,8 @@
 //! Pieces every integrator shares, written once: the render-time counters and the one rule
 //! for timing cache queries, next-event estimation of direct light, the MIS power heuristic,
 //! the "facing" normal, and the walk along a specular chain to the first vertex with a
-//! non-delta lobe (the ray tracer of the paper's §8 and of its §9 baselines).
+//! non-delta lobe (the paper's §9 baselines and the octree's debug views; the integrators
+//! that trace paths share `pathloop`).
 //!
 //! Conventions: `wo`/`wi` point away from the surface; radiance in W/(m² sr), irradiance in
 //! W/m².
@@ -29,6 +30,9 @@ pub struct RayCounters {
     /// cache: one lookup in [`QUERY_TIMING_STRIDE`] is timed (with `Instant`) and stands for
     /// the stride (see [`RayCounters::time_query`]).
     pub cache_query_ns: u64,
+    /// Paths that ended in a cache (`integrators::pathloop`), by the vertex they ended at:
+    /// the first surface, the second, the third, the fourth or later.
+    pub cache_ends: [u64; 4],
 }
 
 /// One cache query in this many is timed (a clock read per query cost ~3% of an octree
@@ -58,6 +62,9 @@ impl std::ops::AddAssign for RayCounters {
         self.shadow_rays += o.shadow_rays;
         self.cache_queries += o.cache_queries;
         self.cache_query_ns += o.cache_query_ns;
+        for (a, b) in self.cache_ends.iter_mut().zip(o.cache_ends) {
+            *a += b;
+        }
     }
 }
 

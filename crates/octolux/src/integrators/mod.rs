@@ -6,8 +6,9 @@
 //!
 //! Every integrator estimates the radiance arriving at the camera along a primary ray; the
 //! render loop ([`crate::render`]) handles pixels, samples and the reconstruction filter.
-//! - [`path`]: the unidirectional path tracer, ground truth;
-//! - [`octree`]: the paper's ray tracer over the incident-radiance octrees (§8);
+//! - [`pathloop`]: the one path loop, with a policy that may end paths in a cache;
+//! - [`path`]: the unidirectional path tracer (the loop, no cache), ground truth;
+//! - [`octree`]: the loop ending paths in the incident-radiance octrees (§8);
 //! - [`photon`]: the paper's baselines (§9) as one family: `photonmap`, `ward`, `christensen`;
 //! - [`common`]: what they share (direct light, MIS, the specular-chain walk, counters).
 
@@ -15,12 +16,8 @@ pub mod common;
 #[cfg(test)]
 mod furnaces;
 pub mod octree;
-mod octree_corners;
-pub mod octree_insert;
-#[cfg(test)]
-mod octree_leak;
-pub mod octree_reach;
 pub mod path;
+pub mod pathloop;
 pub mod photon;
 #[cfg(test)]
 pub(crate) mod test_scenes;

@@ -1,21 +1,12 @@
-//! Unidirectional path tracer with next-event estimation and multiple importance sampling
-//! (power heuristic), Russian roulette, and Mitsuba 3's `max_depth` semantics — the ground
-//! truth every cache is measured against.
-//!
-//! `max_depth` counts path vertices as Mitsuba 3 does: 1 = only emitters seen directly,
-//! 2 = direct illumination, -1 = unbounded. Russian roulette starts at depth `rr_depth`
-//! (Mitsuba: 5) with continuation probability `min(max(throughput) · η², 0.95)`.
-//!
-//! As in Mitsuba 3's `path.cpp`: a `mask`'s pass-through ([`Lobe::Null`]) is a delta vertex
-//! (it counts towards `max_depth`, and the emitter it reaches gets no MIS weight); shadow rays
-//! stop at masks whatever their opacity; bump- and normal-mapped hits scale BSDF values and
-//! sample weights by [`crate::scene::SurfaceHit::shading_factor`] (side check, terminator
-//! shadowing).
+//! The unidirectional path tracer, ground truth: the one path loop ([`super::pathloop`]) with
+//! no path ending in a cache ([`Never`]). Next-event estimation and multiple importance sampling
+//! (power heuristic), Russian roulette from `rr_depth`, Mitsuba 3's `max_depth` semantics and
+//! its handling of masks and bump maps: see the loop's module docs.
 
-use super::common::{mis_power, RayCounters};
-use crate::math::{max_component, Color, Ray, RayDifferential};
+use super::common::RayCounters;
+use super::pathloop::{self, Depths, Never};
+use crate::math::{Color, Ray, RayDifferential};
 use crate::sampling::Sampler;
-use crate::scene::material::Lobe;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 
@@ -35,124 +26,23 @@ impl Default for PathSettings {
     }
 }
 
+impl PathSettings {
+    /// The loop's path length limits.
+    pub fn depths(&self) -> Depths {
+        Depths { max_depth: self.max_depth, rr_depth: self.rr_depth }
+    }
+}
+
 /// Radiance along `ray`.
 pub fn li(
     settings: &PathSettings,
     scene: &Scene,
-    mut ray: Ray,
+    ray: Ray,
     diff: Option<&RayDifferential>,
     sampler: &mut Sampler,
     counters: &mut RayCounters,
 ) -> Color {
-    // Only the camera ray carries a differential (Mitsuba 0.6): the first hit's lookups.
-    let mut diff = diff;
-    let max_depth = if settings.max_depth < 0 { u32::MAX } else { settings.max_depth as u32 };
-    let mut result = Color::ZERO;
-    let mut throughput = Color::ONE;
-    let mut eta = 1.0f32;
-    let mut depth = 0u32;
-    let mut prev_pdf = 1.0f32;
-    let mut prev_delta = true;
-    let mut prev_p = ray.o;
-    if max_depth == 0 {
-        return result;
-    }
-    loop {
-        counters.rays += 1;
-        let Some(mut hit) = scene.intersect(&ray) else {
-            // Escaped: environment emission.
-            let le = scene.lights.env_le(ray.d);
-            if le != Color::ZERO {
-                let w = if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_env(ray.d)) };
-                result += throughput * le * w;
-            }
-            break;
-        };
-        if let Some(d) = diff.take() {
-            // Only MIP-mapped textures read the partials: skip them for the others.
-            if scene.materials[hit.material as usize].reads_uv_partials() {
-                hit.set_ray_differential(d);
-            }
-        }
-        // Emission from an area light hit by the ray.
-        if let Some(light) = hit.light {
-            let le = scene.lights.area_le(light, hit.ng, -ray.d);
-            if le != Color::ZERO {
-                let w = if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_area(light, prev_p, hit.p, hit.ng)) };
-                result += throughput * le * w;
-            }
-        }
-        if depth + 1 >= max_depth {
-            break;
-        }
-        let material = &scene.materials[hit.material as usize];
-        material.prefetch(&scene.images, hit.uv);
-        let wo = hit.frame.to_local(-ray.d);
-
-        // Next-event estimation.
-        if material.has_smooth_lobe() {
-            let u_sel = sampler.next_1d();
-            let u = sampler.next_2d();
-            // An environment sample's radiance is looked up only once the shadow ray is clear
-            // (`sample_li_deferred`): the same sum, without the sky model for occluded samples.
-            if let Some((mut ls, env)) = scene.lights.sample_li_deferred(hit.p, u_sel, u) {
-                if ls.pdf > 0.0 && (env || ls.li != Color::ZERO) {
-                    let wi = hit.frame.to_local(ls.wi);
-                    let f = material.eval(&scene.images, hit.uv, wo, wi) * hit.shading_factor(ls.wi);
-                    if f != Color::ZERO {
-                        counters.shadow_rays += 1;
-                        if !scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
-                            if env {
-                                ls.li = scene.lights.env_le(ls.wi);
-                            }
-                            if ls.li != Color::ZERO {
-                                let w = if ls.delta { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
-                                result += throughput * f * ls.li * (w / ls.pdf);
-                            }
-                        }
-                    }
-                }
-            }
-        } else {
-            // Keep the random-number stream aligned whatever the material.
-            sampler.next_1d();
-            sampler.next_2d();
-        }
-
-        // BSDF sampling.
-        let u_lobe = sampler.next_1d();
-        let u = sampler.next_2d();
-        let Some(bs) = material.sample(&scene.images, hit.uv, wo, u_lobe, u) else { break };
-        if bs.weight == Color::ZERO || !bs.weight.is_finite() {
-            break;
-        }
-        let wi = hit.frame.to_world(bs.wi);
-        let k = if bs.lobe == Lobe::Null { 1.0 } else { hit.shading_factor(wi) };
-        if k == 0.0 {
-            break;
-        }
-        throughput *= bs.weight * k;
-        eta *= bs.eta;
-        prev_pdf = bs.pdf;
-        prev_delta = bs.lobe.is_delta();
-        prev_p = hit.p;
-        ray = hit.spawn(wi);
-        depth += 1;
-
-        // Russian roulette.
-        let tmax = max_component(throughput);
-        if depth >= settings.rr_depth {
-            let q = (tmax * eta * eta).min(0.95);
-            if sampler.next_1d() >= q {
-                break;
-            }
-            throughput /= q;
-        }
-        if tmax <= 0.0 {
-            break;
-        }
-    }
-    result
+    pathloop::li(&Never, settings.depths(), scene, ray, diff, sampler, counters)
 }
 
 /// Path-traced *indirect* irradiance (W m⁻², per channel) at a free point `p` for the normal

@@ -136,6 +136,12 @@ impl Camera {
         RayDifferential { o_x: o, d_x: d + (dx - d) * scale, o_y: o, d_y: d + (dy - d) * scale }
     }
 
+    /// The angle a pixel subtends at the image centre, radians (`2 tan(fov_y / 2) / height`): the
+    /// spread of a camera ray's cone (`integrators::pathloop`).
+    pub fn pixel_spread(&self) -> f32 {
+        2.0 * self.tan_half_y * self.inv_height
+    }
+
     pub fn position(&self) -> Vec3 {
         self.origin
     }

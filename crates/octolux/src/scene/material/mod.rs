@@ -20,7 +20,7 @@
 //! in its room: [`fresnel`] (dielectric, conductor, thin-sheet and diffuse Fresnel),
 //! [`microfacet`] (Beckmann and GGX, visible-normal sampling), [`conductor`], [`dielectric`]
 //! (rough dielectric), [`plastic`] (smooth and rough, linear and nonlinear), [`ward`],
-//! [`phong`], [`blend`], [`texture`], and the wrappers [`mask`] (opacity, null lobe) and
+//! [`phong`], [`blend`], [`texture`], [`split`] (wide and narrow lobes, for caches), and the wrappers [`mask`] (opacity, null lobe) and
 //! [`bump`] (`bumpmap`, `normalmap`: perturbed shading frames, applied by the prepared scene).
 //! Smooth conductors and dielectrics are a few lines and stay here.
 
@@ -33,6 +33,7 @@ pub mod mask;
 pub mod microfacet;
 pub mod phong;
 pub mod plastic;
+pub mod split;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
@@ -46,6 +47,7 @@ pub mod ward;
 // The pieces stay reachable at their old paths (`material::fresnel_dielectric`, ...).
 pub use fresnel::{fresnel_conductor, fresnel_conductor_1, fresnel_dielectric, refract, thin_dielectric_reflectance};
 pub use microfacet::{Microfacet, MicrofacetKind, Roughness};
+pub use split::{SplitEval, DIFFUSE_ALPHA};
 pub use texture::{TexCoord, TexFilter, Texture};
 pub use ward::WardVariant;
 

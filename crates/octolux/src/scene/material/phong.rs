@@ -51,6 +51,22 @@ impl PhongLocal {
         f * wi.z
     }
 
+    /// [`PhongLocal::eval`]'s two lobes apart, `(specular, diffuse)` (each times `cos θ_i`), for
+    /// the cache's split of the lobes (`split.rs`).
+    #[inline]
+    pub(crate) fn eval_parts(&self, wo: Vec3, wi: Vec3) -> (Color, Color) {
+        let f = self.eval(wo, wi);
+        let diff = if wo.z <= 0.0 || wi.z <= 0.0 { Color::ZERO } else { self.kd * (FRAC_1_PI * wi.z) };
+        ((f - diff).max(Color::ZERO), diff)
+    }
+
+    /// The Beckmann roughness of the same width as the specular lobe: `sqrt(2 / (n + 2))`
+    /// (Walter et al. 2007's correspondence of Phong exponents and Beckmann widths).
+    #[inline]
+    pub(crate) fn alpha(&self) -> f32 {
+        (2.0 / (self.exponent + 2.0)).sqrt()
+    }
+
     #[inline]
     pub(crate) fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {

@@ -248,6 +248,14 @@ impl PlasticLocal {
 
     #[inline]
     pub(crate) fn eval(&self, ks: Color, eta: f32, wo: Vec3, wi: Vec3) -> Color {
+        let (spec, diff) = self.eval_parts(ks, eta, wo, wi);
+        spec + diff
+    }
+
+    /// [`PlasticLocal::eval`]'s two terms apart: `(coating, base)`, for the cache's split of the
+    /// lobes (`split.rs`).
+    #[inline]
+    pub(crate) fn eval_parts(&self, ks: Color, eta: f32, wo: Vec3, wi: Vec3) -> (Color, Color) {
         let d = &self.distribution;
         let h = (wo + wi).normalize();
         let f = fresnel_dielectric(wo.dot(h), eta).0;
@@ -255,7 +263,13 @@ impl PlasticLocal {
         let t_i = self.tables.transmittance(wi.z);
         let diff =
             diffuse_term(self.kd, self.tables.internal_reflectance, self.nonlinear) * (FRAC_1_PI / (eta * eta) * wi.z * self.t_o * t_i);
-        spec + diff
+        (spec, diff)
+    }
+
+    /// The coating's roughness.
+    #[inline]
+    pub(crate) fn alpha(&self) -> f32 {
+        self.distribution.alpha_u
     }
 
     #[inline]

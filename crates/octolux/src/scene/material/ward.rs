@@ -97,6 +97,21 @@ impl WardLocal {
         f * wi.z
     }
 
+    /// [`WardLocal::eval`]'s two lobes apart, `(specular, diffuse)` (each times `cos θ_i`), for
+    /// the cache's split of the lobes (`split.rs`).
+    #[inline]
+    pub(crate) fn eval_parts(&self, wo: Vec3, wi: Vec3) -> (Color, Color) {
+        let f = self.eval(wo, wi);
+        let diff = if wo.z <= 0.0 || wi.z <= 0.0 { Color::ZERO } else { self.kd * (FRAC_1_PI * wi.z) };
+        ((f - diff).max(Color::ZERO), diff)
+    }
+
+    /// The specular lobe's roughness (the geometric mean of its two alphas).
+    #[inline]
+    pub(crate) fn alpha(&self) -> f32 {
+        (self.alpha_u * self.alpha_v).sqrt()
+    }
+
     /// Density of the specular lobe's sampling routine producing `wi`.
     #[inline]
     fn specular_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {

@@ -1,14 +1,14 @@
 //! The volumetric solution (`caches::octree` `atmosphere.rs`) against path tracing, across
 //! walls and across cell borders, and an object inserted into baked lighting.
 
-use super::super::octree::{OctreeIntegrator, OctreeIntegratorSettings, ANCHOR_LIFT};
-use super::super::octree_leak::two_rooms;
-use super::super::path::{li, PathSettings};
-use super::super::test_scenes::box_scene;
+use super::super::leak_tests::two_rooms;
 use super::super::RayCounters;
+use super::super::{OctreeIntegrator, OctreeIntegratorSettings, ANCHOR_LIFT};
 use super::{InsertAo, Inserted};
 use crate::caches::octree::{Depth, QueryLeaf};
 use crate::caches::Octree;
+use crate::integrators::path::{li, PathSettings};
+use crate::integrators::test_scenes::box_scene;
 use crate::math::Ray;
 use crate::sampling::{around, square_to_cosine_hemisphere, Sampler};
 use crate::scene::Scene;
@@ -65,7 +65,7 @@ fn baked_box(photons: u64) -> (Scene, OctreeIntegrator) {
 /// bake of the box: the prepared scene and the cube's shape index.
 fn box_with_cube(centre: Vec3, half: Vec3, width: u32) -> (Scene, u32) {
     use crate::scene::{Geometry, ShapeDesc, TriMesh};
-    let mut desc = super::super::test_scenes::box_desc();
+    let mut desc = crate::integrators::test_scenes::box_desc();
     desc.film.width = width;
     desc.film.height = width;
     let first = desc.shapes.len() as u32;
@@ -245,7 +245,7 @@ fn inserted_object_renders_from_the_bake() {
 /// the value on four faces and nothing at all on the two facing ±Z, so that test fails here.
 #[test]
 fn the_inserted_objects_leak_test_looks_through_the_object() {
-    use super::super::octree::keep_leaf;
+    use super::super::leak::keep_leaf;
     let (_, o) = baked_box(200_000);
     let (centre, half) = (Vec3::new(-0.3, 1.0, 0.0), 0.15f32);
     let (scene, first) = box_with_cube(centre, Vec3::splat(half), 8);
@@ -298,7 +298,7 @@ fn the_inserted_objects_leak_test_looks_through_the_object() {
 #[test]
 #[ignore]
 fn inserted_cube_faces_diagnostic() {
-    use super::super::octree::keep_leaf;
+    use super::super::leak::keep_leaf;
     let (base_scene, o) = baked_box(400_000);
     let leak = o.settings.leak;
     for (name, centre, half) in [

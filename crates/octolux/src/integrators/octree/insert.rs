@@ -19,13 +19,12 @@
 //! ([`InsertAo`]): scale the scene's baked indirect light by the fraction of a cosine-weighted
 //! set of short rays that the object does not block (its ambient occlusion on the scene).
 
-use super::common::{RayCounters, Vertex};
-use super::octree::{shade_matrix, LeakTest, OctreeIntegrator, ANCHOR_LIFT};
+use super::{shade_matrix, LeakTest, OctreeIntegrator, ANCHOR_LIFT};
 use crate::caches::octree::{AtmosphereStats, QueryLeaf};
-use crate::caches::Octree;
+use crate::integrators::common::RayCounters;
+use crate::integrators::pathloop::CacheVertex;
 use crate::math::{Color, Ray};
 use crate::sampling::{around, square_to_cosine_hemisphere, Sampler};
-use crate::scene::material::Material;
 use crate::scene::Scene;
 use crate::scene::SurfaceHit;
 use glam::Vec3;
@@ -61,32 +60,9 @@ impl OctreeIntegrator {
         st
     }
 
-    /// The indirect light of the `Render` view at `v`: as without insertion, except on an
-    /// inserted object (the volume query) and, with [`InsertAo`], near one.
-    pub(super) fn indirect_render(
-        &self,
-        scene: &Scene,
-        v: &Vertex,
-        material: &Material,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-    ) -> Color {
-        if self.inserted.shapes.is_empty() {
-            return self.indirect_from(scene, v, material, counters, true, true);
-        }
-        if self.inserted.shapes.contains(&v.hit.shape) {
-            return self.inserted_indirect(scene, &self.global, v, material, counters);
-        }
-        let l = self.indirect_from(scene, v, material, counters, true, true);
-        match self.inserted.ao {
-            Some(ao) if ao.rays > 0 && l != Color::ZERO => l * self.unoccluded_by_inserted(scene, v, ao, sampler, counters),
-            _ => l,
-        }
-    }
-
     /// Light reflected at a point of an inserted object from `tree`'s volume query.
-    fn inserted_indirect(&self, scene: &Scene, tree: &Octree, v: &Vertex, material: &Material, counters: &mut RayCounters) -> Color {
-        let (hit, n) = (&v.hit, v.n);
+    pub(super) fn inserted_indirect(&self, scene: &Scene, v: &CacheVertex, min_alpha: f32, counters: &mut RayCounters) -> Option<Color> {
+        let (tree, hit, n, material) = (&self.global, v.hit, v.n, v.material);
         let mut rays = 0u64;
         let leak = self.settings.leak;
         let shapes = self.inserted.shapes.clone();
@@ -97,16 +73,23 @@ impl OctreeIntegrator {
             tree.incident_matrix_volume(hit.p, n, Some(&mut |q| leaf_seen_past_inserted(scene, &shapes, hit, n, &q, &mut rays)))
         });
         counters.shadow_rays += rays;
-        let Some(m) = m else { return Color::ZERO };
-        match material.lambertian_albedo(&scene.images, hit.uv, v.wo) {
+        let m = m?;
+        Some(match material.lambertian_albedo(&scene.images, hit.uv, v.wo) {
             Some(rho) => rho * (m.transpose() * n).max(Color::ZERO) * std::f32::consts::FRAC_1_PI,
-            None => shade_matrix(scene, hit, material, v.wo, &m),
-        }
+            None => shade_matrix(scene, hit, material, v.wo, &m, min_alpha),
+        })
     }
 
     /// Fraction of `ao.rays` cosine-distributed rays of length `ao.distance` from `v` that no
     /// inserted shape blocks.
-    fn unoccluded_by_inserted(&self, scene: &Scene, v: &Vertex, ao: InsertAo, sampler: &mut Sampler, counters: &mut RayCounters) -> f32 {
+    pub(super) fn unoccluded_by_inserted(
+        &self,
+        scene: &Scene,
+        v: &CacheVertex,
+        ao: InsertAo,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+    ) -> f32 {
         let o = crate::math::offset_origin(v.hit.p, crate::math::facing(v.hit.ng, v.n), v.n);
         let mut free = 0u32;
         for _ in 0..ao.rays {

@@ -15,8 +15,9 @@
 //! With [`LeakTest::None`] every leaf is kept and every query uses the tables; with the other
 //! leak tests the exact query is always used.
 
-use super::octree::{keep_sample_seen, LeakTest, OctreeIntegrator, QueryMode, ANCHOR_LIFT};
-use super::octree_reach::LeakData;
+use super::leak::keep_sample_seen;
+use super::reach::LeakData;
+use super::{LeakTest, OctreeIntegrator, QueryMode, ANCHOR_LIFT};
 use crate::caches::octree::{class_axis, query_class, CornerTable, CornerTables, Segment, Verdicts, QUERY_CLASSES};
 use crate::caches::Octree;
 use crate::scene::{Scene, SurfaceHit};
@@ -134,8 +135,8 @@ const _: () = assert!(QUERY_CLASSES == 6);
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::integrators::octree::leak_tests::two_rooms;
     use crate::integrators::octree::{OctreeIntegratorSettings, OctreeView};
-    use crate::integrators::octree_leak::two_rooms;
     use crate::integrators::test_scenes::{box_scene, check_furnace, furnace_box_scene, image_mean};
     use crate::integrators::{Integrator, RayCounters};
     use crate::math::Ray;

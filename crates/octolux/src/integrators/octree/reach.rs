@@ -4,7 +4,7 @@
 //! of each valid leaf, its *reach*: how far the light it received travelled from the last
 //! surface before it, up to [`REACH_MAX`] cell edges (the distance along the photon's incident
 //! direction to the first surface: the surface that lit it, or the light). The test
-//! [`super::octree::LeakTest::VisibleOrigin`] looks from the query point at the photon's light
+//! [`super::LeakTest::VisibleOrigin`] looks from the query point at the photon's light
 //! origin, a point on that segment, which therefore never lies behind the surface that lit the
 //! photon (a floor photon lit by a wall a few millimetres away has its origin in front of the
 //! wall, not in the next room). Each sample also gets the normal of the surface it lies on

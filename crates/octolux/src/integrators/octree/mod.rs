@@ -1,0 +1,321 @@
+//! The `octree` integrator: the path tracer's loop ([`super::pathloop`]) ending paths in the
+//! paper's incident-radiance octrees (Pacanowski, Granier & Schlick 2005): a global octree for
+//! the indirect light and a caustic octree for the light that reached a surface through
+//! specular bounces only (§8; `docs/octree.md`).
+//!
+//! **Where a path ends** ([`Mode`], docs/octree.md "Ending paths in the cache"). With
+//! `mode = terminate` (the default) a path ends at a vertex when its ray cone is at least
+//! `footprint` times as wide as the global octree's leaf there and the vertex has a lobe at
+//! least `min_alpha` rough (`shade.rs`): a glossy camera vertex, or a vertex close to the one
+//! before it (a corner), is traced on, as NVIDIA SHaRC and neural radiance caching do. With
+//! `mode = paper` the path ends at the first vertex with a non-delta lobe after a specular
+//! chain from the camera, as the paper's ray tracer does (§8).
+//!
+//! **How the cache shades a surface** (`shade.rs`). Column `c` of the blended matrix `M(N)` is
+//! the irradiance vector `m_c` of colour channel `c` (§4): its direction `d_c = m_c/|m_c|` is
+//! the mean incident direction and `|m_c|` its strength. Each channel's incident light is
+//! taken as arriving from `d_c`: `L_o,c = f_c(wo, d_c) cos θ(d_c) |m_c|`. For a Lambertian
+//! surface this is `ρ/π (m_c·N) = ρ E_c / π`, the paper's formula; for a glossy lobe it
+//! evaluates the lobe in the mean incident direction, which is why only lobes at least
+//! `min_alpha` rough are shaded from the cache.
+//!
+//! **Leak control** ([`LeakTest`], `leak.rs`, `docs/octree.md` "Leak control"): every octree
+//! read drops the leaves whose photons the shading point cannot see, so light does not pass
+//! through walls thinner than the query box. The global tree's depth limit is automatic by
+//! default (`caches::octree::auto_depth`).
+//!
+//! Rooms: `settings.rs` (the settings and their checks), `shade.rs` (the termination rule and
+//! the cache's light at a vertex), `leak.rs` + `reach.rs` (the leak test), `corners.rs` (the
+//! corner-table query), `insert.rs` (objects inserted into baked lighting), `views.rs` (the
+//! irradiance and leaf views).
+
+mod corners;
+pub mod insert;
+mod leak;
+#[cfg(test)]
+pub(crate) mod leak_tests;
+pub mod reach;
+mod settings;
+mod shade;
+#[cfg(test)]
+mod tests;
+mod views;
+
+pub use leak::{ANCHOR_LIFT, DIRECTION_REACH, LIGHT_LIFT, ORIGIN_SHARE, SAME_FACING};
+pub use settings::{
+    LeakTest, Mode, OctreeIntegratorSettings, OctreeView, QueryMode, CAUSTIC_H_MAX, CAUSTIC_N_MAX, DEFAULT_CAUSTIC_PHOTONS,
+    DEFAULT_FOOTPRINT, DEFAULT_MIN_ALPHA, MAX_SPECULAR_CHAIN,
+};
+pub(super) use shade::shade_matrix;
+
+use super::common::RayCounters;
+use super::pathloop::{self, Depths};
+use crate::caches::octree::{AnalyticSphere, LeafPlanes, OctreeParts, PartsError, Surfaces};
+use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
+use crate::math::{Color, Ray, RayDifferential};
+use crate::photon::trace::{trace_photons, PhotonError};
+use crate::sampling::Sampler;
+use crate::scene::material::Material;
+use crate::scene::Scene;
+use glam::Vec3;
+use reach::{LeakData, REACH_MAX};
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Errors while building the octrees.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error(transparent)]
+    Photons(#[from] PhotonError),
+    #[error("global octree: {0}")]
+    Global(OctreeError),
+    #[error("caustic octree: {0}")]
+    Caustic(OctreeError),
+    #[error("{0}")]
+    Settings(String),
+    /// Prebuilt octrees ([`OctreeIntegrator::from_parts`]) that do not make an integrator.
+    #[error("{tree} octree: {source}")]
+    Parts { tree: &'static str, source: PartsError },
+}
+
+/// Statistics of the build (the paper's tables 1 and 3).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OctreeBuildStats {
+    pub photons_emitted: u64,
+    pub global_photons: usize,
+    pub caustic_photons: usize,
+    /// Photon tracing time, seconds.
+    pub t_photons_s: f64,
+    /// Octree build time (both octrees), seconds.
+    pub t_octree_s: f64,
+    /// `t_c`: photon tracing + octree build, seconds.
+    pub t_c_s: f64,
+    /// Octree build rate, photons per second (both octrees).
+    pub build_photons_per_s: f64,
+    pub global: OctreeStats,
+    pub caustic: Option<OctreeStats>,
+    /// `F_m`: bytes of both octrees as stored.
+    pub bytes: usize,
+}
+
+/// A built `octree` integrator: settings plus the two octrees (read-only while rendering).
+pub struct OctreeIntegrator {
+    pub settings: OctreeIntegratorSettings,
+    pub global: Octree,
+    pub caustic: Option<Octree>,
+    pub stats: OctreeBuildStats,
+    /// [`LeafPlanes`] of the global and the caustic tree for the leak test, computed from the
+    /// scene at the first query (or by [`OctreeIntegrator::prepare_leak`]).
+    planes: [std::sync::OnceLock<LeakData>; 2],
+    /// Corner tables of the global and the caustic tree ([`QueryMode::Corners`]), computed at
+    /// preparation or at the first query.
+    pub(super) corners: [std::sync::OnceLock<crate::caches::octree::CornerTables>; 2],
+    /// Objects inserted into the baked lighting (`insert.rs`); none by default.
+    pub inserted: insert::Inserted,
+}
+
+/// A built `octree` integrator as plain data: what a cache file holds (docs/baking.md).
+/// Extend [`OctreeParts`] for per-leaf data, this struct for per-integrator data.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OctreeIntegratorParts {
+    pub settings: OctreeIntegratorSettings,
+    pub global: OctreeParts,
+    pub caustic: Option<OctreeParts>,
+    pub stats: OctreeBuildStats,
+}
+
+impl OctreeIntegrator {
+    /// The integrator as plain data ([`Octree::to_parts`] of both octrees).
+    pub fn to_parts(&self) -> OctreeIntegratorParts {
+        OctreeIntegratorParts {
+            settings: self.settings.clone(),
+            global: self.global.to_parts(),
+            caustic: self.caustic.as_ref().map(Octree::to_parts),
+            stats: self.stats.clone(),
+        }
+    }
+
+    /// The integrator from prebuilt octrees, without tracing a photon: every octree invariant
+    /// is checked ([`Octree::from_parts`]) and each octree's settings must be the integrator's.
+    /// Renders are bit-identical to those of the integrator the parts came from.
+    pub fn from_parts(parts: OctreeIntegratorParts) -> Result<OctreeIntegrator, BuildError> {
+        let OctreeIntegratorParts { settings, global, caustic, mut stats } = parts;
+        settings.validate().map_err(BuildError::Settings)?;
+        let tree = |name: &'static str, want: &OctreeSettings, p: OctreeParts| {
+            let err = |source| BuildError::Parts { tree: name, source };
+            if p.settings != *want {
+                return Err(err(PartsError(format!("its settings {:?} are not the integrator's {want:?}", p.settings))));
+            }
+            Octree::from_parts(p).map_err(err)
+        };
+        let global = tree("global", &settings.global, global)?;
+        let caustic = caustic.map(|c| tree("caustic", &settings.caustic, c)).transpose()?;
+        stats.global = global.stats().clone();
+        stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
+        stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
+        let o = OctreeIntegrator {
+            settings,
+            global,
+            caustic,
+            stats,
+            planes: Default::default(),
+            corners: Default::default(),
+            inserted: Default::default(),
+        };
+        o.prepare_query();
+        Ok(o)
+    }
+
+    /// Build the octrees' flat query lists now (render-time data, `caches/octree/flat.rs`)
+    /// instead of at the first query.
+    pub fn prepare_query(&self) {
+        self.global.prepare_query();
+        if let Some(c) = &self.caustic {
+            c.prepare_query();
+        }
+    }
+
+    /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
+    /// instead of at the first query; the scene must be the one the octrees were built for.
+    pub fn prepare_leak(&self, scene: &Scene) {
+        if matches!(
+            self.settings.leak,
+            LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::VisibleOrigin | LeakTest::OpenDirections
+        ) {
+            self.planes_of(scene, &self.global);
+            // the caustic tree's too: built at its first query, they counted as query time
+            if let Some(c) = &self.caustic {
+                self.planes_of(scene, c);
+            }
+        }
+        if self.uses_corners() {
+            self.corners_of(scene, &self.global);
+            if let Some(c) = &self.caustic {
+                self.corners_of(scene, c);
+            }
+        }
+    }
+
+    /// What the leak test found (for out.json's `render_report`): per tree that computed them,
+    /// the valid leaves around which the scene is one plane ([`LeafPlanes`], tested without a
+    /// ray) and all valid leaves.
+    pub fn leak_report(&self) -> serde_json::Value {
+        let count = |p: &std::sync::OnceLock<LeakData>| {
+            p.get().map(|p| serde_json::json!({ "planar": p.planes.planar(), "valid": p.planes.len() }))
+        };
+        let lists = |t: &Octree| {
+            let (entries, bytes) = t.query_lists();
+            serde_json::json!({ "entries": entries, "bytes": bytes })
+        };
+        let corners = |c: &std::sync::OnceLock<crate::caches::octree::CornerTables>| {
+            c.get().map(|c| {
+                let (tables, bytes) = c.size();
+                serde_json::json!({ "tables": tables, "bytes": bytes })
+            })
+        };
+        serde_json::json!({
+            "corner_tables_global": corners(&self.corners[0]),
+            "corner_tables_caustic": corners(&self.corners[1]),
+            "leak_planes_global": count(&self.planes[0]),
+            "leak_planes_caustic": count(&self.planes[1]),
+            "query_lists_global": lists(&self.global),
+            "query_lists_caustic": self.caustic.as_ref().map(lists),
+        })
+    }
+
+    /// The [`LeafPlanes`] and sample reaches of `tree` (one of this integrator's octrees) for `scene`.
+    pub fn planes_of(&self, scene: &Scene, tree: &Octree) -> &LeakData {
+        let i = if std::ptr::eq(tree, &self.global) { 0 } else { 1 };
+        self.planes[i].get_or_init(|| {
+            let tris = scene.mesh_triangles_where(|_| true);
+            let spheres: Vec<_> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
+            let planes: LeafPlanes = tree.leaf_planes(&tris, &spheres, DIRECTION_REACH.max(ANCHOR_LIFT).max(LIGHT_LIFT).max(REACH_MAX));
+            LeakData::new(scene, tree, planes, self.settings.leak == LeakTest::VisibleOrigin)
+        })
+    }
+
+    /// Trace the photons and build both octrees over the scene's bounds.
+    pub fn build(scene: &Scene, settings: OctreeIntegratorSettings) -> Result<OctreeIntegrator, BuildError> {
+        settings.validate().map_err(BuildError::Settings)?;
+        settings.global.validate().map_err(BuildError::Global)?;
+        settings.caustic.validate().map_err(BuildError::Caustic)?;
+        // Honour max_depth as Mitsuba counts it, so renders stay comparable with `path` at the
+        // same value: a path camera -> x1 ... -> x_n -> y_b ... -> y_1 -> light has n + b
+        // surface vertices and must have at most max_depth - 1, so photons read at vertex n
+        // may have bounced at most max_depth - 1 - n times; the cache then serves that vertex
+        // only (`Mode::end_vertex`).
+        let mut photon_settings = settings.photons;
+        if settings.max_depth >= 0 {
+            let n = settings.mode.end_vertex() as i32;
+            photon_settings.max_bounces = photon_settings.max_bounces.min((settings.max_depth - 1 - n).max(0) as u32);
+        }
+        let maps = trace_photons(scene, &photon_settings)?;
+        let t0 = Instant::now();
+        let needs_geometry = |s: &OctreeSettings| s.estimator == crate::caches::Estimator::GeometryArea;
+        // Meshes as triangles, spheres analytic: a tessellated sphere would leave its photons
+        // off the triangles, its lit side undetected (docs/octree.md, "Analytic shapes").
+        let (tris, spheres) = if needs_geometry(&settings.global) || needs_geometry(&settings.caustic) {
+            estimator_surfaces(scene)
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        let surfaces = Some(Surfaces { triangles: &tris, spheres: &spheres });
+        let global = Octree::build_with_surfaces(&maps.global, scene.bounds, &settings.global, surfaces).map_err(BuildError::Global)?;
+        let caustic = if maps.caustic.is_empty() {
+            None
+        } else {
+            Some(Octree::build_with_surfaces(&maps.caustic, scene.bounds, &settings.caustic, surfaces).map_err(BuildError::Caustic)?)
+        };
+        let t_octree_s = t0.elapsed().as_secs_f64();
+        let n = maps.global.len() + maps.caustic.len();
+        let stats = OctreeBuildStats {
+            photons_emitted: maps.emitted,
+            global_photons: maps.global.len(),
+            caustic_photons: maps.caustic.len(),
+            t_photons_s: maps.time_s,
+            t_octree_s,
+            t_c_s: maps.time_s + t_octree_s,
+            build_photons_per_s: n as f64 / t_octree_s.max(1e-9),
+            global: global.stats().clone(),
+            caustic: caustic.as_ref().map(|c| c.stats().clone()),
+            bytes: global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes),
+        };
+        let o = OctreeIntegrator {
+            settings,
+            global,
+            caustic,
+            stats,
+            planes: Default::default(),
+            corners: Default::default(),
+            inserted: Default::default(),
+        };
+        o.prepare_leak(scene);
+        o.prepare_query();
+        Ok(o)
+    }
+
+    /// The path loop's limits.
+    fn depths(&self) -> Depths {
+        Depths { max_depth: self.settings.max_depth, rr_depth: self.settings.rr_depth }
+    }
+
+    /// Radiance along a primary ray: the path loop ending in the octrees, or a debug view.
+    pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<&RayDifferential>, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+        match self.settings.view {
+            OctreeView::Render => pathloop::li(self, self.depths(), scene, ray, diff, sampler, counters),
+            view => self.view(view, scene, ray, diff, sampler, counters),
+        }
+    }
+}
+
+/// The surfaces the geometry-area estimator clips its gathering boxes to (`caches::octree`'s
+/// [`Surfaces`]): the meshes' triangles and the analytic spheres of the materials with a smooth
+/// lobe (those that store photons), world space.
+pub fn estimator_surfaces(scene: &Scene) -> (Vec<[Vec3; 3]>, Vec<AnalyticSphere>) {
+    let spheres = scene
+        .analytic_spheres_where(Material::has_smooth_lobe)
+        .into_iter()
+        .map(|(center, radius, inward)| AnalyticSphere { center, radius, inward })
+        .collect();
+    (scene.mesh_triangles_where(Material::has_smooth_lobe), spheres)
+}

@@ -1,0 +1,316 @@
+//! The one path loop of every integrator that traces paths: unidirectional path tracing with
+//! next-event estimation and multiple importance sampling (power heuristic), Russian roulette
+//! and Mitsuba 3's `max_depth`, plus a policy ([`Ending`]) that may end a path in a radiance
+//! cache at a vertex. The path tracer ([`super::path`]) runs it with [`Never`]; the octree
+//! integrator ([`super::octree`]) with its termination rule (docs/octree.md, "Ending paths in
+//! the cache").
+//!
+//! `max_depth` counts path vertices as Mitsuba 3 does: 1 = only emitters seen directly,
+//! 2 = direct illumination, -1 = unbounded. Russian roulette starts at depth `rr_depth`
+//! (Mitsuba: 5) with continuation probability `min(max(throughput) · η², 0.95)`.
+//!
+//! As in Mitsuba 3's `path.cpp`: a `mask`'s pass-through ([`Lobe::Null`]) is a delta vertex
+//! (it counts towards `max_depth`, and the emitter it reaches gets no MIS weight); shadow rays
+//! stop at masks whatever their opacity; bump- and normal-mapped hits scale BSDF values and
+//! sample weights by [`crate::scene::SurfaceHit::shading_factor`] (side check, terminator
+//! shadowing).
+//!
+//! # Ending a path in a cache
+//! At a vertex `x` with a non-delta lobe, [`Ending::end`] may answer with the cache's light
+//! there ([`CacheEnd`]): the indirect light reflected by the lobes at least
+//! [`CacheEnd::min_alpha`] wide (the *wide* lobes, [`Material::eval_split`]), and whether it
+//! holds the caustic light too. The light arriving at `x` is then counted once, whatever its
+//! kind:
+//! - direct light (emitter to `x`): next-event estimation at `x` and the BSDF-sampled ray's
+//!   emitter hit, MIS-weighted, as in the path tracer;
+//! - indirect light through the wide lobes: the cache's value, and, when the cache does not
+//!   hold the caustics, the wide lobes' share of the BSDF-sampled ray followed through delta
+//!   bounces to an emitter (the *tail*, which gets no next-event estimation);
+//! - indirect light through the narrow lobes and the delta lobes: the path goes on with the
+//!   narrow lobes' share of the sampled direction's weight (a delta sample keeps all of it).
+//!
+//! A path that ends nowhere is the path tracer's, bit for bit: [`Ending::end`] may not draw
+//! from the sampler unless it ends the path.
+//!
+//! # The ray cone
+//! When the policy asks for it ([`Ending::FOOTPRINT`]), the loop carries the path's ray cone
+//! (as NVIDIA SHaRC and neural radiance caching do): width `w` at the current vertex and
+//! spread `s` (width gained per unit of distance). A camera ray starts with `w = 0` and `s` the
+//! pixel's angle ([`crate::scene::camera::Camera::pixel_spread`]; a ray without differentials
+//! with `s = 0`); a segment of length `t` adds `s t` to `w`; a bounce adds the sampled lobe's
+//! spread to `s`: 0 for a delta lobe, [`SPREAD_DIFFUSE`] for a diffuse one, and for a glossy
+//! lobe of roughness `α` the width of its cone, `2 sqrt(α² / (2 (1 − α²)))` (SHaRC's rule), at
+//! most [`SPREAD_DIFFUSE`].
+
+use super::common::{mis_power, RayCounters};
+use crate::math::{max_component, Color, Ray, RayDifferential};
+use crate::sampling::Sampler;
+use crate::scene::material::{Lobe, Material, TexCoord};
+use crate::scene::{Scene, SurfaceHit};
+use glam::Vec3;
+
+/// Cone spread of a diffuse bounce (width per unit distance): a cone of half-angle 45°, the
+/// widest a bounce gives. After a diffuse bounce the footprint at the next vertex is about
+/// twice the segment's length.
+pub const SPREAD_DIFFUSE: f32 = 2.0;
+
+/// Path length limits (Mitsuba's meaning, see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Depths {
+    /// Longest path in vertices; -1 = unbounded.
+    pub max_depth: i32,
+    /// Depth from which Russian roulette may end paths.
+    pub rr_depth: u32,
+}
+
+/// A surface vertex with a non-delta lobe, offered to [`Ending::end`].
+pub struct CacheVertex<'a> {
+    pub hit: &'a SurfaceHit,
+    pub material: &'a Material,
+    /// Direction to the previous vertex, local shading frame.
+    pub wo: Vec3,
+    /// Shading normal on the side of `wo` (world).
+    pub n: Vec3,
+    /// The vertex's place along the path: 1 = the first surface the camera ray meets.
+    pub index: u32,
+    /// Width of the path's ray cone at the vertex, scene units (0 without [`Ending::FOOTPRINT`]).
+    pub footprint: f32,
+    /// Every bounce before this vertex sampled a delta lobe (a specular chain from the camera).
+    pub specular_chain: bool,
+}
+
+/// What a cache gives where a path ends (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CacheEnd {
+    /// Indirect light reflected towards `wo` by the wide lobes, from the cache, W/(m² sr).
+    pub radiance: Color,
+    /// The roughness from which a lobe is the cache's (0: every non-delta lobe).
+    pub min_alpha: f32,
+    /// The cache's value holds the caustic light (light from an emitter through delta bounces
+    /// only); otherwise the loop traces it (the tail).
+    pub caustics: bool,
+}
+
+/// The policy of the loop: where a path may end in a cache, and what the cache gives there.
+pub trait Ending {
+    /// Whether [`CacheVertex::footprint`] is needed (the loop tracks the ray cone only then).
+    const FOOTPRINT: bool;
+    /// `Some` ends the path at `v` in the cache. May draw from `sampler` only when it does.
+    fn end(&self, scene: &Scene, v: &CacheVertex, sampler: &mut Sampler, counters: &mut RayCounters) -> Option<CacheEnd>;
+}
+
+/// The path tracer's policy: no path ends in a cache.
+pub struct Never;
+
+impl Ending for Never {
+    const FOOTPRINT: bool = false;
+    #[inline]
+    fn end(&self, _: &Scene, _: &CacheVertex, _: &mut Sampler, _: &mut RayCounters) -> Option<CacheEnd> {
+        None
+    }
+}
+
+/// The cone spread a sampled lobe adds (module docs).
+#[inline]
+pub fn lobe_spread(lobe: Lobe, material: &Material, scene: &Scene, uv: TexCoord) -> f32 {
+    match lobe {
+        Lobe::Specular | Lobe::Null => 0.0,
+        Lobe::Diffuse => SPREAD_DIFFUSE,
+        Lobe::Glossy => glossy_spread(material.glossy_alpha(&scene.images, uv)),
+    }
+}
+
+/// The cone spread of a glossy lobe of roughness `alpha`: `2 sqrt(α² / (2 (1 − α²)))`, at most
+/// [`SPREAD_DIFFUSE`].
+#[inline]
+pub fn glossy_spread(alpha: f32) -> f32 {
+    let a2 = alpha * alpha;
+    if !(a2 < 1.0) {
+        return SPREAD_DIFFUSE;
+    }
+    (2.0 * (0.5 * a2 / (1.0 - a2)).sqrt()).min(SPREAD_DIFFUSE)
+}
+
+/// Radiance along `ray` (module docs). `diff`, the camera ray's differential, gives the first
+/// hit's texture lookups their footprint and marks `ray` as a camera ray (for the cone).
+pub fn li<E: Ending>(
+    ending: &E,
+    depths: Depths,
+    scene: &Scene,
+    mut ray: Ray,
+    diff: Option<&RayDifferential>,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    // Only the camera ray carries a differential (Mitsuba 0.6): the first hit's lookups.
+    let mut diff = diff;
+    let max_depth = if depths.max_depth < 0 { u32::MAX } else { depths.max_depth as u32 };
+    let mut result = Color::ZERO;
+    // Weight of the path going on (all lobes after a vertex that did not end).
+    let mut throughput = Color::ONE;
+    // `alive`: the path goes on (false once it ended in a cache with no narrow lobe left).
+    let mut alive = true;
+    // The tail (module docs): its weight, whether there is one, and whether it follows delta
+    // bounces beyond its first hit (the cache lacked the caustics).
+    let (mut tail, mut tail_on, mut tail_traces) = (Color::ZERO, false, false);
+    let mut eta = 1.0f32;
+    let mut depth = 0u32;
+    let mut prev_pdf = 1.0f32;
+    let mut prev_delta = true;
+    let mut prev_p = ray.o;
+    let mut specular_chain = true;
+    let (mut cone_width, mut cone_spread) = (0.0f32, if E::FOOTPRINT && diff.is_some() { scene.camera.pixel_spread() } else { 0.0 });
+    if max_depth == 0 {
+        return result;
+    }
+    loop {
+        counters.rays += 1;
+        // The weight emission found by this ray is counted with.
+        let weight = if tail_on { throughput + tail } else { throughput };
+        let Some(mut hit) = scene.intersect(&ray) else {
+            // Escaped: environment emission.
+            let le = scene.lights.env_le(ray.d);
+            if le != Color::ZERO {
+                let w = if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_env(ray.d)) };
+                result += weight * le * w;
+            }
+            break;
+        };
+        if E::FOOTPRINT {
+            cone_width += hit.t * cone_spread;
+        }
+        if let Some(d) = diff.take() {
+            // Only MIP-mapped textures read the partials: skip them for the others.
+            if scene.materials[hit.material as usize].reads_uv_partials() {
+                hit.set_ray_differential(d);
+            }
+        }
+        // Emission from an area light hit by the ray.
+        if let Some(light) = hit.light {
+            let le = scene.lights.area_le(light, hit.ng, -ray.d);
+            if le != Color::ZERO {
+                let w = if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_area(light, prev_p, hit.p, hit.ng)) };
+                result += weight * le * w;
+            }
+        }
+        if tail_on && !tail_traces {
+            // the cache holds what lies beyond the tail's first hit
+            tail_on = false;
+        }
+        if !alive && !tail_on {
+            break;
+        }
+        if depth + 1 >= max_depth {
+            break;
+        }
+        let material = &scene.materials[hit.material as usize];
+        material.prefetch(&scene.images, hit.uv);
+        let wo = hit.frame.to_local(-ray.d);
+
+        // Next-event estimation, after the cache's say.
+        let mut end = None;
+        if alive && material.has_smooth_lobe() {
+            let v = CacheVertex {
+                hit: &hit,
+                material,
+                wo,
+                n: crate::math::facing(hit.frame.n, -ray.d),
+                index: depth + 1,
+                footprint: cone_width,
+                specular_chain,
+            };
+            if let Some(e) = ending.end(scene, &v, sampler, counters) {
+                result += throughput * e.radiance;
+                end = Some(e);
+                counters.cache_ends[(depth as usize).min(3)] += 1;
+            }
+            let u_sel = sampler.next_1d();
+            let u = sampler.next_2d();
+            // An environment sample's radiance is looked up only once the shadow ray is clear
+            // (`sample_li_deferred`): the same sum, without the sky model for occluded samples.
+            if let Some((mut ls, env)) = scene.lights.sample_li_deferred(hit.p, u_sel, u) {
+                if ls.pdf > 0.0 && (env || ls.li != Color::ZERO) {
+                    let wi = hit.frame.to_local(ls.wi);
+                    let f = material.eval(&scene.images, hit.uv, wo, wi) * hit.shading_factor(ls.wi);
+                    if f != Color::ZERO {
+                        counters.shadow_rays += 1;
+                        if !scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
+                            if env {
+                                ls.li = scene.lights.env_le(ls.wi);
+                            }
+                            if ls.li != Color::ZERO {
+                                let w = if ls.delta { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
+                                result += throughput * f * ls.li * (w / ls.pdf);
+                            }
+                        }
+                    }
+                }
+            }
+        } else {
+            // Keep the random-number stream aligned whatever the material (and on the tail,
+            // which takes no light sample).
+            sampler.next_1d();
+            sampler.next_2d();
+        }
+
+        // BSDF sampling.
+        let u_lobe = sampler.next_1d();
+        let u = sampler.next_2d();
+        let Some(bs) = material.sample(&scene.images, hit.uv, wo, u_lobe, u) else { break };
+        if bs.weight == Color::ZERO || !bs.weight.is_finite() {
+            break;
+        }
+        let wi = hit.frame.to_world(bs.wi);
+        let k = if bs.lobe == Lobe::Null { 1.0 } else { hit.shading_factor(wi) };
+        if k == 0.0 {
+            break;
+        }
+        if bs.lobe.is_delta() {
+            // a delta bounce carries the path and the tail alike
+            throughput *= bs.weight * k;
+            if tail_on {
+                tail *= bs.weight * k;
+            }
+        } else if let Some(e) = end {
+            // The path ended here: the wide lobes' share of the sample is the tail, the narrow
+            // lobes' share goes on.
+            let s = material.eval_split(&scene.images, hit.uv, wo, bs.wi, e.min_alpha);
+            let g = k / bs.pdf;
+            (tail, tail_on, tail_traces) = (throughput * s.wide * g, true, !e.caustics);
+            throughput *= s.narrow * g;
+            alive = alive && throughput.max_element() > 0.0;
+        } else {
+            throughput *= bs.weight * k;
+            // a non-delta bounce ends the tail: the cache held that light
+            (tail, tail_on) = (Color::ZERO, false);
+        }
+        if !alive && !tail_on {
+            break;
+        }
+        eta *= bs.eta;
+        prev_pdf = bs.pdf;
+        prev_delta = bs.lobe.is_delta();
+        prev_p = hit.p;
+        specular_chain &= prev_delta;
+        if E::FOOTPRINT {
+            cone_spread += lobe_spread(bs.lobe, material, scene, hit.uv);
+        }
+        ray = hit.spawn(wi);
+        depth += 1;
+
+        // Russian roulette.
+        let tmax = max_component(if tail_on { throughput + tail } else { throughput });
+        if depth >= depths.rr_depth {
+            let q = (tmax * eta * eta).min(0.95);
+            if sampler.next_1d() >= q {
+                break;
+            }
+            throughput /= q;
+            tail /= q;
+        }
+        if tmax <= 0.0 {
+            break;
+        }
+    }
+    result
+}
