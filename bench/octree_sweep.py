@@ -54,7 +54,7 @@ def run(sc: dict, variant: str, photons: int, spp: int, out: Path, seed: int) ->
         raise RuntimeError(f"{' '.join(cmd)}: {p.stderr.strip()[-600:]}")
     err = tte.compare(out, sc["ref"])
     stats = json.loads(out.with_suffix(".json").read_text())
-    ends = stats.get("counters", {}).get("cache_ends")
+    ends = stats.get("render", {}).get("counters", {}).get("cache_ends")
     import numpy as np  # only for the brightest pixel
     sys.path.insert(0, str(ROOT / "tools" / "mitsuba"))
     import compare as mc  # noqa: E402

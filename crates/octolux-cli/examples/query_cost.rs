@@ -15,7 +15,7 @@ use anyhow::{bail, Context, Result};
 use glam::Vec2;
 use octolux::accel::BackendKind;
 use octolux::integrators::common::walk_specular;
-use octolux::integrators::octree::{LeakTest, OctreeIntegrator, OctreeIntegratorSettings, QueryMode};
+use octolux::integrators::octree::{LeakTest, OctreeIntegrator, OctreeIntegratorSettings, Tree};
 use octolux::integrators::RayCounters;
 use octolux::math::Ray;
 use octolux::sampling::Sampler;
@@ -69,7 +69,6 @@ fn main() -> Result<()> {
     st.photons.photons = photons;
     let o = OctreeIntegrator::build(&scene, st)?;
     o.prepare_query();
-    o.prepare_leak(&scene);
     let (w, h) = (scene.film.width as f32, scene.film.height as f32);
     let rays: Vec<Ray> = (0..res * res)
         .map(|i| {
@@ -107,100 +106,23 @@ fn main() -> Result<()> {
         (0..33).filter(|&i| hist[i] > 0).map(|i| format!("{i}:{:.3}", hist[i] as f64 / nq)).collect::<Vec<_>>().join(" ")
     );
     let parts = o.to_parts();
-    let configs = [
-        (QueryMode::Blend, LeakTest::None),
-        (QueryMode::Blend, LeakTest::VisibleSample),
-        (QueryMode::Corners, LeakTest::None),
-        (QueryMode::Corners, LeakTest::VisibleSample),
-    ];
+    let configs = [LeakTest::None, LeakTest::VisibleSample];
     let integrators: Vec<OctreeIntegrator> = configs
         .iter()
-        .map(|&(query, leak)| {
+        .map(|&leak| {
             let mut p = parts.clone();
-            p.settings.query = query;
             p.settings.leak = leak;
-            let o = OctreeIntegrator::from_parts(p).expect("same parts");
+            let mut o = OctreeIntegrator::from_parts(p).expect("same parts");
             let t0 = thread_cpu();
-            o.prepare_leak(&scene);
-            let t = thread_cpu() - t0;
-            let mut r = 0u64;
-            let tabled = if query == QueryMode::Corners {
-                verts.iter().filter(|v| o.corner_table(&scene, &o.global, &v.hit, v.n, &mut r).is_some()).count() as f64 / nq
-            } else {
-                0.0
-            };
-            println!(
-                "{query:?}/{leak:?}: preparation {:.3} s of CPU (one thread), queries with a table {tabled:.3}, report {}",
-                t,
-                o.leak_report()
-            );
+            o.prepare(&scene);
+            println!("{leak:?}: preparation {:.3} s of CPU (one thread), report {}", thread_cpu() - t0, o.leak_report());
             o
         })
         .collect();
-    // the corner query's parts (Corners/None)
-    {
-        let o = &integrators[2];
-        let t0 = thread_cpu();
-        let mut acc = 0u64;
-        for v in &verts {
-            acc += o.global.valid_leaf_at(v.hit.p).map_or(0, |x| x.0 as u64);
-        }
-        let t_loc = thread_cpu() - t0;
-        let mut r = 0u64;
-        let t0 = thread_cpu();
-        let tabs: Vec<_> = verts.iter().map(|v| o.corner_table(&scene, &o.global, &v.hit, v.n, &mut r)).collect();
-        let t_tab = thread_cpu() - t0;
-        let t0 = thread_cpu();
-        let mut sum = 0.0f32;
-        for (v, tb) in verts.iter().zip(&tabs) {
-            if let Some((table, t)) = tb {
-                sum += o.global.irradiance_from(table, *t, v.n).map_or(0.0, |e| e.x);
-            }
-        }
-        let t_ev = thread_cpu() - t0;
-        println!(
-            "corners/none parts: locate {:.0} ns, table lookup (with locate) {:.0} ns, interpolation {:.0} ns [{acc} {sum:.3e}]",
-            1e9 * t_loc / nq,
-            1e9 * t_tab / nq,
-            1e9 * t_ev / nq
-        );
-    }
-    // the corner query's check (Corners/VisibleSample): what the planes say per origin
-    {
-        use octolux::caches::octree::{query_class, Segment};
-        let o = &integrators[3];
-        let planes = &o.planes_of(&scene, &o.global).planes;
-        let tables = o.corners_of(&scene, &o.global);
-        let (mut no_leaf, mut no_table, mut free, mut blocked, mut unknown, mut all_unknown_planes) = (0, 0, 0, 0, 0, 0);
-        for v in &verts {
-            let Some((l, _)) = o.global.valid_leaf_at(v.hit.p) else {
-                no_leaf += 1;
-                continue;
-            };
-            let ngf = octolux::math::facing(v.hit.ng, v.n);
-            let Some(t) = tables.get(l, query_class(ngf)) else {
-                no_table += 1;
-                continue;
-            };
-            if planes.get(l).is_none() {
-                all_unknown_planes += 1;
-            }
-            let p = octolux::math::offset_origin(v.hit.p, ngf, ngf);
-            let r: Vec<Segment> = t.origins[..t.origins_len as usize].iter().map(|&a| planes.segment(l, p, a)).collect();
-            if r.contains(&Segment::Free) {
-                free += 1;
-            } else if r.contains(&Segment::Unknown) {
-                unknown += 1;
-            } else {
-                blocked += 1;
-            }
-        }
-        println!("check: no valid leaf {no_leaf}, no table {no_table}, free {free}, blocked {blocked}, unknown (ray) {unknown} (of which leaf planes unknown {all_unknown_planes})");
-    }
     for round in 0..rounds {
         let mut line = format!("round {round}:");
         let only: Option<usize> = std::env::var("QUERY_COST_ONLY").ok().and_then(|v| v.parse().ok());
-        for (i, (o, (query, leak))) in integrators.iter().zip(configs).enumerate() {
+        for (i, (o, leak)) in integrators.iter().zip(configs).enumerate() {
             if only.is_some_and(|k| k != i) {
                 continue;
             }
@@ -208,7 +130,7 @@ fn main() -> Result<()> {
             let t0 = thread_cpu();
             let mut sum = 0.0f64;
             for v in &verts {
-                sum += o.irradiance_at(&scene, &o.global, &v.hit, v.n, &mut c).map_or(0.0, |e| e.x as f64);
+                sum += o.irradiance_at(&scene, Tree::Global, &v.hit, v.n, &mut c).map_or(0.0, |e| e.x as f64);
             }
             let tq = thread_cpu() - t0;
             let mut c2 = RayCounters::default();
@@ -222,7 +144,7 @@ fn main() -> Result<()> {
             let per_q = tq / nq;
             let share = per_q * c2.cache_queries as f64 / rays.len() as f64 / per_li;
             line += &format!(
-                "\n  {query:?}/{leak:?}: query {:.0} ns ({:.2} rays) [{sum:.4e}], li {:.0} ns/ray [{li:.4e}], est. share {share:.3}",
+                "\n  {leak:?}: query {:.0} ns ({:.2} rays) [{sum:.4e}], li {:.0} ns/ray [{li:.4e}], est. share {share:.3}",
                 1e9 * per_q,
                 c.shadow_rays as f64 / nq,
                 1e9 * per_li

@@ -1,14 +1,14 @@
-//! End-to-end check of the paper's renderer: an `octree` render of the built-in `cornell-box`
-//! against the Mitsuba 3 path-traced reference (`tests/refs/cornell-box.exr`, max_depth -1).
+//! End-to-end checks of the `octree` integrator against the Mitsuba 3 path-traced references
+//! (`tests/refs/*.exr`; the renders are deterministic).
 //!
-//! Bound (measured, 128², 32 spp, 300k photons, default settings = geometry-area estimator,
-//! split by surface normal, compression exact for the surfaces' normals, splatted film; the
-//! renders are deterministic): relMSE 6.05e-4, channel means within 0.1%. The paper's
-//! configuration (its estimator, split and factors) gives 8.1e-3 with an image 8% too dark (its
+//! The paper's renderer (`mode = paper`: the cache read at the first vertex) on the built-in
+//! `cornell-box` (128², 32 spp, 300k photons, the default octree settings = geometry-area
+//! estimator, split by surface normal, compression exact for the surfaces' normals): relMSE
+//! 3.87e-4 (6.05e-4 before its direct light had MIS), channel means within 0.2%. The paper's
+//! configuration (its estimator, split and factors) gives 7.9e-3 with an image 8% too dark (its
 //! `ΔA` = cell face area ignores the 1/cos of the photon's incidence and the cell's real
-//! surface). We assert relMSE ≤ 8e-4 (the previous default, the paper's split and compression
-//! factors with the geometry-area estimator, measured 9.1e-4), every channel mean within 0.5%,
-//! and that the corrected estimator beats the paper's.
+//! surface). We assert relMSE ≤ 8e-4, every channel mean within 0.5%, and that the corrected
+//! estimator beats the paper's.
 
 use octolux::accel::BackendKind;
 use octolux::caches::{Estimator, Split};
@@ -70,11 +70,10 @@ fn assert_means_within(e: &octolux::metrics::ImageErrors, tol: f64) {
     }
 }
 
-/// Caustics: cornell-spheres (mirror and glass spheres, max_depth 8 as its reference).
-/// Photons stored on the spheres themselves used to leak into the floor's and ceiling's
-/// estimates (the floor under the glass sphere +43% at 1M photons). Measured here (the render
-/// is deterministic): 1.18e-3, and 2.18e-3 with `store_on_specular` (before the normal split:
-/// 1.49e-3); bound 1.5e-3.
+/// Caustics: cornell-spheres (mirror and glass spheres, max_depth 8 as its reference), default
+/// mode: the caustic octree read where its leaves hold photons, the rest path-traced. Measured
+/// here: 2.23e-3 (with the paper's direct read before this mode: 1.18e-3, mostly the cache's
+/// bias, against this one's noise); bound 3e-3.
 #[test]
 fn octree_render_of_cornell_spheres_matches_the_path_traced_reference() {
     let e = octree_render_of("cornell-spheres", 8, None, Mode::Terminate);
@@ -84,7 +83,7 @@ fn octree_render_of_cornell_spheres_matches_the_path_traced_reference() {
 }
 
 /// The default mode (`terminate`) reads the cache one bounce from the camera where the path is
-/// wide enough; its error at 32 spp is mostly noise. Measured MEASURE, bound MEASURE.
+/// wide enough; its error at 32 spp is mostly noise. Measured 8.72e-4, bound 1.2e-3.
 #[test]
 fn terminated_octree_render_of_cornell_box_matches_the_path_traced_reference() {
     let e = octree_render_of("cornell-box", -1, None, Mode::Terminate);
@@ -93,8 +92,8 @@ fn terminated_octree_render_of_cornell_box_matches_the_path_traced_reference() {
     assert_means_within(&e, 0.01);
 }
 
-const BOUND_SPHERES: f64 = 1.5e-3;
-const BOUND_TERMINATE: f64 = 2.2e-3;
+const BOUND_SPHERES: f64 = 3.0e-3;
+const BOUND_TERMINATE: f64 = 1.2e-3;
 
 /// Photons land on cornell-spheres' mirror and glass spheres, but are stored there only when
 /// asked (`store_on_specular`, the paper's "every hit").

@@ -79,23 +79,31 @@ pub struct CacheVertex<'a> {
     pub specular_chain: bool,
 }
 
-/// What a cache gives where a path ends (module docs).
+/// What a cache gives at a vertex (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CacheEnd {
-    /// Indirect light reflected towards `wo` by the wide lobes, from the cache, W/(m² sr).
+    /// Light the cache gives there, reflected towards `wo` by the wide lobes, W/(m² sr): the
+    /// indirect light when the path ends, and the caustic light when the cache holds it.
     pub radiance: Color,
     /// The roughness from which a lobe is the cache's (0: every non-delta lobe).
     pub min_alpha: f32,
-    /// The cache's value holds the caustic light (light from an emitter through delta bounces
-    /// only); otherwise the loop traces it (the tail).
+    /// The path ends here: the cache holds the wide lobes' indirect light.
+    pub ends: bool,
+    /// The cache holds the wide lobes' caustic light (light from an emitter through delta
+    /// bounces only); otherwise the loop traces it.
     pub caustics: bool,
+    /// With `ends` and `caustics` at a vertex whose lobes are all wide: the vertex's direct
+    /// light is its light sample alone (no MIS, no BSDF-sampled ray); otherwise the sampled
+    /// ray's emitter hit is MIS-weighted with it (the tail).
+    pub light_sample_only: bool,
 }
 
 /// The policy of the loop: where a path may end in a cache, and what the cache gives there.
 pub trait Ending {
     /// Whether [`CacheVertex::footprint`] is needed (the loop tracks the ray cone only then).
     const FOOTPRINT: bool;
-    /// `Some` ends the path at `v` in the cache. May draw from `sampler` only when it does.
+    /// `Some` reads the cache at `v` (and may end the path there). May draw from `sampler` only
+    /// when it answers `Some`.
     fn end(&self, scene: &Scene, v: &CacheVertex, sampler: &mut Sampler, counters: &mut RayCounters) -> Option<CacheEnd>;
 }
 
@@ -153,6 +161,9 @@ pub fn li<E: Ending>(
     // The tail (module docs): its weight, whether there is one, and whether it follows delta
     // bounces beyond its first hit (the cache lacked the caustics).
     let (mut tail, mut tail_on, mut tail_traces) = (Color::ZERO, false, false);
+    // The part of `throughput` whose caustic light the cache gave at the last non-delta vertex:
+    // emitters reached from there through delta bounces count without it.
+    let (mut skip, mut skip_on) = (Color::ZERO, false);
     let mut eta = 1.0f32;
     let mut depth = 0u32;
     let mut prev_pdf = 1.0f32;
@@ -166,7 +177,10 @@ pub fn li<E: Ending>(
     loop {
         counters.rays += 1;
         // The weight emission found by this ray is counted with.
-        let weight = if tail_on { throughput + tail } else { throughput };
+        let mut weight = if tail_on { throughput + tail } else { throughput };
+        if skip_on && prev_delta {
+            weight = (weight - skip).max(Color::ZERO);
+        }
         let Some(mut hit) = scene.intersect(&ray) else {
             // Escaped: environment emission.
             let le = scene.lights.env_le(ray.d);
@@ -207,7 +221,7 @@ pub fn li<E: Ending>(
         material.prefetch(&scene.images, hit.uv);
         let wo = hit.frame.to_local(-ray.d);
 
-        // Next-event estimation, after the cache's say.
+        // The cache's say, then next-event estimation.
         let mut end = None;
         if alive && material.has_smooth_lobe() {
             let v = CacheVertex {
@@ -222,8 +236,11 @@ pub fn li<E: Ending>(
             if let Some(e) = ending.end(scene, &v, sampler, counters) {
                 result += throughput * e.radiance;
                 end = Some(e);
-                counters.cache_ends[(depth as usize).min(3)] += 1;
+                if e.ends {
+                    counters.cache_ends[(depth as usize).min(3)] += 1;
+                }
             }
+            let only = end.is_some_and(|e| e.light_sample_only);
             let u_sel = sampler.next_1d();
             let u = sampler.next_2d();
             // An environment sample's radiance is looked up only once the shadow ray is clear
@@ -239,12 +256,16 @@ pub fn li<E: Ending>(
                                 ls.li = scene.lights.env_le(ls.wi);
                             }
                             if ls.li != Color::ZERO {
-                                let w = if ls.delta { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
+                                let w = if ls.delta || only { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
                                 result += throughput * f * ls.li * (w / ls.pdf);
                             }
                         }
                     }
                 }
+            }
+            if only && !tail_on {
+                // every lobe is the cache's and its direct light the light sample's
+                break;
             }
         } else {
             // Keep the random-number stream aligned whatever the material (and on the tail,
@@ -266,23 +287,33 @@ pub fn li<E: Ending>(
             break;
         }
         if bs.lobe.is_delta() {
-            // a delta bounce carries the path and the tail alike
+            // a delta bounce carries the path, the tail and the caustic skip alike
             throughput *= bs.weight * k;
             if tail_on {
                 tail *= bs.weight * k;
             }
+            if skip_on {
+                skip *= bs.weight * k;
+            }
         } else if let Some(e) = end {
-            // The path ended here: the wide lobes' share of the sample is the tail, the narrow
-            // lobes' share goes on.
+            // The wide lobes' share of the sample: the tail when the path ended here, else the
+            // share whose caustic light the cache gave.
             let s = material.eval_split(&scene.images, hit.uv, wo, bs.wi, e.min_alpha);
             let g = k / bs.pdf;
-            (tail, tail_on, tail_traces) = (throughput * s.wide * g, true, !e.caustics);
-            throughput *= s.narrow * g;
-            alive = alive && throughput.max_element() > 0.0;
+            if e.ends {
+                (tail, tail_on, tail_traces) = (throughput * s.wide * g, true, !e.caustics);
+                throughput *= s.narrow * g;
+                alive = alive && throughput.max_element() > 0.0;
+                skip_on = false;
+            } else {
+                (skip, skip_on) = (throughput * s.wide * g, e.caustics);
+                throughput *= bs.weight * k;
+                tail_on = false;
+            }
         } else {
             throughput *= bs.weight * k;
-            // a non-delta bounce ends the tail: the cache held that light
-            (tail, tail_on) = (Color::ZERO, false);
+            // a non-delta bounce ends the tail and the skip: the cache held that light
+            (tail_on, skip_on) = (false, false);
         }
         if !alive && !tail_on {
             break;
@@ -307,6 +338,7 @@ pub fn li<E: Ending>(
             }
             throughput /= q;
             tail /= q;
+            skip /= q;
         }
         if tmax <= 0.0 {
             break;

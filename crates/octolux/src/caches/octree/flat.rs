@@ -57,8 +57,6 @@ pub(super) struct FlatQuery {
     /// leaves at that depth, or the leaf holding it when that leaf is larger.
     grid: Vec<u32>,
     grid_depth: u32,
-    /// Per valid leaf: its node (for its list).
-    node_of: Vec<u32>,
 }
 
 /// Depth of [`FlatQuery`]'s grid of nodes, at most (4 bytes per cell: 128 KiB).
@@ -72,7 +70,6 @@ impl FlatQuery {
         let n_valid = tree.anchors.len();
         let mut cells = vec![FlatCell { min: Vec3::ZERO, upper: Vec3::ZERO, max: Vec3::ZERO }; n_valid];
         let mut leaves = Vec::with_capacity(n_valid);
-        let mut node_of = vec![0u32; n_valid];
         for &(node, depth, ijk) in &all {
             let v = tree.nodes[node as usize].value();
             if v == NO_VALUE {
@@ -80,7 +77,6 @@ impl FlatQuery {
             }
             let min = view.cell_min(depth, ijk);
             let upper = view.cell_min(depth, [ijk[0] + 1, ijk[1] + 1, ijk[2] + 1]);
-            node_of[v as usize] = node;
             cells[v as usize] = FlatCell { min, upper, max: min + Vec3::splat(tree.cell_size[depth as usize]) };
             debug_assert_eq!(leaves.len(), v as usize, "valid leaves are numbered in depth-first order");
             leaves.push(tree.query_leaf(v as usize, depth, ijk));
@@ -136,7 +132,7 @@ impl FlatQuery {
         let side = 1u32 << grid_depth;
         let mut grid = vec![0u32; (side * side * side) as usize];
         fill_grid(tree, 0, 0, [0; 3], grid_depth, &mut grid);
-        FlatQuery { start: count, lists: flat, cells, leaves, decoded, grid, grid_depth, node_of }
+        FlatQuery { start: count, lists: flat, cells, leaves, decoded, grid, grid_depth }
     }
 
     /// Bytes held at render time (not in the cache file).
@@ -147,20 +143,6 @@ impl FlatQuery {
             + std::mem::size_of_val(self.leaves.as_slice())
             + std::mem::size_of_val(self.decoded.as_slice())
             + std::mem::size_of_val(self.grid.as_slice())
-            + std::mem::size_of_val(self.node_of.as_slice())
-    }
-
-    /// The valid leaves a query box centred in valid leaf `v`'s cell can meet (ascending).
-    #[inline]
-    pub(super) fn list_of_valid(&self, v: usize) -> &[u32] {
-        let node = self.node_of[v] as usize;
-        &self.lists[self.start[node] as usize..self.start[node + 1] as usize]
-    }
-
-    /// The bounds of valid leaf `v`'s cell.
-    #[inline]
-    pub(super) fn cell(&self, v: usize) -> &FlatCell {
-        &self.cells[v]
     }
 
     /// Entries of all lists.

@@ -79,7 +79,6 @@ mod atmosphere;
 mod build;
 mod cells;
 pub mod compress;
-mod corners;
 mod estimate;
 mod flat;
 mod geometry;
@@ -95,7 +94,6 @@ mod tests;
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
 pub use atmosphere::{AtmosphereStats, PROBE_LIFT, SMOOTHING_SWEEPS};
-pub use corners::{class_axis, query_class, CornerTable, CornerTables, Verdicts, QUERY_CLASSES};
 pub use geometry::AnalyticSphere;
 pub use parts::{AtmosphereParts, LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};

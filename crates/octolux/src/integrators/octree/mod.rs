@@ -25,26 +25,23 @@
 //! default (`caches::octree::auto_depth`).
 //!
 //! Rooms: `settings.rs` (the settings and their checks), `shade.rs` (the termination rule and
-//! the cache's light at a vertex), `leak.rs` + `reach.rs` (the leak test), `corners.rs` (the
-//! corner-table query), `insert.rs` (objects inserted into baked lighting), `views.rs` (the
-//! irradiance and leaf views).
+//! the cache's light at a vertex), `leak.rs` (the leak test), `insert.rs` (objects inserted
+//! into baked lighting), `views.rs` (the irradiance and leaf views).
 
-mod corners;
 pub mod insert;
 mod leak;
 #[cfg(test)]
 pub(crate) mod leak_tests;
-pub mod reach;
 mod settings;
 mod shade;
 #[cfg(test)]
 mod tests;
 mod views;
 
-pub use leak::{ANCHOR_LIFT, DIRECTION_REACH, LIGHT_LIFT, ORIGIN_SHARE, SAME_FACING};
+pub use leak::{ANCHOR_LIFT, PLANES_REACH};
 pub use settings::{
-    LeakTest, Mode, OctreeIntegratorSettings, OctreeView, QueryMode, CAUSTIC_H_MAX, CAUSTIC_N_MAX, DEFAULT_CAUSTIC_PHOTONS,
-    DEFAULT_FOOTPRINT, DEFAULT_MIN_ALPHA, MAX_SPECULAR_CHAIN,
+    LeakTest, Mode, OctreeIntegratorSettings, OctreeView, CAUSTIC_H_MAX, CAUSTIC_N_MAX, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT,
+    DEFAULT_MIN_ALPHA, MAX_SPECULAR_CHAIN,
 };
 pub(super) use shade::shade_matrix;
 
@@ -58,7 +55,6 @@ use crate::sampling::Sampler;
 use crate::scene::material::Material;
 use crate::scene::Scene;
 use glam::Vec3;
-use reach::{LeakData, REACH_MAX};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -98,18 +94,25 @@ pub struct OctreeBuildStats {
     pub bytes: usize,
 }
 
+/// One of the integrator's two octrees.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tree {
+    /// The global octree (indirect light).
+    Global,
+    /// The caustic octree (light through delta bounces only).
+    Caustic,
+}
+
 /// A built `octree` integrator: settings plus the two octrees (read-only while rendering).
 pub struct OctreeIntegrator {
     pub settings: OctreeIntegratorSettings,
     pub global: Octree,
     pub caustic: Option<Octree>,
     pub stats: OctreeBuildStats,
-    /// [`LeafPlanes`] of the global and the caustic tree for the leak test, computed from the
-    /// scene at the first query (or by [`OctreeIntegrator::prepare_leak`]).
-    planes: [std::sync::OnceLock<LeakData>; 2],
-    /// Corner tables of the global and the caustic tree ([`QueryMode::Corners`]), computed at
-    /// preparation or at the first query.
-    pub(super) corners: [std::sync::OnceLock<crate::caches::octree::CornerTables>; 2],
+    /// [`LeafPlanes`] of the global and the caustic tree for the leak test (index 0 and 1),
+    /// derived from the scene by [`OctreeIntegrator::prepare`]: without them every segment of
+    /// the test is a ray.
+    planes: [Option<LeafPlanes>; 2],
     /// Objects inserted into the baked lighting (`insert.rs`); none by default.
     pub inserted: insert::Inserted,
 }
@@ -153,15 +156,7 @@ impl OctreeIntegrator {
         stats.global = global.stats().clone();
         stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
         stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
-        let o = OctreeIntegrator {
-            settings,
-            global,
-            caustic,
-            stats,
-            planes: Default::default(),
-            corners: Default::default(),
-            inserted: Default::default(),
-        };
+        let o = OctreeIntegrator { settings, global, caustic, stats, planes: [None, None], inserted: Default::default() };
         o.prepare_query();
         Ok(o)
     }
@@ -175,47 +170,35 @@ impl OctreeIntegrator {
         }
     }
 
-    /// Compute what the leak test needs from the scene ([`LeafPlanes`] of both trees) now
-    /// instead of at the first query; the scene must be the one the octrees were built for.
-    pub fn prepare_leak(&self, scene: &Scene) {
-        if matches!(
-            self.settings.leak,
-            LeakTest::Visibility | LeakTest::VisibleSample | LeakTest::VisibleLight | LeakTest::VisibleOrigin | LeakTest::OpenDirections
-        ) {
-            self.planes_of(scene, &self.global);
-            // the caustic tree's too: built at its first query, they counted as query time
-            if let Some(c) = &self.caustic {
-                self.planes_of(scene, c);
-            }
-        }
-        if self.uses_corners() {
-            self.corners_of(scene, &self.global);
-            if let Some(c) = &self.caustic {
-                self.corners_of(scene, c);
-            }
+    /// Derive what the queries need from `scene` (the one the octrees were built for, or a
+    /// render scene with the same lighting): the leak test's [`LeafPlanes`] of both trees when the
+    /// settings' test uses them (none otherwise). [`OctreeIntegrator::build`] does it; an
+    /// integrator made [`OctreeIntegrator::from_parts`] needs it, and again after its settings'
+    /// `leak` or `mode` change, for its renders to be the bake's bit for bit.
+    pub fn prepare(&mut self, scene: &Scene) {
+        let uses = self.leak() == LeakTest::VisibleSample;
+        self.planes = [uses.then(|| leak::leaf_planes(scene, &self.global)), None];
+        if let (true, Some(c)) = (uses, &self.caustic) {
+            self.planes[1] = Some(leak::leaf_planes(scene, c));
         }
     }
 
-    /// What the leak test found (for out.json's `render_report`): per tree that computed them,
-    /// the valid leaves around which the scene is one plane ([`LeafPlanes`], tested without a
-    /// ray) and all valid leaves.
+    /// The leak test the queries run (`leak`, resolved for the mode).
+    #[inline]
+    pub fn leak(&self) -> LeakTest {
+        self.settings.leak.resolved(self.settings.mode)
+    }
+
+    /// What the leak test found (for out.json's `render_report`): per tree, the valid leaves
+    /// around which the scene is one plane ([`LeafPlanes`], tested without a ray) and all valid
+    /// leaves; the sizes of the query's flat lists.
     pub fn leak_report(&self) -> serde_json::Value {
-        let count = |p: &std::sync::OnceLock<LeakData>| {
-            p.get().map(|p| serde_json::json!({ "planar": p.planes.planar(), "valid": p.planes.len() }))
-        };
+        let count = |p: &Option<LeafPlanes>| p.as_ref().map(|p| serde_json::json!({ "planar": p.planar(), "valid": p.len() }));
         let lists = |t: &Octree| {
             let (entries, bytes) = t.query_lists();
             serde_json::json!({ "entries": entries, "bytes": bytes })
         };
-        let corners = |c: &std::sync::OnceLock<crate::caches::octree::CornerTables>| {
-            c.get().map(|c| {
-                let (tables, bytes) = c.size();
-                serde_json::json!({ "tables": tables, "bytes": bytes })
-            })
-        };
         serde_json::json!({
-            "corner_tables_global": corners(&self.corners[0]),
-            "corner_tables_caustic": corners(&self.corners[1]),
             "leak_planes_global": count(&self.planes[0]),
             "leak_planes_caustic": count(&self.planes[1]),
             "query_lists_global": lists(&self.global),
@@ -223,15 +206,19 @@ impl OctreeIntegrator {
         })
     }
 
-    /// The [`LeafPlanes`] and sample reaches of `tree` (one of this integrator's octrees) for `scene`.
-    pub fn planes_of(&self, scene: &Scene, tree: &Octree) -> &LeakData {
-        let i = if std::ptr::eq(tree, &self.global) { 0 } else { 1 };
-        self.planes[i].get_or_init(|| {
-            let tris = scene.mesh_triangles_where(|_| true);
-            let spheres: Vec<_> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
-            let planes: LeafPlanes = tree.leaf_planes(&tris, &spheres, DIRECTION_REACH.max(ANCHOR_LIFT).max(LIGHT_LIFT).max(REACH_MAX));
-            LeakData::new(scene, tree, planes, self.settings.leak == LeakTest::VisibleOrigin)
-        })
+    /// The octree `tree` (`None`: no caustic photon was stored).
+    #[inline]
+    pub fn tree(&self, tree: Tree) -> Option<&Octree> {
+        match tree {
+            Tree::Global => Some(&self.global),
+            Tree::Caustic => self.caustic.as_ref(),
+        }
+    }
+
+    /// The leak test's planes of the global (`caustic = false`) or the caustic tree.
+    #[inline]
+    pub(super) fn planes(&self, caustic: bool) -> Option<&LeafPlanes> {
+        self.planes[caustic as usize].as_ref()
     }
 
     /// Trace the photons and build both octrees over the scene's bounds.
@@ -280,16 +267,8 @@ impl OctreeIntegrator {
             caustic: caustic.as_ref().map(|c| c.stats().clone()),
             bytes: global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes),
         };
-        let o = OctreeIntegrator {
-            settings,
-            global,
-            caustic,
-            stats,
-            planes: Default::default(),
-            corners: Default::default(),
-            inserted: Default::default(),
-        };
-        o.prepare_leak(scene);
+        let mut o = OctreeIntegrator { settings, global, caustic, stats, planes: [None, None], inserted: Default::default() };
+        o.prepare(scene);
         o.prepare_query();
         Ok(o)
     }

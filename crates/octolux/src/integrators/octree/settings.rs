@@ -23,65 +23,34 @@ pub enum OctreeView {
 }
 
 /// How a query keeps the light of a leaf from leaking through a wall to a point that cannot
-/// see the leaf's photons (`docs/octree.md`, "Leak control").
+/// see the leaf's photons (`leak.rs`; `docs/octree.md`, "Leak control").
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum LeakTest {
+    /// The mode's own: `none` with `mode = terminate` (one bounce from the camera a leak is a
+    /// twentieth of the direct read's, and the test cost 10–35% of the render for no measured
+    /// gain on the ten benchmark scenes), `visible_sample` with `mode = paper`.
+    #[default]
+    Auto,
     /// The paper's blend: every valid leaf met by the query box counts.
     None,
-    /// A leaf counts when the mean position of its photons lies within half a cell edge of the
-    /// query point's tangent plane (no ray; catches surfaces in front of or behind the query's,
-    /// not coplanar ones across a wall).
-    Plane,
-    /// A leaf counts when a ray from the query point reaches its anchor: the mean position of
-    /// its photons, lifted by [`ANCHOR_LIFT`] cell edges along their mean normal. One shadow
-    /// ray per valid leaf met.
-    Visibility,
     /// A leaf counts when a ray from the query point reaches any of its sampled photons
-    /// ([`crate::caches::octree::LeafAnchors`]), each lifted by [`ANCHOR_LIFT`] cell edges along
-    /// its own normal. One to four shadow rays per valid leaf met (the first visible one
-    /// ends the test). The default: `VisibleLight` and `VisibleOrigin` remove most of the
-    /// light-fixture leak but cost relMSE elsewhere (`VisibleLight` on the Cornell boxes,
-    /// `VisibleOrigin` on sponza; `docs/octree.md`).
-    #[default]
+    /// ([`crate::caches::octree::LeafAnchors`]), each lifted by [`super::ANCHOR_LIFT`] cell
+    /// edges along its incident direction. One to four rays per valid leaf met (the first
+    /// visible one ends the test), most of them answered by the planes around the leaf
+    /// ([`crate::caches::octree::LeafPlanes`]).
     VisibleSample,
-    /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
-    /// light whose origin the query point sees: of the sampled photons whose light arrived on
-    /// the query's side and that see their light's origin (the photon moved [`LIGHT_LIFT`] cell
-    /// edges along its incident direction, towards where its light came from), the fraction
-    /// whose origin the query point sees. A point in a gap
-    /// (above a light fixture hung under the ceiling) sees the lit ceiling photons outside
-    /// through the gap's opening, but not the room below them, where their light came from.
-    /// One to twelve rays per leaf, fewer where the planes around the leaf answer them
-    /// ([`LeafPlanes`]).
-    VisibleLight,
-    /// Each sampled photon's light origin: the photon moved along its incident direction by
-    /// 0.9 of its reach (the distance to the surface that lit it, at most
-    /// [`super::octree_reach::REACH_MAX`] cell edges, [`super::octree_reach`]). The leaf
-    /// keeps its weight when the query point sees one of those origins or one of its photons
-    /// (each lifted by [`ANCHOR_LIFT`] cell edges, at most half its reach, along its incident
-    /// direction); its value is scaled by the share of its samples lit from the query's side
-    /// and lying on surfaces facing like the query point's ([`SAME_FACING`]; their normals are
-    /// found from the scene) whose origin the query point sees. A point in a gap (above a light fixture hung under
-    /// the ceiling) sees the lit ceiling photons outside through the gap's opening, but not
-    /// the room below them, where their light came from; a floor photon lit by a wall a few
-    /// millimetres away has its origin in front of that wall, not behind it. One to eight rays
-    /// per leaf, fewer where the planes around the leaf answer them ([`LeafPlanes`]).
-    VisibleOrigin,
-    /// [`LeakTest::VisibleSample`] for keeping a leaf, and its value scaled by the share of its
-    /// light that reaches the query point: of the sampled photons whose light arrived on the
-    /// query's side, the fraction visible whose incident direction is open from the query point
-    /// over [`DIRECTION_REACH`] cell edges. Removes the fixture gap's leak, but an occluder is
-    /// not a dark one: near every corner and object the blocked directions bring light
-    /// reflected by the occluder, and the image darkens (measured in `docs/octree.md`). Up to
-    /// eight rays per leaf.
-    OpenDirections,
-    /// [`LeakTest::Visibility`], and a second ray from the query point along the leaf's mean
-    /// incident direction must travel one cell edge unblocked: a point in a gap (above a light
-    /// fixture hung under the ceiling) sees its anchor through the gap's opening, but the
-    /// light the leaf's photons received arrived from where the gap is closed. It also darkens
-    /// the floor where an object touches it (measured in `docs/octree.md`): not the default.
-    VisibilityAndDirection,
+}
+
+impl LeakTest {
+    /// The test a query runs in `mode` ([`LeakTest::Auto`] resolved).
+    pub fn resolved(self, mode: Mode) -> LeakTest {
+        match (self, mode) {
+            (LeakTest::Auto, Mode::Terminate) => LeakTest::None,
+            (LeakTest::Auto, Mode::Paper) => LeakTest::VisibleSample,
+            (t, _) => t,
+        }
+    }
 }
 
 /// Settings of the `octree` integrator.
@@ -109,28 +78,17 @@ pub struct OctreeIntegratorSettings {
     /// come from the cache; narrower lobes keep tracing (`scene::material::split`).
     pub min_alpha: f32,
     /// With `mode = terminate`: the caustic octree is read where the leaf holding the point has
-    /// at least this many photons; elsewhere the caustic light is path-traced.
+    /// at least this many photons; elsewhere the caustic light is path-traced. Measured (1M
+    /// photons, 64 spp): cornell-spheres relMSE 6.9e-4 with 0, 7.0e-4 with 4, 2.6e-3 with 16,
+    /// 1.8e-2 never (path-traced caustics); cbox 9.3e-4, 9.3e-4, 4.0e-3, 1.8e-2.
     pub caustic_photons: u32,
+    /// Where a path ends at a vertex whose lobes are all the cache's: `true` samples the BSDF
+    /// once more for the emitter its ray meets (MIS with the light sample), `false` takes the
+    /// light sample alone.
+    pub tail: bool,
     pub view: OctreeView,
     /// Leak control of the octree queries.
     pub leak: LeakTest,
-    /// How a query blends the leaves ([`QueryMode`]).
-    pub query: QueryMode,
-}
-
-/// How the `octree` integrator evaluates the §7 blend at a shading point.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum QueryMode {
-    /// The paper's query: the leaves the box around the point meets, blended by overlap
-    /// volume, each passed through the leak test from the point.
-    #[default]
-    Blend,
-    /// The same blend precomputed at the corners of each valid leaf per query class and
-    /// interpolated trilinearly, with the leak test decided from the leaf's photons
-    /// (`integrators/octree/corners.rs`); the exact query where no table applies. With
-    /// `leak = none` or `visible_sample` only (the other tests take the exact query).
-    Corners,
 }
 
 /// Safety bound on specular chains from the camera in the debug views when `max_depth` is
@@ -167,7 +125,7 @@ pub const DEFAULT_FOOTPRINT: f32 = 1.0;
 /// Default of [`OctreeIntegratorSettings::min_alpha`].
 pub const DEFAULT_MIN_ALPHA: f32 = 0.3;
 /// Default of [`OctreeIntegratorSettings::caustic_photons`].
-pub const DEFAULT_CAUSTIC_PHOTONS: u32 = 16;
+pub const DEFAULT_CAUSTIC_PHOTONS: u32 = 4;
 
 /// Caustics are sharp, so the caustic octree is finer than the global one. Measured on
 /// cornell-spheres (128², 64 spp, 1M photons, relMSE vs Mitsuba 3): caustic (h_max, n_max) =
@@ -199,9 +157,9 @@ impl Default for OctreeIntegratorSettings {
             footprint: DEFAULT_FOOTPRINT,
             min_alpha: DEFAULT_MIN_ALPHA,
             caustic_photons: DEFAULT_CAUSTIC_PHOTONS,
+            tail: true,
             view: OctreeView::Render,
             leak: LeakTest::default(),
-            query: QueryMode::default(),
         }
     }
 }

@@ -100,9 +100,10 @@ fn plane_under_a_constant_sky_gets_direct_light_only() {
     assert_eq!(irradiance, 0.0, "indirect irradiance under an open sky");
 }
 
-/// With a footprint factor no cone reaches, no path ends in the cache: the `octree`
-/// integrator is the path tracer's loop, and its images are the path tracer's bit for bit
-/// (on a box, a box with a glass sphere and a mirror, and a sky).
+/// With a footprint factor no cone reaches, no path ends in the cache, and with a caustic
+/// photon count no leaf reaches, the caustic octree is not read either: the `octree` integrator
+/// is the path tracer's loop, and its images are the path tracer's bit for bit (on a box, a box
+/// with a glass sphere and a mirror, and a sky).
 #[test]
 fn octree_ending_no_path_is_the_path_tracer_bit_for_bit() {
     use crate::integrators::path::PathSettings;
@@ -128,7 +129,7 @@ fn octree_ending_no_path_is_the_path_tracer_bit_for_bit() {
     ];
     for (name, scene) in &scenes {
         for max_depth in [-1, 5] {
-            let mut s = OctreeIntegratorSettings { footprint: 1e30, max_depth, ..Default::default() };
+            let mut s = OctreeIntegratorSettings { footprint: 1e30, caustic_photons: u32::MAX, max_depth, ..Default::default() };
             s.photons.photons = 20_000;
             let rs = RenderSettings { spp: 8, ..Default::default() };
             let o = Integrator::Octree(Box::new(OctreeIntegrator::build(scene, s.clone()).unwrap()));

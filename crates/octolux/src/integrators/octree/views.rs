@@ -2,8 +2,7 @@
 //! the first vertex with a non-delta lobe after a specular chain from the camera (the paper's
 //! fig. 2), and the global octree's leaves as colours.
 
-use super::{OctreeIntegrator, OctreeView, MAX_SPECULAR_CHAIN};
-use crate::caches::Octree;
+use super::{OctreeIntegrator, OctreeView, Tree, MAX_SPECULAR_CHAIN};
 use crate::integrators::common::{facing, walk_specular, RayCounters, Vertex};
 use crate::math::{Color, Ray, RayDifferential};
 use crate::sampling::Sampler;
@@ -28,17 +27,15 @@ impl OctreeIntegrator {
         let max_depth = if self.settings.max_depth < 0 { MAX_SPECULAR_CHAIN } else { self.settings.max_depth as u32 };
         let walk = walk_specular(scene, ray, diff, max_depth, false, sampler, counters);
         let Some(v) = walk.vertex else { return Color::ZERO };
-        let mut e = self.irradiance(scene, &self.global, &v, counters);
+        let mut e = self.irradiance(scene, Tree::Global, &v, counters);
         if view == OctreeView::IrradianceAll {
-            if let Some(c) = &self.caustic {
-                e += self.irradiance(scene, c, &v, counters);
-            }
+            e += self.irradiance(scene, Tree::Caustic, &v, counters);
         }
         v.throughput * e.max(Color::ZERO)
     }
 
     /// Irradiance `M(N)ᵀ N` from `tree` at a vertex (normal on the viewer's side), W/m².
-    fn irradiance(&self, scene: &Scene, tree: &Octree, v: &Vertex, counters: &mut RayCounters) -> Color {
+    fn irradiance(&self, scene: &Scene, tree: Tree, v: &Vertex, counters: &mut RayCounters) -> Color {
         self.incident_matrix(scene, tree, &v.hit, v.n, counters).map_or(Color::ZERO, |m| m.transpose() * v.n)
     }
 

@@ -174,4 +174,24 @@ impl Material {
             }
         }
     }
+
+    /// Whether every lobe at `uv` is non-delta and at least `min_alpha` wide (all its light may
+    /// come from a cache and a light sample).
+    pub fn only_wide_lobes(&self, images: &[Image], uv: impl Into<TexCoord>, min_alpha: f32) -> bool {
+        let uv: TexCoord = uv.into();
+        match self {
+            Material::Diffuse { .. } => true,
+            Material::Plastic { .. } | Material::Conductor { .. } | Material::Dielectric { .. } | Material::ThinDielectric { .. } => false,
+            Material::Mask { .. } => false,
+            Material::RoughConductor { .. }
+            | Material::RoughDielectric { .. }
+            | Material::RoughPlastic { .. }
+            | Material::Ward { .. }
+            | Material::Phong { .. } => self.glossy_alpha(images, uv) >= min_alpha,
+            Material::TwoSided { front: a, back: b } | Material::Blend { first: a, second: b, .. } => {
+                a.only_wide_lobes(images, uv, min_alpha) && b.only_wide_lobes(images, uv, min_alpha)
+            }
+            Material::BumpMap { nested, .. } | Material::NormalMap { nested, .. } => nested.only_wide_lobes(images, uv, min_alpha),
+        }
+    }
 }
