@@ -207,6 +207,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
             if let (Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&mut integrator, &integrator_settings) {
                 o.settings = s.clone();
             }
+            integrator.prepare(&scene);
             if !args.quiet {
                 eprintln!("octree: lighting from {} (read and checked in {load_s:.3} s, no photon traced)", path.display());
             }

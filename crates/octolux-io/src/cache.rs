@@ -21,9 +21,12 @@
 //! trailer  CRC-32 (IEEE, zlib's) of every byte before it, u32
 //! ```
 //!
+//! Version 4 has version 3's bytes with the `octree` integrator's settings of the termination
+//! rule (`mode`, `footprint`, ...; no `gather`, no `query`) in the meta JSON.
+//!
 //! Reading checks, in this order and before any large allocation: the file size against the
 //! memory budget (twice the file: its bytes and the octrees), the length (at least a
-//! header and a trailer), the magic, the version (a newer one is refused by name), the length
+//! header and a trailer), the magic, the version (an older or a newer one is refused by name), the length
 //! the header announces (truncated or trailing bytes), the checksum, then every count against
 //! the bytes left, the JSON, and last the octrees' invariants (`Octree::from_parts`). Every
 //! error names the file. The checksum is `flate2::Crc` (already a dependency for EXR and PNG):
@@ -47,7 +50,7 @@ const ANCHORS_BYTES: usize = 6 * (1 + ANCHOR_SAMPLES);
 /// The first 8 bytes of a cache file.
 pub const MAGIC: [u8; 8] = *b"OXCACHE\0";
 /// The format version this octolux writes and reads.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 /// Header bytes: magic, version, reserved, body length.
 pub const HEADER_BYTES: usize = 24;
 /// Trailer bytes: the CRC-32.
@@ -345,6 +348,12 @@ pub fn decode(bytes: &[u8], verify_checksum: bool) -> Result<CacheFile, String> 
     if version > FORMAT_VERSION {
         return Err(format!(
             "cache format version {version} was written by a newer octolux; this one reads version {FORMAT_VERSION}: re-bake, or use a newer octolux"
+        ));
+    }
+    if (1..FORMAT_VERSION).contains(&version) {
+        return Err(format!(
+            "cache format version {version} was written by an older octolux (its integrator settings differ); this one reads \
+             version {FORMAT_VERSION}: re-bake it"
         ));
     }
     if version != FORMAT_VERSION {

@@ -223,10 +223,11 @@ fn render<'py>(
             warnings.extend(cache::check_fingerprint(path, &c, &fp, &scene.spec, allow_stale_cache).map_err(error)?);
             let report = json!({ "file": path.display().to_string(), "file_bytes": c.file_bytes, "baked_from": c.info });
             let mut integrator = c.integrator;
-            // only the render-time keys (view, gather) may differ: check_cache_settings
+            // only the render-time keys may differ: check_cache_settings
             if let (Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&mut integrator, &s) {
                 o.settings = s.clone();
             }
+            integrator.prepare(&scene.scene);
             (integrator, s, warnings, report)
         }
         None => {

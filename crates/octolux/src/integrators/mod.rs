@@ -177,6 +177,15 @@ impl Integrator {
         }
     }
 
+    /// Derive what rendering `scene` needs from it, after the integrator was made from a cache
+    /// ([`build_from_parts`]) or its settings changed: the octree's leak-test planes
+    /// ([`OctreeIntegrator::prepare`]). [`build`] does it; the other integrators need nothing.
+    pub fn prepare(&mut self, scene: &Scene) {
+        if let Integrator::Octree(o) = self {
+            o.prepare(scene);
+        }
+    }
+
     /// Radiance along a primary ray; `diff`, its differential, gives texture lookups at the
     /// first hit their footprint (see `scene::material::texture`).
     #[inline]
