@@ -49,6 +49,7 @@ pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
     if args.octree.cache_scene.is_some() {
         bail!("--cache-scene does not apply to bake: bake that scene itself");
     }
+    crate::note_inputs([Some(Path::new(&args.scene.scene)), args.settings.as_deref()].into_iter().flatten());
     output::check_file(&args.output)?;
     // As before `render`'s loop: a signal exits at once (status 130), removing the staged
     // cache file; a cache under the final name is the previous run's, untouched.

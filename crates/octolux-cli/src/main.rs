@@ -46,6 +46,7 @@ use octolux::scene::Scene;
 use serde_json::json;
 use settings::SettingsInput;
 use stats::{StatsFile, Timings};
+use std::path::Path;
 use std::time::Instant;
 
 fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
@@ -55,6 +56,14 @@ fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
             Ok((k.trim().to_string(), v.trim().to_string()))
         })
         .collect()
+}
+
+/// Remember the files a command names as its inputs: no output may replace one
+/// ([`octolux_io::files`]; the loaders add every file they read).
+pub(crate) fn note_inputs<'a>(paths: impl IntoIterator<Item = &'a Path>) {
+    for p in paths {
+        octolux_io::files::note_input(p);
+    }
 }
 
 pub(crate) fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
@@ -92,6 +101,12 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     if let Some((w, h)) = args.resolution {
         budget::check_film(w as u64, h as u64).context("--resolution")?;
     }
+    note_inputs(
+        [Some(Path::new(&args.scene.scene)), args.settings.as_deref(), args.cache.as_deref(), args.camera_path.as_deref()]
+            .into_iter()
+            .chain([args.insert.as_deref().map(Path::new), args.insert_path.as_deref()])
+            .flatten(),
+    );
     let outputs = output::Outputs::check(&args.output)?;
     // A lighting cache is read and checked before the scene (which may take long to load).
     let cache = match &args.cache {
@@ -111,6 +126,20 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let load_s = t0.elapsed().as_secs_f64();
     let insertion = insert::read(args)?;
     let plan = frames::plan(args, &loaded.sensors, &loaded.desc.camera, insertion.as_ref().and_then(|i| i.path.as_ref()))?;
+    // One job per image: the single one, or each frame of the plan (every output checked now,
+    // before any long work).
+    let jobs: Vec<(output::Outputs, Option<(frames::Frame, FrameInfo)>)> = match &plan {
+        None => vec![(outputs, None)],
+        Some(p) => {
+            let mut jobs = Vec::with_capacity(p.frames.len());
+            for f in &p.frames {
+                let out = output::Outputs::check(&output::frame_path(&args.output, f.index, p.count))?;
+                let info = FrameInfo { index: f.index, count: p.count, time_s: f.time_s, source: p.source.clone() };
+                jobs.push((out, Some((f.clone(), info))));
+            }
+            jobs
+        }
+    };
     let mut desc = loaded.desc;
     if let Some((w, h)) = args.resolution {
         desc.film.width = w;
@@ -256,6 +285,9 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         ReconstructionArg::Splat => Reconstruction::Splat,
         ReconstructionArg::Importance => Reconstruction::ImportanceSampled,
     };
+    if let (Some(p), false) = (&plan, args.quiet) {
+        eprintln!("{}: rendering frames {}..{} of {}", p.source, p.frames[0].index, p.frames[p.frames.len() - 1].index, p.count);
+    }
     let sampler = match args.sampler {
         SamplerArg::Independent => SamplerKind::Independent,
         SamplerArg::Sobol => SamplerKind::Sobol,
@@ -263,22 +295,6 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let render_settings =
         RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, reconstruction, sampler, ..Default::default() };
 
-    // One job per image: the single one, or each frame of the plan.
-    let jobs: Vec<(output::Outputs, Option<(frames::Frame, FrameInfo)>)> = match &plan {
-        None => vec![(outputs, None)],
-        Some(p) => {
-            let mut jobs = Vec::with_capacity(p.frames.len());
-            for f in &p.frames {
-                let out = output::Outputs::check(&output::frame_path(&args.output, f.index, p.count))?;
-                let info = FrameInfo { index: f.index, count: p.count, time_s: f.time_s, source: p.source.clone() };
-                jobs.push((out, Some((f.clone(), info))));
-            }
-            if !args.quiet {
-                eprintln!("{}: rendering frames {}..{} of {}", p.source, p.frames[0].index, p.frames[p.frames.len() - 1].index, p.count);
-            }
-            jobs
-        }
-    };
     for (outputs, frame) in jobs {
         let t_frame = Instant::now();
         let mut placed = None;
@@ -376,6 +392,10 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
 }
 
 fn cmd_export(args: &ExportArgs) -> Result<()> {
+    note_inputs([Path::new(&args.scene.scene)]);
+    output::check_file(&args.output)?;
+    // a signal exits at once, removing the staged files (interrupt.rs)
+    interrupt::install()?;
     let loaded = load(&args.scene)?;
     loaded.desc.validate().with_context(|| format!("scene '{}' is invalid", args.scene.scene))?;
     octolux_io::export::write_mitsuba_scene(&loaded.desc, args.spp, args.max_depth, &args.output)

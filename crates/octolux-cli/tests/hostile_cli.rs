@@ -452,3 +452,244 @@ fn lights_that_emit_nothing_warn() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stderr(&o), "warning: the scene's lights emit nothing (zero radiance, intensity or area); the image will be black\n");
 }
+
+/// Make a FIFO at `p` (`mkfifo`).
+fn mkfifo(p: &Path) {
+    assert!(Command::new("mkfifo").arg(p).status().expect("mkfifo runs").success(), "mkfifo {}", p.display());
+}
+
+/// Is `p` (not following links) a FIFO, a character device? The file type as `stat` names it.
+fn file_type(p: &Path) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    let Ok(m) = std::fs::symlink_metadata(p) else { return "missing" };
+    let t = m.file_type();
+    if t.is_fifo() {
+        "fifo"
+    } else if t.is_char_device() {
+        "char"
+    } else if t.is_socket() {
+        "socket"
+    } else if t.is_symlink() {
+        "link"
+    } else if t.is_dir() {
+        "dir"
+    } else {
+        "file"
+    }
+}
+
+/// Issue 27, item 1: an output that exists and is not a regular file is refused, by every
+/// writer, before any work; the node is left as it was. `/dev/null` itself is only given to
+/// `bake`, whose check refuses it before the scene is read (a character device made here with
+/// `mknod`, where allowed, stands in for it everywhere else).
+#[test]
+fn outputs_that_are_not_regular_files_are_refused() {
+    let dir = TempDir::new("nodes");
+    let fifo = dir.path.join("fifo.exr");
+    mkfifo(&fifo);
+    let fifo_s = path_str(&fifo);
+    let refused = |p: &Path, kind: &str| {
+        format!("error: output '{}' is {kind}, not a regular file: octolux replaces only regular files\n", p.display())
+    };
+    // The scene does not exist: the output is reported, so it was checked first.
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &fifo_s]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), refused(&fifo, "a FIFO (named pipe)"));
+    // a FIFO where the PNG of the set would go
+    let png = dir.path.join("x.png");
+    mkfifo(&png);
+    let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert_eq!(stderr(&o), refused(&png, "a FIFO (named pipe)"));
+    // a link to a FIFO
+    let link = dir.path.join("link.exr");
+    std::os::unix::fs::symlink(&fifo, &link).expect("symlink");
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &path_str(&link)]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: output '{}' is a link to a FIFO (named pipe) ('{fifo_s}'), not to a regular file: octolux replaces only regular files\n",
+            link.display()
+        )
+    );
+    // bake, report and export, each to a FIFO
+    let oxc = dir.path.join("fifo.oxc");
+    mkfifo(&oxc);
+    let o = run(&["bake", "cornell-box", "--photons", "1000", "-q", "-o", &path_str(&oxc)]);
+    assert_eq!(stderr(&o), refused(&oxc, "a FIFO (named pipe)"));
+    let img = dir.path.join("a.exr");
+    let px = octolux::math::Color::new(0.5, 0.5, 0.5);
+    octolux_io::image_io::write_exr(&img, &octolux::image::Image { width: 2, height: 2, data: vec![px; 4] }).expect("write");
+    let sock = dir.path.join("sock.html");
+    let _listener = std::os::unix::net::UnixListener::bind(&sock).expect("bind a socket");
+    let o = run(&["report", &path_str(&img), "-o", &path_str(&sock)]);
+    assert_eq!(stderr(&o), refused(&sock, "a socket"));
+    let xml = dir.path.join("fifo.xml");
+    mkfifo(&xml);
+    let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+    assert_eq!(stderr(&o), refused(&xml, "a FIFO (named pipe)"));
+    // /dev/null itself: refused by the check that runs before the scene is read
+    let o = run(&["bake", "no-such-scene.xml", "-o", "/dev/null"]);
+    assert_eq!(stderr(&o), refused(Path::new("/dev/null"), "a character device"));
+    assert_eq!(file_type(Path::new("/dev/null")), "char");
+    // a character device node of our own (major 1, minor 3: what /dev/null is), where allowed
+    let null = dir.path.join("null.oxc");
+    if Command::new("mknod").arg(&null).args(["c", "1", "3"]).stderr(Stdio::null()).status().is_ok_and(|s| s.success()) {
+        let o = run(&["bake", "cornell-box", "--photons", "1000", "-q", "-o", &path_str(&null)]);
+        assert_eq!(stderr(&o), refused(&null, "a character device"));
+        let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("null.exr"))]);
+        assert!(o.status.success(), "a regular set beside it is fine: {}", stderr(&o));
+        assert_eq!(file_type(&null), "char");
+    } else {
+        println!("skipped the device-node case of outputs_that_are_not_regular_files_are_refused: mknod needs root");
+    }
+    for p in [&fifo, &png, &oxc, &xml] {
+        assert_eq!(file_type(p), "fifo", "{} left as it was", p.display());
+    }
+    assert_eq!(file_type(&sock), "socket");
+    assert_eq!(file_type(&link), "link");
+    let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
+    assert!(stray.is_empty(), "left behind {stray:?}");
+}
+
+/// Issue 27, item 1: an output that is one of the run's inputs (by name, through a symbolic
+/// link or a hard link: the same device and inode) is refused before any work.
+#[test]
+fn an_output_that_is_an_input_is_refused() {
+    let dir = TempDir::new("same");
+    let img = dir.path.join("a.exr");
+    let px = octolux::math::Color::new(0.5, 0.5, 0.5);
+    octolux_io::image_io::write_exr(&img, &octolux::image::Image { width: 2, height: 2, data: vec![px; 4] }).expect("write");
+    let before = std::fs::read(&img).expect("read");
+    let (a, hard, soft) = (path_str(&img), dir.path.join("hard.html"), dir.path.join("soft.html"));
+    std::fs::hard_link(&img, &hard).expect("hard link");
+    std::os::unix::fs::symlink(&img, &soft).expect("symlink");
+    let o = run(&["report", &a, "-o", &a]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), format!("error: output '{a}' is an input of this run: writing it would destroy the input\n"));
+    for link in [&hard, &soft] {
+        let o = run(&["report", &a, "-o", &path_str(link)]);
+        assert_eq!(
+            stderr(&o),
+            format!(
+                "error: output '{}' is an input of this run (the same file as '{a}'): writing it would destroy the input\n",
+                link.display()
+            )
+        );
+    }
+    let o = run(&["report", &a, "--reference", &path_str(&soft), "-o", &path_str(&hard)]);
+    assert!(stderr(&o).contains("is an input of this run (the same file as"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&img).expect("read"), before, "the input is untouched");
+
+    // export s.xml -o s.xml
+    let scene = write_scene(&dir, "path", "1", 8);
+    let text = std::fs::read(&scene).expect("read");
+    let o = run(&["export", &scene, "-o", &scene]);
+    assert_eq!(stderr(&o), format!("error: output '{scene}' is an input of this run: writing it would destroy the input\n"));
+    assert_eq!(std::fs::read(&scene).expect("read"), text);
+    // a settings file where the render's JSON would go, and a bake over its own settings
+    let settings = dir.path.join("x.json");
+    std::fs::write(&settings, "{}").expect("write");
+    let o = run(&["render", "cornell-box", "--settings", &path_str(&settings), "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert_eq!(stderr(&o), format!("error: output '{}' is an input of this run: writing it would destroy the input\n", settings.display()));
+    let o = run(&["bake", "cornell-box", "--settings", &path_str(&settings), "-q", "-o", &path_str(&settings)]);
+    assert!(stderr(&o).ends_with("is an input of this run: writing it would destroy the input\n"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&settings).expect("read"), b"{}");
+    assert!(!dir.path.join("x.exr").exists());
+}
+
+/// Issue 27, items 1 and 10: the whole output path is checked before any work, the staging
+/// name included (a 234-byte name used to fail once staged), and `-o sub.exr/` fails at once.
+#[test]
+fn output_names_are_checked_whole_before_any_work() {
+    let dir = TempDir::new("names");
+    let long = format!("{}.exr", "a".repeat(230));
+    let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join(&long))]);
+    assert!(o.status.success(), "a 234-byte name: {}", stderr(&o));
+    let stem = "a".repeat(230);
+    assert_eq!(dir.files(), vec![long.clone(), format!("{stem}.json"), format!("{stem}.png")]);
+    let too_long = format!("{}.exr", "b".repeat(252));
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &path_str(&dir.path.join(&too_long))]);
+    assert_eq!(stderr(&o), format!("error: output name '{too_long}' is 256 bytes long; a file name may have at most 255\n"));
+    let slash = format!("{}/", dir.path.join("sub.exr").display());
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &slash]);
+    assert_eq!(stderr(&o), format!("error: output '{slash}' ends in '/': that names a folder, not a file\n"));
+    let o = run(&["bake", "no-such-scene.xml", "-q", "-o", &format!("{}/", dir.path.join("x.oxc").display())]);
+    assert!(stderr(&o).ends_with("ends in '/': that names a folder, not a file\n"), "{}", stderr(&o));
+    // the frames' names are checked as the single output's: a camera path of 2 frames
+    let path = dir.path.join("path.json");
+    std::fs::write(
+        &path,
+        r#"{"fps": 1, "keyframes": [{"time": 0, "position": [0,1,4], "target": [0,1,0], "fov": 40}, {"time": 1, "position": [1,1,4], "target": [0,1,0], "fov": 40}]}"#,
+    )
+    .expect("write");
+    let frame_long = format!("{}.exr", "c".repeat(248));
+    let o = run(&["render", "cornell-box", "--camera-path", &path_str(&path), "-q", "-o", &path_str(&dir.path.join(&frame_long))]);
+    assert_eq!(
+        stderr(&o),
+        format!("error: output name '{}_0001.exr' is 257 bytes long; a file name may have at most 255\n", "c".repeat(248))
+    );
+    assert_eq!(dir.files().len(), 4, "nothing else written: {:?}", dir.files());
+}
+
+/// Issue 27, item 1: `export` stages its XML and its `meshes/` folder and renames them into
+/// place only when all is written; a `meshes` that is not a folder is refused before any work.
+#[test]
+fn export_stages_its_meshes_and_checks_them_first() {
+    let dir = TempDir::new("export");
+    let xml = dir.path.join("s.xml");
+    let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(dir.files(), vec!["meshes", "s.xml"]);
+    let meshes: Vec<String> = std::fs::read_dir(dir.path.join("meshes"))
+        .expect("meshes")
+        .map(|e| e.expect("e").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!meshes.is_empty() && meshes.iter().all(|m| m.ends_with(".ply")), "{meshes:?}");
+    // again into the same folder: the files are replaced, nothing staged is left
+    let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(dir.files(), vec!["meshes", "s.xml"]);
+    // the exported scene loads back
+    let o = run(&["render", &path_str(&xml), "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("r.exr"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // a mesh file that is a FIFO is refused, and nothing is renamed (the XML stays the old one)
+    let first = dir.path.join("meshes").join(&meshes[0]);
+    std::fs::remove_file(&first).expect("rm");
+    mkfifo(&first);
+    let old = std::fs::read(&xml).expect("xml");
+    std::fs::write(&xml, b"previous").expect("write");
+    let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains(&format!("output '{}' is a FIFO (named pipe), not a regular file", first.display())), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&xml).expect("xml"), b"previous");
+    assert_eq!(file_type(&first), "fifo");
+    assert!(!old.is_empty());
+    let other = TempDir::new("export-file");
+    std::fs::write(other.path.join("meshes"), b"a file").expect("write");
+    let o = run(&["export", "cornell-box", "-o", &path_str(&other.path.join("s.xml"))]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot export to {}: '{}' is a regular file: the exported meshes go into a folder of that name\n",
+            other.path.join("s.xml").display(),
+            other.path.join("meshes").display()
+        )
+    );
+    assert_eq!(other.files(), vec!["meshes"]);
+    let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
+    assert!(stray.is_empty(), "left behind {stray:?}");
+}
+
+/// Issue 27, item 10: a full disk during `export` leaves neither a partial `meshes/` folder
+/// nor an XML (a tmpfs too small for the scene; skipped where mounting is not allowed).
+#[test]
+fn an_export_on_a_full_disk_leaves_nothing() {
+    let mut dir = TempDir::new("export-full");
+    if !dir.mount_tmpfs("size=16k", "an_export_on_a_full_disk_leaves_nothing") {
+        return;
+    }
+    let o = run(&["export", "cornell-box", "-o", &path_str(&dir.path.join("s.xml"))]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("No space left on device"), "{}", stderr(&o));
+    assert!(dir.files().is_empty(), "{:?}", dir.files());
+}

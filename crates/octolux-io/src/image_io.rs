@@ -14,8 +14,7 @@
 use crate::IoError;
 use octolux::image::Image;
 use octolux::math::Color;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
 
 /// sRGB transfer function (linear -> encoded), for values in `[0, 1]`.
 #[inline]
@@ -44,31 +43,28 @@ pub fn encode_srgb8(v: f32) -> u8 {
     (linear_to_srgb(v) * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
 }
 
-/// Name of a fresh temporary file next to `path` (same folder, so the final rename is atomic).
-fn temp_path_for(path: &Path) -> PathBuf {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "output".into());
-    path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()))
-}
-
-/// Write a file atomically: `write` produces the complete file at the temporary path it is
-/// given (an error message on failure); on success it is renamed to `path`. On any failure the
-/// temporary file is removed and `path` is left untouched.
+/// Write a file atomically, by the rule of [`crate::files`]: the target is checked (a regular
+/// file or nothing, not an input), `write` produces the complete file at the staging path it is
+/// given (an error message on failure), and on success it is renamed to `path` after a second
+/// check. On any failure the staged file is removed and `path` is left untouched.
 pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), IoError> {
     if path.file_name().is_none() {
         return Err(IoError::invalid(path, "output path has no file name"));
     }
-    let tmp = temp_path_for(path);
-    if let Err(msg) = write(&tmp) {
+    crate::files::recheck_output(path).map_err(IoError::Output)?;
+    let tmp = crate::files::staging_name(path, "tmp");
+    crate::files::note_staged(&tmp);
+    let result = match write(&tmp) {
+        Err(msg) => Err(IoError::invalid(path, format!("could not write: {msg}"))),
+        Ok(()) => crate::files::recheck_output(path)
+            .map_err(IoError::Output)
+            .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| IoError::os(path, e))),
+    };
+    if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
-        return Err(IoError::invalid(path, format!("could not write: {msg}")));
     }
-    if let Err(e) = std::fs::rename(&tmp, path) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(IoError::os(path, e));
-    }
-    Ok(())
+    crate::files::forget_staged(&tmp);
+    result
 }
 
 /// Write bytes to a file atomically (see [`write_atomically`]).

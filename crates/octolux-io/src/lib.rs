@@ -8,6 +8,7 @@
 pub mod builtin;
 pub mod cache;
 pub mod export;
+pub mod files;
 pub mod fuzzing;
 pub mod gltf_scene;
 pub mod image_io;
@@ -33,6 +34,9 @@ pub enum IoError {
     /// The file was read but its content is unusable.
     #[error("{}: {msg}", file.display())]
     Invalid { file: PathBuf, msg: String },
+    /// An output the rule of [`files`] refuses (the message names the path).
+    #[error("{0}")]
+    Output(String),
     #[error("unknown scene '{name}': not a file and not a built-in scene (built-in: {known})")]
     UnknownScene { name: String, known: String },
 }
