@@ -399,10 +399,10 @@ pub fn load_bytes(bytes: &[u8], verify_checksum: bool) -> Result<LoadedCache, St
 /// Read a cache file: every check of the module docs, errors naming the file.
 pub fn read(path: &Path) -> Result<LoadedCache, IoError> {
     // the file and the octrees made from it, about twice its size, within the memory budget
-    let len = std::fs::metadata(path).map_err(|e| IoError::os(path, e))?.len();
+    let len = crate::files::check_input(path)?;
     octolux::budget::check_items(|| format!("a lighting cache of {len} bytes"), len, 2)
         .map_err(|b| IoError::invalid(path, b.to_string()))?;
-    let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
+    let bytes = crate::files::read(path)?;
     load_bytes(&bytes, true).map_err(|m| IoError::invalid(path, format!("cannot use this lighting cache: {m}")))
 }
 

@@ -1,6 +1,13 @@
-//! The one rule for the files octolux writes, shared by every writer (the CLI's render set,
-//! `bake`, `report`, `export`, the image writers of [`crate::image_io`]; issue 27, item 1).
+//! The rules for the files octolux reads and writes, shared by every loader and every writer
+//! (the CLI's render set, `bake`, `report`, `export`, the image writers of
+//! [`crate::image_io`]; issue 27).
 //!
+//! Inputs ([`read`], [`read_to_string`]): a file is read only when it is a regular file (a
+//! link to one counts) whose size is within the memory budget ([`octolux::budget`]); a folder,
+//! a device (`/dev/zero`), a FIFO or a socket is refused by name before a byte is read, so an
+//! endless stream never fills the memory. Each file read is remembered as an input.
+//!
+//! Outputs:
 //! - An output is checked before any long work ([`check_output`]): its name is a file name
 //!   (not `sub.exr/`, at most [`NAME_MAX`] bytes), its folder exists and takes a new file (a
 //!   probe file with the staging name is created and removed, so a name too long once staged
@@ -113,6 +120,44 @@ pub fn folder_of(path: &Path) -> PathBuf {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     }
+}
+
+use crate::IoError;
+
+/// Whether `path` names something that can be read as a file, and its size: the error says
+/// what it is instead (a folder, a device, ...) or that its size passes the memory budget.
+pub fn check_input(path: &Path) -> Result<u64, IoError> {
+    let m = std::fs::metadata(path).map_err(|e| IoError::os(path, e))?;
+    let ft = m.file_type();
+    if ft.is_dir() {
+        return Err(IoError::invalid(path, "this is a folder, not a file"));
+    }
+    if !ft.is_file() {
+        return Err(IoError::invalid(path, format!("this is {}, not a regular file: octolux reads only regular files", kind_of(&ft))));
+    }
+    let len = m.len();
+    octolux::budget::check_items(|| format!("a file of {len} bytes"), len, 1).map_err(|b| IoError::invalid(path, b.to_string()))?;
+    Ok(len)
+}
+
+/// Read a whole input file by the rule (module docs); it is remembered as an input.
+pub fn read(path: &Path) -> Result<Vec<u8>, IoError> {
+    use std::io::Read;
+    let len = check_input(path)?;
+    let f = std::fs::File::open(path).map_err(|e| IoError::os(path, e))?;
+    note_input(path);
+    // at most the size checked (a file that grows meanwhile is cut there, then refused below)
+    let mut bytes = Vec::with_capacity(len as usize);
+    f.take(len.saturating_add(1)).read_to_end(&mut bytes).map_err(|e| IoError::os(path, e))?;
+    if bytes.len() as u64 > len {
+        return Err(IoError::invalid(path, "the file grew while it was read"));
+    }
+    Ok(bytes)
+}
+
+/// [`read`] as UTF-8 text.
+pub fn read_to_string(path: &Path) -> Result<String, IoError> {
+    String::from_utf8(read(path)?).map_err(|_| IoError::invalid(path, "the file is not UTF-8 text"))
 }
 
 /// Check an output path before any work (module docs); the message says what is wrong.
