@@ -58,6 +58,17 @@ fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
         .collect()
 }
 
+/// Print a result on stdout; a closed pipe (`octolux compare a b | head -1`) ends the output
+/// quietly instead of panicking as `println!` does.
+pub(crate) fn print_out(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e).context("cannot write to stdout"),
+        _ => Ok(()),
+    }
+}
+
 /// Remember the files a command names as its inputs: no output may replace one
 /// ([`octolux_io::files`]; the loaders add every file they read).
 pub(crate) fn note_inputs<'a>(paths: impl IntoIterator<Item = &'a Path>) {
@@ -68,6 +79,7 @@ pub(crate) fn note_inputs<'a>(paths: impl IntoIterator<Item = &'a Path>) {
 
 pub(crate) fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
     let defines = parse_defines(&args.define)?;
+    octolux_io::gltf_scene::allow_outside_uris(args.allow_outside_uris);
     let loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
     for n in &loaded.notes {
         eprintln!("note: {n}");
@@ -88,7 +100,7 @@ pub(crate) fn backend_kind(b: BackendArg) -> BackendKind {
 
 fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let t0 = Instant::now();
-    bake::check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
+    let flag_warnings = bake::check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
     if let Some(b) = args.time_budget {
         if !(b.is_finite() && b > 0.0) {
             bail!("--time-budget must be a positive number of seconds, got {b}");
@@ -145,6 +157,16 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         desc.film.width = w;
         desc.film.height = h;
     }
+    // values that are valid but leave nothing to see
+    let mut camera_warnings: Vec<String> = Vec::new();
+    let bounds = desc.bounds();
+    let cams = jobs.iter().filter_map(|(_, f)| f.as_ref().map(|(f, _)| &f.camera)).chain(plan.is_none().then_some(&desc.camera));
+    for c in cams {
+        if let Some(w) = c.near_clip_warning(&bounds).filter(|w| !camera_warnings.contains(w)) {
+            eprintln!("warning: {w}");
+            camera_warnings.push(w);
+        }
+    }
     // the scene without the inserted object: the lighting's (its fingerprint, its photons)
     let base_desc = insertion.as_ref().map(|_| desc.clone());
     // The loader checks a film it reads; a built-in scene's, or one set in code, is checked here.
@@ -171,7 +193,9 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         flags,
         sets: &args.set,
     })?;
-    let mut warnings = loaded.warnings;
+    let mut warnings = flag_warnings;
+    warnings.extend(loaded.warnings);
+    warnings.extend(camera_warnings);
     for w in &resolved.warnings {
         eprintln!("warning: {w}");
         warnings.push(w.clone());
@@ -209,7 +233,11 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     // The scene the photons are traced in (the rendered one unless --cache-scene says otherwise).
     let cache_scene = match &args.octree.cache_scene {
         Some(spec) if photon_count.is_some() => {
-            let other = load(&SceneArgs { scene: spec.clone(), define: args.scene.define.clone() })?;
+            let other = load(&SceneArgs {
+                scene: spec.clone(),
+                define: args.scene.define.clone(),
+                allow_outside_uris: args.scene.allow_outside_uris,
+            })?;
             Some(Scene::prepare(other.desc, backend).with_context(|| format!("cannot prepare cache scene '{spec}'"))?)
         }
         Some(_) => bail!("--cache-scene needs a cache integrator (octree, ward, christensen, photonmap), not {name}"),
@@ -295,6 +323,8 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let render_settings =
         RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, reconstruction, sampler, ..Default::default() };
 
+    // the frames written so far (for the message of an interrupt)
+    let mut written: Vec<std::path::PathBuf> = Vec::new();
     for (outputs, frame) in jobs {
         let t_frame = Instant::now();
         let mut placed = None;
@@ -328,7 +358,17 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         let (image, rstats) = render_cancellable(&scene, &integrator, &render_settings, &progress, Some(&interrupt::CANCEL));
         bar.finish_and_clear();
         if rstats.interrupted && rstats.passes == 0 {
-            eprintln!("octolux: interrupted before the first pass was complete; nothing written");
+            match (&frame, written.first(), written.last()) {
+                (Some((_, info)), Some(first), Some(last)) => eprintln!(
+                    "octolux: interrupted during frame {} before its first pass was complete: nothing written for it; \
+                     the {} frames before it are complete ({} to {})",
+                    info.index,
+                    written.len(),
+                    first.display(),
+                    last.display()
+                ),
+                _ => eprintln!("octolux: interrupted before the first pass was complete; nothing written"),
+            }
             return Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED));
         }
 
@@ -363,6 +403,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
             stats.timings.total_s = if frame.is_some() { t_frame.elapsed().as_secs_f64() } else { t0.elapsed().as_secs_f64() };
             Ok(serde_json::to_string_pretty(&stats)?)
         })?;
+        written.push(outputs.exr.clone());
         let (png, json) = (&outputs.png, &outputs.json);
         if rstats.interrupted {
             eprintln!(
@@ -392,6 +433,11 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
 }
 
 fn cmd_export(args: &ExportArgs) -> Result<()> {
+    // the values `render` would refuse: the exported scene must load back
+    if args.spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    settings::check_max_depth(args.max_depth as i64).map_err(|e| anyhow::anyhow!("--max-depth {e}"))?;
     note_inputs([Path::new(&args.scene.scene)]);
     output::check_file(&args.output)?;
     // a signal exits at once, removing the staged files (interrupt.rs)
@@ -430,9 +476,7 @@ fn run(cli: Cli) -> Result<std::process::ExitCode> {
         }
         Command::Flicker(a) => flicker::cmd_flicker(&a).map(|()| std::process::ExitCode::SUCCESS),
         Command::Scenes => {
-            for n in octolux_io::builtin::NAMES {
-                println!("{n}");
-            }
+            print_out(&octolux_io::builtin::NAMES.join("\n"))?;
             Ok(std::process::ExitCode::SUCCESS)
         }
     }
@@ -458,6 +502,6 @@ fn cmd_compare(image: &std::path::Path, reference: &std::path::Path) -> Result<(
     let e = octolux::metrics::compare(&a, &r).with_context(|| {
         format!("{} is {}x{} but {} is {}x{}", image.display(), a.width, a.height, reference.display(), r.width, r.height)
     })?;
-    println!("{}", serde_json::to_string_pretty(&e)?);
+    print_out(&serde_json::to_string_pretty(&e)?)?;
     Ok(())
 }

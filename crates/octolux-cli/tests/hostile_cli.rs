@@ -693,3 +693,264 @@ fn an_export_on_a_full_disk_leaves_nothing() {
     assert!(stderr(&o).contains("No space left on device"), "{}", stderr(&o));
     assert!(dir.files().is_empty(), "{:?}", dir.files());
 }
+
+/// Issue 27, item 5: inputs that are not regular files are refused before a byte is read
+/// (`--settings /dev/zero`, `--cache /dev/zero` and `compare /dev/zero x` read until memory ran
+/// out); a folder says it is one.
+#[test]
+fn inputs_that_are_not_regular_files_are_refused() {
+    let dir = TempDir::new("inputs");
+    let out = path_str(&dir.path.join("x.exr"));
+    let dev = "/dev/zero: this is a character device, not a regular file: octolux reads only regular files";
+    let o = run(&["render", "cornell-box", "--settings", "/dev/zero", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), format!("error: cannot read settings file {dev}\n"));
+    let o = run(&["render", "cornell-box", "--cache", "/dev/zero", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), format!("error: {dev}\n"));
+    let o = run(&["compare", "/dev/zero", &out]);
+    assert_eq!(stderr(&o), format!("error: cannot read /dev/zero: {dev}\n"));
+    let o = run(&["render", "cornell-box", "--camera-path", &path_str(&dir.path), "-q", "-o", &out]);
+    assert_eq!(stderr(&o), format!("error: camera path {}: this is a folder, not a file\n", dir.path.display()));
+    assert!(dir.files().is_empty());
+}
+
+/// Issue 27, item 6: one SIGINT stops a render inside a long tile (`--spp 100000000` on one
+/// pixel kept running 40 s after it), and `--threads` is capped at 8 per core with a warning
+/// (`--threads 100000` hung); `--insert-ao` is bounded.
+#[test]
+fn one_interrupt_stops_a_long_tile_and_threads_are_capped() {
+    let dir = TempDir::new("longtile");
+    let out = path_str(&dir.path.join("x.exr"));
+    let args = ["render", "cornell-box", "--resolution", "1x1", "--spp", "100000000", "-o", &out];
+    let (o, took) = interrupt(&args, "octolux: cornell-box", Duration::from_millis(500), &["INT"]);
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(took < Duration::from_secs(1), "took {took:?} to stop");
+    assert!(stderr(&o).ends_with("octolux: interrupted before the first pass was complete; nothing written\n"), "{}", stderr(&o));
+    assert!(dir.files().is_empty());
+
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    for n in ["100000", "18446744073709551615"] {
+        let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "--threads", n, "-q", "-o", &out]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            stderr(&o),
+            format!("warning: --threads {n} is more than 8 per core on this machine's {cores} cores; using {}\n", 8 * cores)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("JSON");
+        assert_eq!(json["threads"], 8 * cores as u64);
+    }
+    let obj = dir.path.join("o.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").expect("write");
+    let o = run(&["render", "cornell-box", "--insert", &path_str(&obj), "--insert-ao", "4294967295", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), "error: --insert-ao 4294967295: at most 4096 rays per shading point\n");
+}
+
+/// Issue 27, item 10: an interrupt after some frames says which were written (it said
+/// "nothing written" after 21 frames).
+#[test]
+fn an_interrupt_after_some_frames_names_the_frames_written() {
+    let dir = TempDir::new("sigframes");
+    let path = dir.path.join("path.json");
+    std::fs::write(
+        &path,
+        r#"{"fps": 1, "keyframes": [{"time": 0, "position": [0,1,4], "target": [0,1,0], "fov": 40}, {"time": 9, "position": [1,1,4], "target": [0,1,0], "fov": 40}]}"#,
+    )
+    .expect("write");
+    let out = dir.path.join("f.exr");
+    let args =
+        ["render", "cornell-box", "--camera-path", &path_str(&path), "--resolution", "16x16", "--spp", "3000", "-o", &path_str(&out)];
+    let (o, _) = interrupt(&args, "rendered", Duration::from_millis(100), &["INT"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(130), "{e}");
+    let last = e.lines().last().unwrap_or("");
+    assert!(last.starts_with("octolux: interrupted during frame "), "{e}");
+    let written: Vec<String> = dir.files().into_iter().filter(|f| f.ends_with(".exr")).collect();
+    assert!(!written.is_empty() && written.len() < 10, "{written:?}");
+    assert_eq!(
+        last,
+        format!(
+            "octolux: interrupted during frame {} before its first pass was complete: nothing written for it; the {} frames before it are \
+             complete ({} to {})",
+            written.len() + 1,
+            written.len(),
+            dir.path.join("f_0001.exr").display(),
+            dir.path.join(&written[written.len() - 1]).display()
+        )
+    );
+}
+
+/// Issue 27, items 7 and 8: every frame of a camera path is checked, not only its keys; a bake
+/// made with `--view leaves` does not make later renders write the leaves.
+#[test]
+fn camera_path_frames_and_baked_views_are_checked() {
+    let dir = TempDir::new("frames");
+    let path = dir.path.join("path.json");
+    // valid keys; half-way the position meets the target
+    std::fs::write(
+        &path,
+        r#"{"fps": 2, "keyframes": [{"time": 0, "position": [0,1,0], "target": [1,1,0], "fov": 40}, {"time": 1, "position": [2,1,0], "target": [1,1,0], "fov": 40}]}"#,
+    )
+    .expect("write");
+    let o = run(&["render", "cornell-box", "--camera-path", &path_str(&path), "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert_eq!(
+        stderr(&o),
+        format!("error: camera path {}: frame 2 (time 0.5 s, between keyframes): target is the position\n", path.display())
+    );
+    let oxc = path_str(&dir.path.join("l.oxc"));
+    let o = run(&["bake", "cornell-box", "--photons", "2000", "--view", "leaves", "-q", "-o", &oxc]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("warning: view leaves does not apply to bake"), "{}", stderr(&o));
+    let out = dir.path.join("r.exr");
+    let o = run(&["render", "cornell-box", "--cache", &oxc, "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("r.json")).expect("json")).expect("JSON");
+    assert_eq!(json["integrator_settings"]["view"], "render");
+}
+
+/// Issue 27, item 8: one validator per value, whatever the source: `max_depth` below -1 from
+/// the flag, `--set`, a settings file and `export`; `export --spp 0`; a non-object for a table
+/// of settings; `{}` for one changes nothing; NaN named as such; `--epsilon 1e30`; an empty
+/// settings file; a repeated `-D` warns and the last wins.
+#[test]
+fn every_source_of_a_value_is_checked_alike() {
+    let dir = TempDir::new("values");
+    let out = path_str(&dir.path.join("x.exr"));
+    let quick = ["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &out];
+    let with = |extra: &[&str]| run(&[&quick[..], extra].concat());
+    assert_eq!(stderr(&with(&["--max-depth", "-5"])), "error: --max-depth -5 must be -1 (unbounded) or at least 0\n");
+    assert_eq!(stderr(&with(&["--set", "max_depth=-5"])), "error: --set max_depth=-5: max_depth -5 must be -1 (unbounded) or at least 0\n");
+    let file = dir.path.join("s.json");
+    std::fs::write(&file, r#"{"type": "octree", "max_depth": -5}"#).expect("write");
+    assert_eq!(
+        stderr(&with(&["--settings", &path_str(&file)])),
+        format!("error: settings file {}: max_depth -5 must be -1 (unbounded) or at least 0\n", file.display())
+    );
+    let xml = path_str(&dir.path.join("e.xml"));
+    assert_eq!(
+        stderr(&run(&["export", "cornell-box", "--max-depth", "-5", "-o", &xml])),
+        "error: --max-depth -5 must be -1 (unbounded) or at least 0\n"
+    );
+    assert_eq!(stderr(&run(&["export", "cornell-box", "--spp", "0", "-o", &xml])), "error: --spp must be at least 1\n");
+    let o = with(&["--integrator", "octree", "--set", "global=[1,2]"]);
+    assert!(stderr(&o).starts_with("error: --set global=[1,2]: `global` is a table of settings ("), "{}", stderr(&o));
+    assert!(stderr(&o).ends_with("not a value: set its keys (`global.alpha=...`) or give an object\n"), "{}", stderr(&o));
+    // `{}` changes nothing: the same settings as without it
+    let settings_of = |extra: &[&str]| {
+        let o = with(&[&["--integrator", "octree", "--photons", "1000"][..], extra].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("JSON");
+        json["integrator_settings"].clone()
+    };
+    let plain = settings_of(&[]);
+    assert_eq!(settings_of(&["--set", "global={}"]), plain);
+    assert_eq!(settings_of(&["--set", "global={\"n_max\": 400}"])["global"]["n_max"], 400);
+    assert_eq!(settings_of(&["--set", "global={\"n_max\": 400}"])["global"]["h_max"], plain["global"]["h_max"]);
+    // NaN and infinity: said so (it was "invalid type: null")
+    let o = with(&["--integrator", "octree", "--set", "global.epsilon=NaN"]);
+    assert_eq!(stderr(&o), "error: --set global.epsilon=NaN: NaN is not a finite number\n");
+    let toml = dir.path.join("s.toml");
+    std::fs::write(&toml, "type = \"octree\"\n[global]\nepsilon = inf\n").expect("write");
+    assert_eq!(
+        stderr(&with(&["--settings", &path_str(&toml)])),
+        format!("error: settings file {}: `global.epsilon` = inf is not a finite number\n", toml.display())
+    );
+    let o = with(&["--integrator", "octree", "--epsilon", "1e30"]);
+    assert_eq!(
+        stderr(&o),
+        "error: --epsilon: global: invalid octree settings: epsilon = 1000000000000000000000000000000 must be in [0, 10]\n"
+    );
+    // empty settings files are valid (they said "no integrator has the setting ``")
+    for (name, text) in [("e.json", "{}"), ("e.toml", "")] {
+        let f = dir.path.join(name);
+        std::fs::write(&f, text).expect("write");
+        let o = with(&["--settings", &path_str(&f)]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+    }
+    // a repeated -D: the last wins, with a warning
+    let scene = write_scene(&dir, "path", "1", 8);
+    let o = run(&["render", &scene, "-D", "spp=1", "-D", "spp=2", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), "warning: -D spp=2 repeats -D spp=1: the last value wins\n");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("JSON");
+    assert_eq!(json["render_settings"]["spp"], 2);
+}
+
+/// Issue 27, items 4 and 8: `report` checks its memory before FLIP (two 8192x8192 images
+/// segfaulted in FLIP at an 8 GB limit); a `near_clip` beyond the whole scene warns.
+#[test]
+fn report_memory_is_checked_before_flip_and_a_far_near_clip_warns() {
+    let dir = TempDir::new("flip");
+    let px = octolux::math::Color::new(0.5, 0.5, 0.5);
+    let img = octolux::image::Image { width: 512, height: 512, data: vec![px; 512 * 512] };
+    let (a, b) = (dir.path.join("a.exr"), dir.path.join("b.exr"));
+    octolux_io::image_io::write_exr(&a, &img).expect("write");
+    octolux_io::image_io::write_exr(&b, &img).expect("write");
+    let o = octolux()
+        .env(budget::MEMORY_LIMIT_ENV, "16M")
+        .args(["report", &path_str(&a), "--reference", &path_str(&b), "-o", &path_str(&dir.path.join("r.html"))])
+        .output()
+        .expect("runs");
+    let need = budget::format_bytes(2 * 512 * 512 * 56 + 512 * 512 * 96);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: the report of 2 images of 512x512 (FLIP and the page) would need {need} of memory, more than the limit of 16.0 MiB \
+             (set OCTOLUX_MEMORY_LIMIT to change the limit)\n"
+        )
+    );
+    assert_eq!(dir.files(), vec!["a.exr", "b.exr"]);
+
+    let scene = dir.path.join("far.xml");
+    std::fs::write(
+        &scene,
+        scene_xml("path", "1", 8)
+            .replace("<float name=\"fov\" value=\"40\"/>", "<float name=\"fov\" value=\"40\"/><float name=\"near_clip\" value=\"1e30\"/>"),
+    )
+    .expect("write");
+    let o = run(&["render", &path_str(&scene), "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).starts_with("warning: near_clip 1000000000000000000000000000000 is beyond the whole scene (its farthest point is "),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// Issue 27, item 5: glTF buffer URIs stay inside the file's folder unless
+/// `--allow-outside-uris`; a closed stdout ends `compare` quietly (it panicked).
+#[test]
+fn gltf_uris_outside_the_folder_need_the_flag() {
+    let dir = TempDir::new("uris");
+    let mut buf = Vec::new();
+    for v in [0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        buf.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(dir.path.join("tri.bin"), &buf).expect("write");
+    std::fs::create_dir(dir.path.join("sub")).expect("mkdir");
+    let gltf = dir.path.join("sub").join("s.gltf");
+    std::fs::write(
+        &gltf,
+        r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+  "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}], "buffers": [{"byteLength": 36, "uri": "../tri.bin"}]}"#,
+    )
+    .expect("write");
+    let out = path_str(&dir.path.join("x.exr"));
+    let o = run(&["render", &path_str(&gltf), "--resolution", "4x4", "--spp", "1", "-q", "-o", &out]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot load scene '{}': {}: buffer 0: URI \"../tri.bin\" names a file outside the glTF file's folder \
+             (allow it with --allow-outside-uris)\n",
+            gltf.display(),
+            gltf.display()
+        )
+    );
+    let o = run(&["render", &path_str(&gltf), "--allow-outside-uris", "--resolution", "4x4", "--spp", "1", "-q", "-o", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    let mut child = octolux().args(["compare", &out, &out]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("spawn");
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("wait");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "");
+}

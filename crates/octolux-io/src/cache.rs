@@ -373,6 +373,9 @@ pub fn decode(bytes: &[u8], verify_checksum: bool) -> Result<CacheFile, String> 
     let fingerprint =
         LightingFingerprint { geometry: r.u64("fingerprint")?, materials: r.u64("fingerprint")?, emitters: r.u64("fingerprint")? };
     let meta: Meta = r.json("metadata")?;
+    // the values checked as every other source's are (a crafted max_depth of -5, say)
+    crate::settings::check_values(&octolux::integrators::IntegratorSettings::Octree(meta.settings.clone()))
+        .map_err(|e| format!("its settings: {e}"))?;
     let trees = r.u8("tree count")?;
     if !(1..=2).contains(&trees) {
         return Err(format!("{trees} octrees (1 or 2: global, caustic)"));

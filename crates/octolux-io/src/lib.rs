@@ -14,6 +14,7 @@ pub mod gltf_scene;
 pub mod image_io;
 pub mod mesh;
 pub mod mitsuba;
+pub mod paths;
 pub mod settings;
 pub mod shared;
 
