@@ -84,7 +84,16 @@ pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<LoadedScene, IoError> {
     octolux::budget::check_items(|| format!("a glTF file of {} bytes", bytes.len()), bytes.len() as u64, 4)
         .map_err(|e| IoError::invalid(path, e.to_string()))?;
     let not_valid = |e: gltf::Error| IoError::invalid(path, format!("not a valid glTF 2.0 file: {e}"));
-    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(not_valid)?;
+    // A .glb is split here: the gltf crate's splitter subtracts the header's size from the
+    // length it gives before checking it (an overflow panic, found by the fuzz target).
+    let (json_bytes, blob) = if bytes.starts_with(b"glTF") {
+        let (json, bin) = split_glb(bytes).map_err(|m| IoError::invalid(path, format!("not a valid .glb file: {m}")))?;
+        (json, bin.map(<[u8]>::to_vec))
+    } else {
+        (bytes, None)
+    };
+    let root = gltf::json::deserialize::from_slice(json_bytes).map_err(|e| not_valid(gltf::Error::Deserialize(e)))?;
+    let gltf = gltf::Gltf { document: gltf::Document::from_json_without_validation(root), blob };
     // The gltf crate's validation reads the accessor a POSITION names before it checks that
     // the accessor exists (an index out of bounds: a panic, found by the fuzz target): checked
     // here first, then the crate validates the rest.
@@ -149,6 +158,37 @@ pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<LoadedScene, IoError> {
         None => crate::mesh::framing_camera(desc.bounds()),
     };
     Ok(LoadedScene { desc, warnings, sensors, notes: Vec::new() })
+}
+
+/// The JSON chunk and the optional binary chunk of a `.glb` file (its 12-byte header: magic,
+/// version 2, length; then chunks of a length, a type and the data, each padded to 4 bytes),
+/// every length checked against the bytes there are.
+fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
+    let word = |at: usize| bytes.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
+    let (Some(version), Some(length)) = (word(4), word(8)) else { return Err("the 12-byte header is cut short".into()) };
+    if version != 2 {
+        return Err(format!("version {version} (octolux reads glTF 2)"));
+    }
+    if length < 12 || length > bytes.len() {
+        return Err(format!("the header gives a length of {length} bytes, but the file has {}", bytes.len()));
+    }
+    let mut chunks = Vec::new();
+    let mut at = 12;
+    while at < length && chunks.len() < 2 {
+        let (Some(len), Some(ty)) = (word(at), bytes.get(at + 4..at + 8)) else {
+            return Err(format!("chunk {} is cut short", chunks.len()));
+        };
+        let data = at.checked_add(8).and_then(|s| Some((s, s.checked_add(len)?))).filter(|&(_, e)| e <= length);
+        let Some((start, end)) = data else { return Err(format!("chunk {} of {len} bytes passes the end of the file", chunks.len())) };
+        chunks.push((ty, &bytes[start..end]));
+        at = end.div_ceil(4) * 4;
+    }
+    match chunks.as_slice() {
+        [(b"JSON", json)] => Ok((json, None)),
+        [(b"JSON", json), (b"BIN\0", bin)] => Ok((json, Some(bin))),
+        [(b"JSON", json), _] => Ok((json, None)),
+        _ => Err("the first chunk is not JSON".into()),
+    }
 }
 
 /// The data of every buffer: the GLB's binary chunk, a `data:` URI (base64), or a file named

@@ -658,6 +658,24 @@ fn gltf_accessors_outside_their_buffer_are_errors() {
     // before checking it (a panic the fuzz target found)
     let doc = gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, None).replace(r#""POSITION": 0"#, r#""POSITION": 5"#);
     assert_eq!(gltf_err(&doc), "h.gltf: mesh 0: primitive 0: POSITION names accessor 5, but the file has 2");
+    // a .glb whose header gives a length below the header's own 12 bytes: the gltf crate's
+    // splitter subtracted before checking (an overflow panic the fuzz target found)
+    assert_eq!(
+        gltf_err("glTF\u{2}\0\0\0\u{4}\0\0\0"),
+        "h.gltf: not a valid .glb file: the header gives a length of 4 bytes, but the file has 12"
+    );
+    let json = gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, None);
+    let chunk = json.len() as u32 + 100;
+    let glb = [&b"glTF\x02\0\0\0"[..], &(20 + json.len() as u32).to_le_bytes(), &chunk.to_le_bytes(), b"JSON", json.as_bytes()].concat();
+    setup();
+    assert_eq!(
+        octolux_io::gltf_scene::load_bytes(Path::new("h.glb"), &glb).unwrap_err().to_string(),
+        format!("h.glb: not a valid .glb file: chunk 0 of {chunk} bytes passes the end of the file")
+    );
+    let glb =
+        [&b"glTF\x02\0\0\0"[..], &(20 + json.len() as u32).to_le_bytes(), &(json.len() as u32).to_le_bytes(), b"JSON", json.as_bytes()]
+            .concat();
+    assert_eq!(octolux_io::gltf_scene::load_bytes(Path::new("h.glb"), &glb).unwrap().desc.shapes.len(), 1);
     // a buffer shorter than its byteLength
     let short = format!("data:application/octet-stream;base64,{}", base64(&triangle_buffer()[..40]));
     assert_eq!(
