@@ -453,6 +453,15 @@ fn lights_that_emit_nothing_warn() {
     assert_eq!(stderr(&o), "warning: the scene's lights emit nothing (zero radiance, intensity or area); the image will be black\n");
 }
 
+/// A camera path file `path.json` in `dir`: `fps` and keys of (time, position, target), fov 40.
+fn write_camera_path(dir: &TempDir, fps: f64, keys: &[(f64, [f32; 3], [f32; 3])]) -> PathBuf {
+    let keys: Vec<serde_json::Value> =
+        keys.iter().map(|(t, p, target)| serde_json::json!({"time": t, "position": p, "target": target, "fov": 40})).collect();
+    let path = dir.path.join("path.json");
+    std::fs::write(&path, serde_json::json!({"fps": fps, "keyframes": keys}).to_string()).expect("write");
+    path
+}
+
 /// Make a FIFO at `p` (`mkfifo`).
 fn mkfifo(p: &Path) {
     assert!(Command::new("mkfifo").arg(p).status().expect("mkfifo runs").success(), "mkfifo {}", p.display());
@@ -616,12 +625,7 @@ fn output_names_are_checked_whole_before_any_work() {
     let o = run(&["bake", "no-such-scene.xml", "-q", "-o", &format!("{}/", dir.path.join("x.oxc").display())]);
     assert!(stderr(&o).ends_with("ends in '/': that names a folder, not a file\n"), "{}", stderr(&o));
     // the frames' names are checked as the single output's: a camera path of 2 frames
-    let path = dir.path.join("path.json");
-    std::fs::write(
-        &path,
-        r#"{"fps": 1, "keyframes": [{"time": 0, "position": [0,1,4], "target": [0,1,0], "fov": 40}, {"time": 1, "position": [1,1,4], "target": [0,1,0], "fov": 40}]}"#,
-    )
-    .expect("write");
+    let path = write_camera_path(&dir, 1.0, &[(0.0, [0.0, 1.0, 4.0], [0.0, 1.0, 0.0]), (1.0, [1.0, 1.0, 4.0], [0.0, 1.0, 0.0])]);
     let frame_long = format!("{}.exr", "c".repeat(248));
     let o = run(&["render", "cornell-box", "--camera-path", &path_str(&path), "-q", "-o", &path_str(&dir.path.join(&frame_long))]);
     assert_eq!(
@@ -749,12 +753,7 @@ fn one_interrupt_stops_a_long_tile_and_threads_are_capped() {
 #[test]
 fn an_interrupt_after_some_frames_names_the_frames_written() {
     let dir = TempDir::new("sigframes");
-    let path = dir.path.join("path.json");
-    std::fs::write(
-        &path,
-        r#"{"fps": 1, "keyframes": [{"time": 0, "position": [0,1,4], "target": [0,1,0], "fov": 40}, {"time": 9, "position": [1,1,4], "target": [0,1,0], "fov": 40}]}"#,
-    )
-    .expect("write");
+    let path = write_camera_path(&dir, 1.0, &[(0.0, [0.0, 1.0, 4.0], [0.0, 1.0, 0.0]), (9.0, [1.0, 1.0, 4.0], [0.0, 1.0, 0.0])]);
     let out = dir.path.join("f.exr");
     let args =
         ["render", "cornell-box", "--camera-path", &path_str(&path), "--resolution", "16x16", "--spp", "3000", "-o", &path_str(&out)];
@@ -783,13 +782,8 @@ fn an_interrupt_after_some_frames_names_the_frames_written() {
 #[test]
 fn camera_path_frames_and_baked_views_are_checked() {
     let dir = TempDir::new("frames");
-    let path = dir.path.join("path.json");
     // valid keys; half-way the position meets the target
-    std::fs::write(
-        &path,
-        r#"{"fps": 2, "keyframes": [{"time": 0, "position": [0,1,0], "target": [1,1,0], "fov": 40}, {"time": 1, "position": [2,1,0], "target": [1,1,0], "fov": 40}]}"#,
-    )
-    .expect("write");
+    let path = write_camera_path(&dir, 2.0, &[(0.0, [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]), (1.0, [2.0, 1.0, 0.0], [1.0, 1.0, 0.0])]);
     let o = run(&["render", "cornell-box", "--camera-path", &path_str(&path), "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
     assert_eq!(
         stderr(&o),
