@@ -245,9 +245,14 @@ pub struct SceneArgs {
     /// Built-in scene name (cornell-box, cornell-spheres), Mitsuba XML file, or OBJ/PLY mesh.
     #[arg(default_value = "cornell-box")]
     pub scene: String,
-    /// Override a Mitsuba `<default>` parameter: -D name=value (repeatable).
+    /// Override a Mitsuba `<default>` parameter: -D name=value (repeatable; the last of a
+    /// name wins, with a warning).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub define: Vec<String>,
+    /// glTF: let buffer and image URIs name files outside the glTF file's folder (absolute
+    /// paths, `../`); refused by default.
+    #[arg(long)]
+    pub allow_outside_uris: bool,
 }
 
 #[derive(clap::Args)]

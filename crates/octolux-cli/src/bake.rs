@@ -24,32 +24,48 @@ use serde_json::{json, Value};
 use std::path::Path;
 use std::time::Instant;
 
+/// Most worker threads per core `--threads` may start: more only adds switching (and 100,000
+/// threads hung the start).
+pub const MAX_THREADS_PER_CORE: usize = 8;
+
 /// Checks shared by `render` and `bake` before any work: threads, memory limit, max depth.
-pub fn check_run_flags(threads: Option<usize>, memory_limit: Option<&str>, max_depth: Option<i32>) -> Result<()> {
-    if let Some(n) = threads {
+/// Returns the warnings (a `--threads` above [`MAX_THREADS_PER_CORE`] times the cores is
+/// lowered to that).
+pub fn check_run_flags(threads: Option<usize>, memory_limit: Option<&str>, max_depth: Option<i32>) -> Result<Vec<String>> {
+    let mut warnings = Vec::new();
+    if let Some(d) = max_depth {
+        settings::check_max_depth(d as i64).map_err(|e| anyhow::anyhow!("--max-depth {e}"))?;
+    }
+    if let Some(mut n) = threads {
         if n == 0 {
             bail!("--threads must be at least 1");
         }
+        let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+        let most = cores.saturating_mul(MAX_THREADS_PER_CORE);
+        if n > most {
+            let w = format!("--threads {n} is more than {MAX_THREADS_PER_CORE} per core on this machine's {cores} cores; using {most}");
+            eprintln!("warning: {w}");
+            warnings.push(w);
+            n = most;
+        }
         rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("cannot start the worker threads")?;
-    }
-    if let Some(d) = max_depth.filter(|&d| d < -1) {
-        bail!("--max-depth must be -1 (unbounded) or at least 0, got {d}");
     }
     if let Some(m) = memory_limit {
         let bytes = budget::parse_bytes(m)
             .with_context(|| format!("--memory-limit {m}: expected a memory size (bytes with an optional K, M, G or T suffix)"))?;
         budget::set_memory_limit(bytes);
     }
-    Ok(())
+    Ok(warnings)
 }
 
 pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
     let t0 = Instant::now();
-    check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
+    let _ = check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
     args.octree.check_removed()?;
     if args.octree.cache_scene.is_some() {
         bail!("--cache-scene does not apply to bake: bake that scene itself");
     }
+    crate::note_inputs([Some(Path::new(&args.scene.scene)), args.settings.as_deref()].into_iter().flatten());
     output::check_file(&args.output)?;
     // As before `render`'s loop: a signal exits at once (status 130), removing the staged
     // cache file; a cache under the final name is the previous run's, untouched.
@@ -69,9 +85,19 @@ pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
     for w in &resolved.warnings {
         eprintln!("warning: {w}");
     }
-    let IntegratorSettings::Octree(octree_settings) = resolved.settings else {
+    let IntegratorSettings::Octree(mut octree_settings) = resolved.settings else {
         bail!("bake builds the octree integrator's lighting; the settings name another integrator");
     };
+    // `view` chooses what a render writes: the cache keeps the default (render)
+    let default_view = octolux::integrators::octree::OctreeIntegratorSettings::default().view;
+    if octree_settings.view != default_view {
+        let name = serde_json::to_value(octree_settings.view).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
+        eprintln!(
+            "warning: view {name} does not apply to bake (it chooses what a render writes; give it to `render --cache`); the cache \
+             holds the default view"
+        );
+        octree_settings.view = default_view;
+    }
     budget::check_photons(octree_settings.photons.photons).context("the photon count (--photons or photons.photons)")?;
     let t1 = Instant::now();
     let scene = Scene::prepare(desc, backend_kind(args.backend)).with_context(|| format!("cannot prepare scene '{}'", args.scene.scene))?;

@@ -67,7 +67,7 @@ fn tracks(args: &FlickerArgs, scene_name: &str, indices: &[u64], w: u32, h: u32)
     if let Some(&i) = indices.iter().find(|&&i| i == 0 || i > path.frame_count()) {
         bail!("frame {i} is not a frame of camera path {} ({} frames)", path_file.display(), path.frame_count());
     }
-    let loaded = crate::load(&SceneArgs { scene: scene_name.to_string(), define: args.define.clone() })?;
+    let loaded = crate::load(&SceneArgs { scene: scene_name.to_string(), define: args.define.clone(), allow_outside_uris: false })?;
     let base = loaded.desc.camera.clone();
     let scene = Scene::prepare(loaded.desc, BackendKind::Auto).with_context(|| format!("cannot prepare scene '{scene_name}'"))?;
     let cams: Vec<Camera> = indices.iter().map(|&i| Camera::new(&path.pose_at(path.frame_time(i)).camera(&base), w, h)).collect();
@@ -121,7 +121,7 @@ pub fn cmd_flicker(args: &FlickerArgs) -> Result<()> {
         "tracks": tracks.len(),
         "flicker": report,
     });
-    println!("{}", serde_json::to_string_pretty(&out)?);
+    crate::print_out(&serde_json::to_string_pretty(&out)?)?;
     Ok(())
 }
 

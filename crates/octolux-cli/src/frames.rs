@@ -6,7 +6,7 @@
 //! and `--seed`, never on the other frames.
 
 use crate::args::RenderArgs;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use octolux::scene::camera::CameraDesc;
 use octolux::scene::camera_path::CameraPath;
 use octolux::scene::object_path::ObjectPath;
@@ -42,17 +42,10 @@ pub struct Plan {
     pub source: String,
 }
 
-/// Read a camera path file (JSON or TOML by extension), validated; errors name the file.
+/// Read a camera path file (JSON or TOML by extension), validated, every frame's pose
+/// included (`octolux_io::paths`); errors name the file.
 pub fn read_camera_path(path: &Path) -> Result<CameraPath> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read camera path {}", path.display()))?;
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let p: CameraPath = match ext.as_str() {
-        "json" => serde_json::from_str(&text).with_context(|| format!("camera path {} is not valid", path.display()))?,
-        "toml" => toml::from_str(&text).with_context(|| format!("camera path {} is not valid", path.display()))?,
-        _ => bail!("camera path {}: expected a .json or .toml file", path.display()),
-    };
-    p.validate().map_err(|m| anyhow::anyhow!("camera path {}: {m}", path.display()))?;
-    Ok(p)
+    octolux_io::paths::read_camera_path(path).map_err(|e| anyhow::anyhow!("camera path {e}"))
 }
 
 /// The frames of `args` (`None`: a single image), checked before any long work. `sensors` are

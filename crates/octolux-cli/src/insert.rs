@@ -22,6 +22,10 @@ use octolux::scene::object_path::ObjectPath;
 use octolux::scene::{Geometry, Scene, SceneDesc, ShapeDesc};
 use std::path::Path;
 
+/// Most ambient-occlusion rays per shading point (`--insert-ao`): one shading point's rays run
+/// inside one sample, where an interrupt cannot stop them (4294967295 ran for minutes).
+pub const MAX_AO_RAYS: u32 = 4096;
+
 /// An object to insert, read and checked.
 pub struct Insertion {
     /// As named on the command line.
@@ -36,12 +40,10 @@ pub struct Insertion {
     ao_distance: Option<f32>,
 }
 
-/// Read an object path file (JSON), validated; errors name the file.
+/// Read an object path file (JSON), validated, every frame included (`octolux_io::paths`);
+/// errors name the file.
 pub fn read_object_path(path: &Path) -> Result<ObjectPath> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read object path {}", path.display()))?;
-    let p: ObjectPath = serde_json::from_str(&text).with_context(|| format!("object path {} is not valid", path.display()))?;
-    p.validate().map_err(|m| anyhow::anyhow!("object path {}: {m}", path.display()))?;
-    Ok(p)
+    octolux_io::paths::read_object_path(path).map_err(|e| anyhow::anyhow!("object path {e}"))
 }
 
 /// The insertion `args` ask for, read and checked before any long work.
@@ -53,6 +55,9 @@ pub fn read(args: &RenderArgs) -> Result<Option<Insertion>> {
         return Ok(None);
     };
     let path = args.insert_path.as_deref().map(read_object_path).transpose()?;
+    if let Some(n) = args.insert_ao.filter(|&n| n > MAX_AO_RAYS) {
+        bail!("--insert-ao {n}: at most {MAX_AO_RAYS} rays per shading point");
+    }
     if let Some(d) = args.insert_ao_distance {
         if !(d.is_finite() && d > 0.0) {
             bail!("--insert-ao-distance must be a positive length, got {d}");

@@ -46,6 +46,7 @@ use octolux::scene::Scene;
 use serde_json::json;
 use settings::SettingsInput;
 use stats::{StatsFile, Timings};
+use std::path::Path;
 use std::time::Instant;
 
 fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
@@ -57,8 +58,28 @@ fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
         .collect()
 }
 
+/// Print a result on stdout; a closed pipe (`octolux compare a b | head -1`) ends the output
+/// quietly instead of panicking as `println!` does.
+pub(crate) fn print_out(text: &str) -> Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match writeln!(out, "{text}").and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e).context("cannot write to stdout"),
+        _ => Ok(()),
+    }
+}
+
+/// Remember the files a command names as its inputs: no output may replace one
+/// ([`octolux_io::files`]; the loaders add every file they read).
+pub(crate) fn note_inputs<'a>(paths: impl IntoIterator<Item = &'a Path>) {
+    for p in paths {
+        octolux_io::files::note_input(p);
+    }
+}
+
 pub(crate) fn load(args: &SceneArgs) -> Result<octolux_io::LoadedScene> {
     let defines = parse_defines(&args.define)?;
+    octolux_io::gltf_scene::allow_outside_uris(args.allow_outside_uris);
     let loaded = octolux_io::load_scene(&args.scene, &defines).with_context(|| format!("cannot load scene '{}'", args.scene))?;
     for n in &loaded.notes {
         eprintln!("note: {n}");
@@ -79,7 +100,7 @@ pub(crate) fn backend_kind(b: BackendArg) -> BackendKind {
 
 fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let t0 = Instant::now();
-    bake::check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
+    let flag_warnings = bake::check_run_flags(args.threads, args.memory_limit.as_deref(), args.max_depth)?;
     args.octree.check_removed()?;
     if let Some(b) = args.time_budget {
         if !(b.is_finite() && b > 0.0) {
@@ -93,6 +114,12 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     if let Some((w, h)) = args.resolution {
         budget::check_film(w as u64, h as u64).context("--resolution")?;
     }
+    note_inputs(
+        [Some(Path::new(&args.scene.scene)), args.settings.as_deref(), args.cache.as_deref(), args.camera_path.as_deref()]
+            .into_iter()
+            .chain([args.insert.as_deref().map(Path::new), args.insert_path.as_deref()])
+            .flatten(),
+    );
     let outputs = output::Outputs::check(&args.output)?;
     // A lighting cache is read and checked before the scene (which may take long to load).
     let cache = match &args.cache {
@@ -112,10 +139,34 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let load_s = t0.elapsed().as_secs_f64();
     let insertion = insert::read(args)?;
     let plan = frames::plan(args, &loaded.sensors, &loaded.desc.camera, insertion.as_ref().and_then(|i| i.path.as_ref()))?;
+    // One job per image: the single one, or each frame of the plan (every output checked now,
+    // before any long work).
+    let jobs: Vec<(output::Outputs, Option<(frames::Frame, FrameInfo)>)> = match &plan {
+        None => vec![(outputs, None)],
+        Some(p) => {
+            let mut jobs = Vec::with_capacity(p.frames.len());
+            for f in &p.frames {
+                let out = output::Outputs::check(&output::frame_path(&args.output, f.index, p.count))?;
+                let info = FrameInfo { index: f.index, count: p.count, time_s: f.time_s, source: p.source.clone() };
+                jobs.push((out, Some((f.clone(), info))));
+            }
+            jobs
+        }
+    };
     let mut desc = loaded.desc;
     if let Some((w, h)) = args.resolution {
         desc.film.width = w;
         desc.film.height = h;
+    }
+    // values that are valid but leave nothing to see
+    let mut camera_warnings: Vec<String> = Vec::new();
+    let bounds = desc.bounds();
+    let cams = jobs.iter().filter_map(|(_, f)| f.as_ref().map(|(f, _)| &f.camera)).chain(plan.is_none().then_some(&desc.camera));
+    for c in cams {
+        if let Some(w) = c.near_clip_warning(&bounds).filter(|w| !camera_warnings.contains(w)) {
+            eprintln!("warning: {w}");
+            camera_warnings.push(w);
+        }
     }
     // the scene without the inserted object: the lighting's (its fingerprint, its photons)
     let base_desc = insertion.as_ref().map(|_| desc.clone());
@@ -143,7 +194,9 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         flags,
         sets: &args.set,
     })?;
-    let mut warnings = loaded.warnings;
+    let mut warnings = flag_warnings;
+    warnings.extend(loaded.warnings);
+    warnings.extend(camera_warnings);
     for w in &resolved.warnings {
         eprintln!("warning: {w}");
         warnings.push(w.clone());
@@ -181,7 +234,11 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     // The scene the photons are traced in (the rendered one unless --cache-scene says otherwise).
     let cache_scene = match &args.octree.cache_scene {
         Some(spec) if photon_count.is_some() => {
-            let other = load(&SceneArgs { scene: spec.clone(), define: args.scene.define.clone() })?;
+            let other = load(&SceneArgs {
+                scene: spec.clone(),
+                define: args.scene.define.clone(),
+                allow_outside_uris: args.scene.allow_outside_uris,
+            })?;
             Some(Scene::prepare(other.desc, backend).with_context(|| format!("cannot prepare cache scene '{spec}'"))?)
         }
         Some(_) => bail!("--cache-scene needs a cache integrator (octree, ward, christensen, photonmap), not {name}"),
@@ -258,6 +315,9 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         ReconstructionArg::Splat => Reconstruction::Splat,
         ReconstructionArg::Importance => Reconstruction::ImportanceSampled,
     };
+    if let (Some(p), false) = (&plan, args.quiet) {
+        eprintln!("{}: rendering frames {}..{} of {}", p.source, p.frames[0].index, p.frames[p.frames.len() - 1].index, p.count);
+    }
     let sampler = match args.sampler {
         SamplerArg::Independent => SamplerKind::Independent,
         SamplerArg::Sobol => SamplerKind::Sobol,
@@ -265,22 +325,8 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     let render_settings =
         RenderSettings { spp, seed: args.seed, time_budget_s: args.time_budget, reconstruction, sampler, ..Default::default() };
 
-    // One job per image: the single one, or each frame of the plan.
-    let jobs: Vec<(output::Outputs, Option<(frames::Frame, FrameInfo)>)> = match &plan {
-        None => vec![(outputs, None)],
-        Some(p) => {
-            let mut jobs = Vec::with_capacity(p.frames.len());
-            for f in &p.frames {
-                let out = output::Outputs::check(&output::frame_path(&args.output, f.index, p.count))?;
-                let info = FrameInfo { index: f.index, count: p.count, time_s: f.time_s, source: p.source.clone() };
-                jobs.push((out, Some((f.clone(), info))));
-            }
-            if !args.quiet {
-                eprintln!("{}: rendering frames {}..{} of {}", p.source, p.frames[0].index, p.frames[p.frames.len() - 1].index, p.count);
-            }
-            jobs
-        }
-    };
+    // the frames written so far (for the message of an interrupt)
+    let mut written: Vec<std::path::PathBuf> = Vec::new();
     for (outputs, frame) in jobs {
         let t_frame = Instant::now();
         let mut placed = None;
@@ -314,7 +360,17 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
         let (image, rstats) = render_cancellable(&scene, &integrator, &render_settings, &progress, Some(&interrupt::CANCEL));
         bar.finish_and_clear();
         if rstats.interrupted && rstats.passes == 0 {
-            eprintln!("octolux: interrupted before the first pass was complete; nothing written");
+            match (&frame, written.first(), written.last()) {
+                (Some((_, info)), Some(first), Some(last)) => eprintln!(
+                    "octolux: interrupted during frame {} before its first pass was complete: nothing written for it; \
+                     the {} frames before it are complete ({} to {})",
+                    info.index,
+                    written.len(),
+                    first.display(),
+                    last.display()
+                ),
+                _ => eprintln!("octolux: interrupted before the first pass was complete; nothing written"),
+            }
             return Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED));
         }
 
@@ -349,6 +405,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
             stats.timings.total_s = if frame.is_some() { t_frame.elapsed().as_secs_f64() } else { t0.elapsed().as_secs_f64() };
             Ok(serde_json::to_string_pretty(&stats)?)
         })?;
+        written.push(outputs.exr.clone());
         let (png, json) = (&outputs.png, &outputs.json);
         if rstats.interrupted {
             eprintln!(
@@ -378,6 +435,15 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
 }
 
 fn cmd_export(args: &ExportArgs) -> Result<()> {
+    // the values `render` would refuse: the exported scene must load back
+    if args.spp == 0 {
+        bail!("--spp must be at least 1");
+    }
+    settings::check_max_depth(args.max_depth as i64).map_err(|e| anyhow::anyhow!("--max-depth {e}"))?;
+    note_inputs([Path::new(&args.scene.scene)]);
+    output::check_file(&args.output)?;
+    // a signal exits at once, removing the staged files (interrupt.rs)
+    interrupt::install()?;
     let loaded = load(&args.scene)?;
     loaded.desc.validate().with_context(|| format!("scene '{}' is invalid", args.scene.scene))?;
     octolux_io::export::write_mitsuba_scene(&loaded.desc, args.spp, args.max_depth, &args.output)
@@ -412,9 +478,7 @@ fn run(cli: Cli) -> Result<std::process::ExitCode> {
         }
         Command::Flicker(a) => flicker::cmd_flicker(&a).map(|()| std::process::ExitCode::SUCCESS),
         Command::Scenes => {
-            for n in octolux_io::builtin::NAMES {
-                println!("{n}");
-            }
+            print_out(&octolux_io::builtin::NAMES.join("\n"))?;
             Ok(std::process::ExitCode::SUCCESS)
         }
     }
@@ -440,6 +504,6 @@ fn cmd_compare(image: &std::path::Path, reference: &std::path::Path) -> Result<(
     let e = octolux::metrics::compare(&a, &r).with_context(|| {
         format!("{} is {}x{} but {} is {}x{}", image.display(), a.width, a.height, reference.display(), r.width, r.height)
     })?;
-    println!("{}", serde_json::to_string_pretty(&e)?);
+    print_out(&serde_json::to_string_pretty(&e)?)?;
     Ok(())
 }

@@ -1,26 +1,26 @@
-//! The output set of a render: `OUT.exr`, `OUT.png` and `OUT.json` (issue 12, item 4).
+//! The output set of a render: `OUT.exr`, `OUT.png` and `OUT.json` (issue 12, item 4), and the
+//! single output files of `bake` and `report`, all by the one rule of [`octolux_io::files`]
+//! (issue 27: never over a device node, a FIFO, a socket or a folder, never over an input).
 //!
-//! - [`Outputs::check`] runs before any work: the name ends in `.exr`, none of the three paths
-//!   is a folder, the folder exists and a file can be created in it (a probe file, removed at
-//!   once). A render is never lost to a typo in `-o`.
+//! - [`Outputs::check`] runs before any work: each of the three paths passes
+//!   [`files::check_output`] (a file name of at most 255 bytes, not ending in `/`; its folder
+//!   exists and takes a probe file; nothing but a regular file under the name; not an input),
+//!   and the name ends in `.exr`. A render is never lost to a typo in `-o`.
 //! - [`Outputs::write`] writes each file to a unique staging name in the same folder
 //!   (`.NAME.PID-N-NANOS.staged`, so two runs never share one), and only when all three are
-//!   complete renames them to their final names, EXR, PNG, then JSON last: a complete JSON
-//!   means a complete set. On Unix the renames happen under an exclusive `flock` of the folder,
-//!   so two renders to the same path leave one run's whole set, never a mix.
+//!   complete checks the targets again and renames them to their final names, EXR, PNG, then
+//!   JSON last: a complete JSON means a complete set. On Unix the renames happen under an
+//!   exclusive `flock` of the folder, so two renders to the same path leave one run's whole
+//!   set, never a mix.
 //! - Any failure (disk full, permissions) removes the staged files: the previous outputs stay
 //!   untouched and no new file appears under a final name. Staged files are also listed in a
 //!   process-wide registry so that a second interrupt, which exits at once, removes them
 //!   ([`remove_staged`]).
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use octolux::image::Image;
+use octolux_io::files::{self, staging_name};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Mutex;
-
-/// Staged files not yet renamed or removed (for the second-interrupt exit).
-static STAGED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
 /// The three final paths of one render.
 #[derive(Clone, Debug)]
@@ -32,18 +32,11 @@ pub struct Outputs {
     dir: PathBuf,
 }
 
-/// A unique name beside `path`: pid, a process counter and the clock's nanoseconds.
-fn staging_name(path: &Path, what: &str) -> PathBuf {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.subsec_nanos()).unwrap_or(0);
-    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
-    path.with_file_name(format!(".{name}.{}-{n}-{nanos}.{what}", std::process::id()))
-}
-
 impl Outputs {
     /// Validate `-o OUT.exr` before any work (module docs).
     pub fn check(exr: &Path) -> Result<Outputs> {
+        // `sub.exr/` is refused by the rule before its extension is looked at
+        files::check_output(exr).map_err(|e| anyhow!(e))?;
         let ext = exr.extension().and_then(|e| e.to_str()).unwrap_or("");
         if !ext.eq_ignore_ascii_case("exr") {
             bail!("output '{}' must end in .exr (a .png and a .json are written beside it)", exr.display());
@@ -52,30 +45,10 @@ impl Outputs {
             exr: exr.to_path_buf(),
             png: exr.with_extension("png"),
             json: exr.with_extension("json"),
-            dir: match exr.parent() {
-                Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-                _ => PathBuf::from("."),
-            },
+            dir: files::folder_of(exr),
         };
-        match std::fs::metadata(&o.dir) {
-            Ok(m) if m.is_dir() => {}
-            Ok(_) => bail!("output folder '{}' is not a folder", o.dir.display()),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!("output folder '{}' does not exist", o.dir.display()),
-            Err(e) => bail!("output folder '{}' cannot be read: {e}", o.dir.display()),
-        }
-        for p in [&o.exr, &o.png, &o.json] {
-            if p.is_dir() {
-                bail!("output path '{}' is a folder", p.display());
-            }
-        }
-        let probe = staging_name(&o.exr, "probe");
-        let created = std::fs::OpenOptions::new().write(true).create_new(true).open(&probe);
-        match created {
-            Ok(f) => {
-                drop(f);
-                let _ = std::fs::remove_file(&probe);
-            }
-            Err(e) => bail!("output folder '{}' is not writable: {e}", o.dir.display()),
+        for p in [&o.png, &o.json] {
+            files::check_output(p).map_err(|e| anyhow!(e))?;
         }
         Ok(o)
     }
@@ -84,13 +57,15 @@ impl Outputs {
     /// once the images are staged (so that it can hold their write time).
     pub fn write(&self, image: &Image, json: impl FnOnce() -> Result<String>) -> Result<()> {
         let staged = [staging_name(&self.exr, "staged"), staging_name(&self.png, "staged"), staging_name(&self.json, "staged")];
-        STAGED.lock().unwrap_or_else(|e| e.into_inner()).extend(staged.iter().cloned());
+        for s in &staged {
+            files::note_staged(s);
+        }
         let result = self.write_staged(image, json, &staged);
         for s in &staged {
             // Renamed ones are gone already; a failed run leaves none behind.
             let _ = std::fs::remove_file(s);
+            files::forget_staged(s);
         }
-        STAGED.lock().unwrap_or_else(|e| e.into_inner()).retain(|p| !staged.contains(p));
         result
     }
 
@@ -98,53 +73,29 @@ impl Outputs {
         let [exr, png, js] = staged;
         octolux_io::image_io::write_exr(exr, image).with_context(|| format!("cannot write {}", self.exr.display()))?;
         octolux_io::image_io::write_png(png, image).with_context(|| format!("cannot write {}", self.png.display()))?;
-        write_synced(js, json()?.as_bytes()).with_context(|| format!("cannot write {}", self.json.display()))?;
+        files::write_synced(js, json()?.as_bytes()).with_context(|| format!("cannot write {}", self.json.display()))?;
         let _lock = lock_folder(&self.dir)?;
+        // every target checked again before the first rename: a set is whole or not written
+        for to in [&self.exr, &self.png, &self.json] {
+            files::recheck_output(to).map_err(|e| anyhow!(e))?;
+        }
         for (from, to) in [(exr, &self.exr), (png, &self.png), (js, &self.json)] {
-            std::fs::rename(from, to).with_context(|| format!("cannot write {}", to.display()))?;
+            files::commit(from, to).map_err(|e| anyhow!(e))?;
         }
         Ok(())
     }
 }
 
-/// The folder of an output file (`.` for a bare name), checked as [`Outputs::check`] checks
-/// it: it exists, is a folder, and a file can be created in it; `path` is not a folder.
+/// An output file other than the render set (`bake`'s cache, `report`'s page), checked as
+/// [`Outputs::check`] checks the set, before any work.
 pub fn check_file(path: &Path) -> Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    match std::fs::metadata(&dir) {
-        Ok(m) if m.is_dir() => {}
-        Ok(_) => bail!("output folder '{}' is not a folder", dir.display()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!("output folder '{}' does not exist", dir.display()),
-        Err(e) => bail!("output folder '{}' cannot be read: {e}", dir.display()),
-    }
-    if path.is_dir() {
-        bail!("output path '{}' is a folder", path.display());
-    }
-    let probe = staging_name(path, "probe");
-    match std::fs::OpenOptions::new().write(true).create_new(true).open(&probe) {
-        Ok(f) => {
-            drop(f);
-            let _ = std::fs::remove_file(&probe);
-            Ok(())
-        }
-        Err(e) => bail!("output folder '{}' is not writable: {e}", dir.display()),
-    }
+    files::check_output(path).map_err(|e| anyhow!(e))
 }
 
-/// Write one file as the output set is written: staged beside it, synced, then renamed, so
-/// that the final name holds the previous file or the whole new one, never a part.
+/// Write one file as the output set is written: checked, staged beside it, synced, checked
+/// again, then renamed, so that the final name holds the previous file or the whole new one.
 pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let staged = staging_name(path, "staged");
-    STAGED.lock().unwrap_or_else(|e| e.into_inner()).push(staged.clone());
-    let result = write_synced(&staged, bytes)
-        .with_context(|| format!("cannot write {}", path.display()))
-        .and_then(|()| std::fs::rename(&staged, path).with_context(|| format!("cannot write {}", path.display())));
-    let _ = std::fs::remove_file(&staged);
-    STAGED.lock().unwrap_or_else(|e| e.into_inner()).retain(|p| p != &staged);
-    result
+    files::write_atomic(path, bytes).map_err(|e| anyhow!(e))
 }
 
 /// The output of frame `i` of an animation: `out.exr` -> `out_0001.exr` (at least four
@@ -156,23 +107,9 @@ pub fn frame_path(exr: &Path, i: u64, last: u64) -> PathBuf {
     exr.with_file_name(format!("{stem}_{i:0width$}.{ext}"))
 }
 
-/// Write `bytes` to a new file and flush it to the disk, so that a full disk shows here and
-/// not after the rename.
-fn write_synced(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    use std::io::Write;
-    let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(path)?;
-    f.write_all(bytes)?;
-    f.sync_all()
-}
-
 /// Remove every staged file of this process (called by the second interrupt before exiting).
 pub fn remove_staged() {
-    // try_lock: the exit must not wait on a writer that holds the list.
-    if let Ok(list) = STAGED.try_lock() {
-        for p in list.iter() {
-            let _ = std::fs::remove_file(p);
-        }
-    }
+    files::remove_staged();
 }
 
 /// An exclusive lock on the output folder while the set is renamed (released on drop).

@@ -15,13 +15,38 @@
 
 use anyhow::{bail, Context, Result};
 use octolux::image::Image;
-use octolux::metrics;
+use octolux::{budget, metrics};
 use octolux_io::image_io::{encode_png_rgb8, read_exr, srgb8_bytes};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
 const TEMPLATE: &str = include_str!("report.html");
+
+/// Bytes per pixel of one FLIP comparison (the C++ code's float images: both inputs in several
+/// colour spaces, the filtered and feature images, the error map). Measured peak resident
+/// sizes, 2048x2048 images: one image without reference 194 MB (46 B per pixel: the image and
+/// its page), an image and a reference with FLIP 545 MB (130 B per pixel); so FLIP about 38
+/// B per pixel beyond the two pages. Rounded up with margin, as the budget's estimates are.
+pub const FLIP_BYTES_PER_PIXEL: u64 = 96;
+/// Bytes per pixel of each image on the page and while it is made (the image, its base64 RGBE
+/// text, the error maps as PNG and base64, the JSON and HTML copies): 46 measured, see above.
+pub const PAGE_BYTES_PER_PIXEL: u64 = 56;
+
+/// The report's memory, checked against the budget ([`octolux::budget`]) once the images are
+/// read and before FLIP runs (two 8192x8192 images segfaulted in FLIP at an 8 GB limit).
+fn check_budget(images: &[(&PathBuf, Image)], reference: Option<&Image>) -> Result<()> {
+    let pixels = |img: &Image| img.width as u64 * img.height as u64;
+    let all: u64 = images.iter().map(|(_, i)| pixels(i)).chain(reference.map(pixels)).sum();
+    let flip = reference.map_or(0, pixels).saturating_mul(FLIP_BYTES_PER_PIXEL);
+    let bytes = all.saturating_mul(PAGE_BYTES_PER_PIXEL).saturating_add(flip);
+    let (w, h) = images.first().map_or((0, 0), |(_, i)| (i.width, i.height));
+    budget::check_bytes(
+        || format!("the report of {} images of {w}x{h} (FLIP and the page)", all.div_ceil((w as u64 * h as u64).max(1))),
+        bytes,
+    )
+    .map_err(anyhow::Error::msg)
+}
 
 /// Benchmark results for the error-against-time plot: one plot per file.
 #[derive(Deserialize)]
@@ -101,6 +126,7 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
     if images.is_empty() {
         bail!("report: give at least one image");
     }
+    crate::note_inputs(images.iter().map(PathBuf::as_path).chain(reference).chain(bench.iter().map(PathBuf::as_path)));
     crate::output::check_file(output)?;
     let reference = reference.map(|p| Ok::<_, anyhow::Error>((p, read_checked(p)?))).transpose()?;
     let mut loaded = Vec::new();
@@ -113,9 +139,10 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
         }
         loaded.push((p, img));
     }
+    check_budget(&loaded, reference.as_ref().map(|(_, r)| r))?;
     let mut benches = Vec::new();
     for p in bench {
-        let text = std::fs::read_to_string(p).with_context(|| format!("cannot read benchmark results {}", p.display()))?;
+        let text = octolux_io::files::read_to_string(p).map_err(|e| anyhow::anyhow!("cannot read benchmark results {e}"))?;
         let b: Bench = serde_json::from_str(&text).with_context(|| format!("benchmark results {} are not valid", p.display()))?;
         for s in &b.series {
             if s.time_s.len() != s.rel_mse.len() || s.time_s.iter().chain(&s.rel_mse).any(|v| !(v.is_finite() && *v > 0.0)) {

@@ -452,3 +452,499 @@ fn lights_that_emit_nothing_warn() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stderr(&o), "warning: the scene's lights emit nothing (zero radiance, intensity or area); the image will be black\n");
 }
+
+/// A camera path file `path.json` in `dir`: `fps` and keys of (time, position, target), fov 40.
+fn write_camera_path(dir: &TempDir, fps: f64, keys: &[(f64, [f32; 3], [f32; 3])]) -> PathBuf {
+    let keys: Vec<serde_json::Value> =
+        keys.iter().map(|(t, p, target)| serde_json::json!({"time": t, "position": p, "target": target, "fov": 40})).collect();
+    let path = dir.path.join("path.json");
+    std::fs::write(&path, serde_json::json!({"fps": fps, "keyframes": keys}).to_string()).expect("write");
+    path
+}
+
+/// Make a FIFO at `p` (`mkfifo`).
+fn mkfifo(p: &Path) {
+    assert!(Command::new("mkfifo").arg(p).status().expect("mkfifo runs").success(), "mkfifo {}", p.display());
+}
+
+/// Is `p` (not following links) a FIFO, a character device? The file type as `stat` names it.
+fn file_type(p: &Path) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    let Ok(m) = std::fs::symlink_metadata(p) else { return "missing" };
+    let t = m.file_type();
+    if t.is_fifo() {
+        "fifo"
+    } else if t.is_char_device() {
+        "char"
+    } else if t.is_socket() {
+        "socket"
+    } else if t.is_symlink() {
+        "link"
+    } else if t.is_dir() {
+        "dir"
+    } else {
+        "file"
+    }
+}
+
+/// Issue 27, item 1: an output that exists and is not a regular file is refused, by every
+/// writer, before any work; the node is left as it was. `/dev/null` itself is only given to
+/// `bake`, whose check refuses it before the scene is read (a character device made here with
+/// `mknod`, where allowed, stands in for it everywhere else).
+#[test]
+fn outputs_that_are_not_regular_files_are_refused() {
+    let dir = TempDir::new("nodes");
+    let fifo = dir.path.join("fifo.exr");
+    mkfifo(&fifo);
+    let fifo_s = path_str(&fifo);
+    let refused = |p: &Path, kind: &str| {
+        format!("error: output '{}' is {kind}, not a regular file: octolux replaces only regular files\n", p.display())
+    };
+    // The scene does not exist: the output is reported, so it was checked first.
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &fifo_s]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), refused(&fifo, "a FIFO (named pipe)"));
+    // a FIFO where the PNG of the set would go
+    let png = dir.path.join("x.png");
+    mkfifo(&png);
+    let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert_eq!(stderr(&o), refused(&png, "a FIFO (named pipe)"));
+    // a link to a FIFO
+    let link = dir.path.join("link.exr");
+    std::os::unix::fs::symlink(&fifo, &link).expect("symlink");
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &path_str(&link)]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: output '{}' is a link to a FIFO (named pipe) ('{fifo_s}'), not to a regular file: octolux replaces only regular files\n",
+            link.display()
+        )
+    );
+    // bake, report and export, each to a FIFO
+    let oxc = dir.path.join("fifo.oxc");
+    mkfifo(&oxc);
+    let o = run(&["bake", "cornell-box", "--photons", "1000", "-q", "-o", &path_str(&oxc)]);
+    assert_eq!(stderr(&o), refused(&oxc, "a FIFO (named pipe)"));
+    let img = dir.path.join("a.exr");
+    let px = octolux::math::Color::new(0.5, 0.5, 0.5);
+    octolux_io::image_io::write_exr(&img, &octolux::image::Image { width: 2, height: 2, data: vec![px; 4] }).expect("write");
+    let sock = dir.path.join("sock.html");
+    let _listener = std::os::unix::net::UnixListener::bind(&sock).expect("bind a socket");
+    let o = run(&["report", &path_str(&img), "-o", &path_str(&sock)]);
+    assert_eq!(stderr(&o), refused(&sock, "a socket"));
+    let xml = dir.path.join("fifo.xml");
+    mkfifo(&xml);
+    let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+    assert_eq!(stderr(&o), refused(&xml, "a FIFO (named pipe)"));
+    // /dev/null itself: refused by the check that runs before the scene is read
+    let o = run(&["bake", "no-such-scene.xml", "-o", "/dev/null"]);
+    assert_eq!(stderr(&o), refused(Path::new("/dev/null"), "a character device"));
+    assert_eq!(file_type(Path::new("/dev/null")), "char");
+    // a character device node of our own (major 1, minor 3: what /dev/null is), where allowed
+    let null = dir.path.join("null.oxc");
+    if Command::new("mknod").arg(&null).args(["c", "1", "3"]).stderr(Stdio::null()).status().is_ok_and(|s| s.success()) {
+        let o = run(&["bake", "cornell-box", "--photons", "1000", "-q", "-o", &path_str(&null)]);
+        assert_eq!(stderr(&o), refused(&null, "a character device"));
+        let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("null.exr"))]);
+        assert!(o.status.success(), "a regular set beside it is fine: {}", stderr(&o));
+        assert_eq!(file_type(&null), "char");
+    } else {
+        println!("skipped the device-node case of outputs_that_are_not_regular_files_are_refused: mknod needs root");
+    }
+    for p in [&fifo, &png, &oxc, &xml] {
+        assert_eq!(file_type(p), "fifo", "{} left as it was", p.display());
+    }
+    assert_eq!(file_type(&sock), "socket");
+    assert_eq!(file_type(&link), "link");
+    let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
+    assert!(stray.is_empty(), "left behind {stray:?}");
+}
+
+/// Issue 27, item 1: an output that is one of the run's inputs (by name, through a symbolic
+/// link or a hard link: the same device and inode) is refused before any work.
+#[test]
+fn an_output_that_is_an_input_is_refused() {
+    let dir = TempDir::new("same");
+    let img = dir.path.join("a.exr");
+    let px = octolux::math::Color::new(0.5, 0.5, 0.5);
+    octolux_io::image_io::write_exr(&img, &octolux::image::Image { width: 2, height: 2, data: vec![px; 4] }).expect("write");
+    let before = std::fs::read(&img).expect("read");
+    let (a, hard, soft) = (path_str(&img), dir.path.join("hard.html"), dir.path.join("soft.html"));
+    std::fs::hard_link(&img, &hard).expect("hard link");
+    std::os::unix::fs::symlink(&img, &soft).expect("symlink");
+    let o = run(&["report", &a, "-o", &a]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), format!("error: output '{a}' is an input of this run: writing it would destroy the input\n"));
+    for link in [&hard, &soft] {
+        let o = run(&["report", &a, "-o", &path_str(link)]);
+        assert_eq!(
+            stderr(&o),
+            format!(
+                "error: output '{}' is an input of this run (the same file as '{a}'): writing it would destroy the input\n",
+                link.display()
+            )
+        );
+    }
+    let o = run(&["report", &a, "--reference", &path_str(&soft), "-o", &path_str(&hard)]);
+    assert!(stderr(&o).contains("is an input of this run (the same file as"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&img).expect("read"), before, "the input is untouched");
+
+    // export s.xml -o s.xml
+    let scene = write_scene(&dir, "path", "1", 8);
+    let text = std::fs::read(&scene).expect("read");
+    let o = run(&["export", &scene, "-o", &scene]);
+    assert_eq!(stderr(&o), format!("error: output '{scene}' is an input of this run: writing it would destroy the input\n"));
+    assert_eq!(std::fs::read(&scene).expect("read"), text);
+    // a settings file where the render's JSON would go, and a bake over its own settings
+    let settings = dir.path.join("x.json");
+    std::fs::write(&settings, "{}").expect("write");
+    let o = run(&["render", "cornell-box", "--settings", &path_str(&settings), "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert_eq!(stderr(&o), format!("error: output '{}' is an input of this run: writing it would destroy the input\n", settings.display()));
+    let o = run(&["bake", "cornell-box", "--settings", &path_str(&settings), "-q", "-o", &path_str(&settings)]);
+    assert!(stderr(&o).ends_with("is an input of this run: writing it would destroy the input\n"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&settings).expect("read"), b"{}");
+    assert!(!dir.path.join("x.exr").exists());
+}
+
+/// Issue 27, items 1 and 10: the whole output path is checked before any work, the staging
+/// name included (a 234-byte name used to fail once staged), and `-o sub.exr/` fails at once.
+#[test]
+fn output_names_are_checked_whole_before_any_work() {
+    let dir = TempDir::new("names");
+    let long = format!("{}.exr", "a".repeat(230));
+    let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join(&long))]);
+    assert!(o.status.success(), "a 234-byte name: {}", stderr(&o));
+    let stem = "a".repeat(230);
+    assert_eq!(dir.files(), vec![long.clone(), format!("{stem}.json"), format!("{stem}.png")]);
+    let too_long = format!("{}.exr", "b".repeat(252));
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &path_str(&dir.path.join(&too_long))]);
+    assert_eq!(stderr(&o), format!("error: output name '{too_long}' is 256 bytes long; a file name may have at most 255\n"));
+    let slash = format!("{}/", dir.path.join("sub.exr").display());
+    let o = run(&["render", "no-such-scene.xml", "-q", "-o", &slash]);
+    assert_eq!(stderr(&o), format!("error: output '{slash}' ends in '/': that names a folder, not a file\n"));
+    let o = run(&["bake", "no-such-scene.xml", "-q", "-o", &format!("{}/", dir.path.join("x.oxc").display())]);
+    assert!(stderr(&o).ends_with("ends in '/': that names a folder, not a file\n"), "{}", stderr(&o));
+    // the frames' names are checked as the single output's: a camera path of 2 frames
+    let path = write_camera_path(&dir, 1.0, &[(0.0, [0.0, 1.0, 4.0], [0.0, 1.0, 0.0]), (1.0, [1.0, 1.0, 4.0], [0.0, 1.0, 0.0])]);
+    let frame_long = format!("{}.exr", "c".repeat(248));
+    let o = run(&["render", "cornell-box", "--camera-path", &path_str(&path), "-q", "-o", &path_str(&dir.path.join(&frame_long))]);
+    assert_eq!(
+        stderr(&o),
+        format!("error: output name '{}_0001.exr' is 257 bytes long; a file name may have at most 255\n", "c".repeat(248))
+    );
+    assert_eq!(dir.files().len(), 4, "nothing else written: {:?}", dir.files());
+}
+
+/// Issue 27, item 1: `export` stages its XML and its `meshes/` folder and renames them into
+/// place only when all is written; a `meshes` that is not a folder is refused before any work.
+#[test]
+fn export_stages_its_meshes_and_checks_them_first() {
+    let dir = TempDir::new("export");
+    let xml = dir.path.join("s.xml");
+    let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(dir.files(), vec!["meshes", "s.xml"]);
+    let meshes: Vec<String> = std::fs::read_dir(dir.path.join("meshes"))
+        .expect("meshes")
+        .map(|e| e.expect("e").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!meshes.is_empty() && meshes.iter().all(|m| m.ends_with(".ply")), "{meshes:?}");
+    // again into the same folder: the files are replaced, nothing staged is left
+    let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(dir.files(), vec!["meshes", "s.xml"]);
+    // the exported scene loads back
+    let o = run(&["render", &path_str(&xml), "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("r.exr"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // a mesh file that is a FIFO is refused, and nothing is renamed (the XML stays the old one)
+    let first = dir.path.join("meshes").join(&meshes[0]);
+    std::fs::remove_file(&first).expect("rm");
+    mkfifo(&first);
+    let old = std::fs::read(&xml).expect("xml");
+    std::fs::write(&xml, b"previous").expect("write");
+    let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains(&format!("output '{}' is a FIFO (named pipe), not a regular file", first.display())), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&xml).expect("xml"), b"previous");
+    assert_eq!(file_type(&first), "fifo");
+    assert!(!old.is_empty());
+    let other = TempDir::new("export-file");
+    std::fs::write(other.path.join("meshes"), b"a file").expect("write");
+    let o = run(&["export", "cornell-box", "-o", &path_str(&other.path.join("s.xml"))]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot export to {}: '{}' is a regular file: the exported meshes go into a folder of that name\n",
+            other.path.join("s.xml").display(),
+            other.path.join("meshes").display()
+        )
+    );
+    assert_eq!(other.files(), vec!["meshes"]);
+    let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
+    assert!(stray.is_empty(), "left behind {stray:?}");
+}
+
+/// Issue 27, item 10: a full disk during `export` leaves neither a partial `meshes/` folder
+/// nor an XML (a tmpfs too small for the scene; skipped where mounting is not allowed).
+#[test]
+fn an_export_on_a_full_disk_leaves_nothing() {
+    let mut dir = TempDir::new("export-full");
+    if !dir.mount_tmpfs("size=16k", "an_export_on_a_full_disk_leaves_nothing") {
+        return;
+    }
+    let o = run(&["export", "cornell-box", "-o", &path_str(&dir.path.join("s.xml"))]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("No space left on device"), "{}", stderr(&o));
+    assert!(dir.files().is_empty(), "{:?}", dir.files());
+}
+
+/// Issue 27, item 5: inputs that are not regular files are refused before a byte is read
+/// (`--settings /dev/zero`, `--cache /dev/zero` and `compare /dev/zero x` read until memory ran
+/// out); a folder says it is one.
+#[test]
+fn inputs_that_are_not_regular_files_are_refused() {
+    let dir = TempDir::new("inputs");
+    let out = path_str(&dir.path.join("x.exr"));
+    let dev = "/dev/zero: this is a character device, not a regular file: octolux reads only regular files";
+    let o = run(&["render", "cornell-box", "--settings", "/dev/zero", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), format!("error: cannot read settings file {dev}\n"));
+    let o = run(&["render", "cornell-box", "--cache", "/dev/zero", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), format!("error: {dev}\n"));
+    let o = run(&["compare", "/dev/zero", &out]);
+    assert_eq!(stderr(&o), format!("error: cannot read /dev/zero: {dev}\n"));
+    let o = run(&["render", "cornell-box", "--camera-path", &path_str(&dir.path), "-q", "-o", &out]);
+    assert_eq!(stderr(&o), format!("error: camera path {}: this is a folder, not a file\n", dir.path.display()));
+    assert!(dir.files().is_empty());
+}
+
+/// Issue 27, item 6: one SIGINT stops a render inside a long tile (`--spp 100000000` on one
+/// pixel kept running 40 s after it), and `--threads` is capped at 8 per core with a warning
+/// (`--threads 100000` hung); `--insert-ao` is bounded.
+#[test]
+fn one_interrupt_stops_a_long_tile_and_threads_are_capped() {
+    let dir = TempDir::new("longtile");
+    let out = path_str(&dir.path.join("x.exr"));
+    let args = ["render", "cornell-box", "--resolution", "1x1", "--spp", "100000000", "-o", &out];
+    let (o, took) = interrupt(&args, "octolux: cornell-box", Duration::from_millis(500), &["INT"]);
+    assert_eq!(o.status.code(), Some(130), "{}", stderr(&o));
+    assert!(took < Duration::from_secs(1), "took {took:?} to stop");
+    assert!(stderr(&o).ends_with("octolux: interrupted before the first pass was complete; nothing written\n"), "{}", stderr(&o));
+    assert!(dir.files().is_empty());
+
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    for n in ["100000", "18446744073709551615"] {
+        let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "--threads", n, "-q", "-o", &out]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            stderr(&o),
+            format!("warning: --threads {n} is more than 8 per core on this machine's {cores} cores; using {}\n", 8 * cores)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("JSON");
+        assert_eq!(json["threads"], 8 * cores as u64);
+    }
+    let obj = dir.path.join("o.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").expect("write");
+    let o = run(&["render", "cornell-box", "--insert", &path_str(&obj), "--insert-ao", "4294967295", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), "error: --insert-ao 4294967295: at most 4096 rays per shading point\n");
+}
+
+/// Issue 27, item 10: an interrupt after some frames says which were written (it said
+/// "nothing written" after 21 frames).
+#[test]
+fn an_interrupt_after_some_frames_names_the_frames_written() {
+    let dir = TempDir::new("sigframes");
+    let path = write_camera_path(&dir, 1.0, &[(0.0, [0.0, 1.0, 4.0], [0.0, 1.0, 0.0]), (9.0, [1.0, 1.0, 4.0], [0.0, 1.0, 0.0])]);
+    let out = dir.path.join("f.exr");
+    let args =
+        ["render", "cornell-box", "--camera-path", &path_str(&path), "--resolution", "16x16", "--spp", "3000", "-o", &path_str(&out)];
+    let (o, _) = interrupt(&args, "rendered", Duration::from_millis(100), &["INT"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(130), "{e}");
+    let last = e.lines().last().unwrap_or("");
+    assert!(last.starts_with("octolux: interrupted during frame "), "{e}");
+    let written: Vec<String> = dir.files().into_iter().filter(|f| f.ends_with(".exr")).collect();
+    assert!(!written.is_empty() && written.len() < 10, "{written:?}");
+    assert_eq!(
+        last,
+        format!(
+            "octolux: interrupted during frame {} before its first pass was complete: nothing written for it; the {} frames before it are \
+             complete ({} to {})",
+            written.len() + 1,
+            written.len(),
+            dir.path.join("f_0001.exr").display(),
+            dir.path.join(&written[written.len() - 1]).display()
+        )
+    );
+}
+
+/// Issue 27, items 7 and 8: every frame of a camera path is checked, not only its keys; a bake
+/// made with `--view leaves` does not make later renders write the leaves.
+#[test]
+fn camera_path_frames_and_baked_views_are_checked() {
+    let dir = TempDir::new("frames");
+    // valid keys; half-way the position meets the target
+    let path = write_camera_path(&dir, 2.0, &[(0.0, [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]), (1.0, [2.0, 1.0, 0.0], [1.0, 1.0, 0.0])]);
+    let o = run(&["render", "cornell-box", "--camera-path", &path_str(&path), "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert_eq!(
+        stderr(&o),
+        format!("error: camera path {}: frame 2 (time 0.5 s, between keyframes): target is the position\n", path.display())
+    );
+    let oxc = path_str(&dir.path.join("l.oxc"));
+    let o = run(&["bake", "cornell-box", "--photons", "2000", "--view", "leaves", "-q", "-o", &oxc]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("warning: view leaves does not apply to bake"), "{}", stderr(&o));
+    let out = dir.path.join("r.exr");
+    let o = run(&["render", "cornell-box", "--cache", &oxc, "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("r.json")).expect("json")).expect("JSON");
+    assert_eq!(json["integrator_settings"]["view"], "render");
+}
+
+/// Issue 27, item 8: one validator per value, whatever the source: `max_depth` below -1 from
+/// the flag, `--set`, a settings file and `export`; `export --spp 0`; a non-object for a table
+/// of settings; `{}` for one changes nothing; NaN named as such; `--epsilon 1e30`; an empty
+/// settings file; a repeated `-D` warns and the last wins.
+#[test]
+fn every_source_of_a_value_is_checked_alike() {
+    let dir = TempDir::new("values");
+    let out = path_str(&dir.path.join("x.exr"));
+    let quick = ["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &out];
+    let with = |extra: &[&str]| run(&[&quick[..], extra].concat());
+    assert_eq!(stderr(&with(&["--max-depth", "-5"])), "error: --max-depth -5 must be -1 (unbounded) or at least 0\n");
+    assert_eq!(stderr(&with(&["--set", "max_depth=-5"])), "error: --set max_depth=-5: max_depth -5 must be -1 (unbounded) or at least 0\n");
+    let file = dir.path.join("s.json");
+    std::fs::write(&file, r#"{"type": "octree", "max_depth": -5}"#).expect("write");
+    assert_eq!(
+        stderr(&with(&["--settings", &path_str(&file)])),
+        format!("error: settings file {}: max_depth -5 must be -1 (unbounded) or at least 0\n", file.display())
+    );
+    let xml = path_str(&dir.path.join("e.xml"));
+    assert_eq!(
+        stderr(&run(&["export", "cornell-box", "--max-depth", "-5", "-o", &xml])),
+        "error: --max-depth -5 must be -1 (unbounded) or at least 0\n"
+    );
+    assert_eq!(stderr(&run(&["export", "cornell-box", "--spp", "0", "-o", &xml])), "error: --spp must be at least 1\n");
+    let o = with(&["--integrator", "octree", "--set", "global=[1,2]"]);
+    assert!(stderr(&o).starts_with("error: --set global=[1,2]: `global` is a table of settings ("), "{}", stderr(&o));
+    assert!(stderr(&o).ends_with("not a value: set its keys (`global.alpha=...`) or give an object\n"), "{}", stderr(&o));
+    // `{}` changes nothing: the same settings as without it
+    let settings_of = |extra: &[&str]| {
+        let o = with(&[&["--integrator", "octree", "--photons", "1000"][..], extra].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("JSON");
+        json["integrator_settings"].clone()
+    };
+    let plain = settings_of(&[]);
+    assert_eq!(settings_of(&["--set", "global={}"]), plain);
+    assert_eq!(settings_of(&["--set", "global={\"n_max\": 400}"])["global"]["n_max"], 400);
+    assert_eq!(settings_of(&["--set", "global={\"n_max\": 400}"])["global"]["h_max"], plain["global"]["h_max"]);
+    // NaN and infinity: said so (it was "invalid type: null")
+    let o = with(&["--integrator", "octree", "--set", "global.epsilon=NaN"]);
+    assert_eq!(stderr(&o), "error: --set global.epsilon=NaN: NaN is not a finite number\n");
+    let toml = dir.path.join("s.toml");
+    std::fs::write(&toml, "type = \"octree\"\n[global]\nepsilon = inf\n").expect("write");
+    assert_eq!(
+        stderr(&with(&["--settings", &path_str(&toml)])),
+        format!("error: settings file {}: `global.epsilon` = inf is not a finite number\n", toml.display())
+    );
+    let o = with(&["--integrator", "octree", "--epsilon", "1e30"]);
+    assert_eq!(
+        stderr(&o),
+        "error: --epsilon: global: invalid octree settings: epsilon = 1000000000000000000000000000000 must be in [0, 10]\n"
+    );
+    // empty settings files are valid (they said "no integrator has the setting ``")
+    for (name, text) in [("e.json", "{}"), ("e.toml", "")] {
+        let f = dir.path.join(name);
+        std::fs::write(&f, text).expect("write");
+        let o = with(&["--settings", &path_str(&f)]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+    }
+    // a repeated -D: the last wins, with a warning
+    let scene = write_scene(&dir, "path", "1", 8);
+    let o = run(&["render", &scene, "-D", "spp=1", "-D", "spp=2", "-q", "-o", &out]);
+    assert_eq!(stderr(&o), "warning: -D spp=2 repeats -D spp=1: the last value wins\n");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path.join("x.json")).expect("json")).expect("JSON");
+    assert_eq!(json["render_settings"]["spp"], 2);
+}
+
+/// Issue 27, items 4 and 8: `report` checks its memory before FLIP (two 8192x8192 images
+/// segfaulted in FLIP at an 8 GB limit); a `near_clip` beyond the whole scene warns.
+#[test]
+fn report_memory_is_checked_before_flip_and_a_far_near_clip_warns() {
+    let dir = TempDir::new("flip");
+    let px = octolux::math::Color::new(0.5, 0.5, 0.5);
+    let img = octolux::image::Image { width: 512, height: 512, data: vec![px; 512 * 512] };
+    let (a, b) = (dir.path.join("a.exr"), dir.path.join("b.exr"));
+    octolux_io::image_io::write_exr(&a, &img).expect("write");
+    octolux_io::image_io::write_exr(&b, &img).expect("write");
+    let o = octolux()
+        .env(budget::MEMORY_LIMIT_ENV, "16M")
+        .args(["report", &path_str(&a), "--reference", &path_str(&b), "-o", &path_str(&dir.path.join("r.html"))])
+        .output()
+        .expect("runs");
+    let need = budget::format_bytes(2 * 512 * 512 * 56 + 512 * 512 * 96);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: the report of 2 images of 512x512 (FLIP and the page) would need {need} of memory, more than the limit of 16.0 MiB \
+             (set OCTOLUX_MEMORY_LIMIT to change the limit)\n"
+        )
+    );
+    assert_eq!(dir.files(), vec!["a.exr", "b.exr"]);
+
+    let scene = dir.path.join("far.xml");
+    std::fs::write(
+        &scene,
+        scene_xml("path", "1", 8)
+            .replace("<float name=\"fov\" value=\"40\"/>", "<float name=\"fov\" value=\"40\"/><float name=\"near_clip\" value=\"1e30\"/>"),
+    )
+    .expect("write");
+    let o = run(&["render", &path_str(&scene), "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).starts_with("warning: near_clip 1000000000000000000000000000000 is beyond the whole scene (its farthest point is "),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// Issue 27, item 5: glTF buffer URIs stay inside the file's folder unless
+/// `--allow-outside-uris`; a closed stdout ends `compare` quietly (it panicked).
+#[test]
+fn gltf_uris_outside_the_folder_need_the_flag() {
+    let dir = TempDir::new("uris");
+    let mut buf = Vec::new();
+    for v in [0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        buf.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(dir.path.join("tri.bin"), &buf).expect("write");
+    std::fs::create_dir(dir.path.join("sub")).expect("mkdir");
+    let gltf = dir.path.join("sub").join("s.gltf");
+    std::fs::write(
+        &gltf,
+        r#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}],
+  "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36}], "buffers": [{"byteLength": 36, "uri": "../tri.bin"}]}"#,
+    )
+    .expect("write");
+    let out = path_str(&dir.path.join("x.exr"));
+    let o = run(&["render", &path_str(&gltf), "--resolution", "4x4", "--spp", "1", "-q", "-o", &out]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot load scene '{}': {}: buffer 0: URI \"../tri.bin\" names a file outside the glTF file's folder \
+             (allow it with --allow-outside-uris)\n",
+            gltf.display(),
+            gltf.display()
+        )
+    );
+    let o = run(&["render", &path_str(&gltf), "--allow-outside-uris", "--resolution", "4x4", "--spp", "1", "-q", "-o", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    let mut child = octolux().args(["compare", &out, &out]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("spawn");
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("wait");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "");
+}

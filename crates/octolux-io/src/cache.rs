@@ -382,6 +382,9 @@ pub fn decode(bytes: &[u8], verify_checksum: bool) -> Result<CacheFile, String> 
     let fingerprint =
         LightingFingerprint { geometry: r.u64("fingerprint")?, materials: r.u64("fingerprint")?, emitters: r.u64("fingerprint")? };
     let meta: Meta = r.json("metadata")?;
+    // the values checked as every other source's are (a crafted max_depth of -5, say)
+    crate::settings::check_values(&octolux::integrators::IntegratorSettings::Octree(meta.settings.clone()))
+        .map_err(|e| format!("its settings: {e}"))?;
     let trees = r.u8("tree count")?;
     if !(1..=2).contains(&trees) {
         return Err(format!("{trees} octrees (1 or 2: global, caustic)"));
@@ -408,10 +411,10 @@ pub fn load_bytes(bytes: &[u8], verify_checksum: bool) -> Result<LoadedCache, St
 /// Read a cache file: every check of the module docs, errors naming the file.
 pub fn read(path: &Path) -> Result<LoadedCache, IoError> {
     // the file and the octrees made from it, about twice its size, within the memory budget
-    let len = std::fs::metadata(path).map_err(|e| IoError::os(path, e))?.len();
+    let len = crate::files::check_input(path)?;
     octolux::budget::check_items(|| format!("a lighting cache of {len} bytes"), len, 2)
         .map_err(|b| IoError::invalid(path, b.to_string()))?;
-    let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
+    let bytes = crate::files::read(path)?;
     load_bytes(&bytes, true).map_err(|m| IoError::invalid(path, format!("cannot use this lighting cache: {m}")))
 }
 

@@ -115,7 +115,7 @@ impl Writer<'_> {
 
     fn write_file(&self, name: &str, bytes: &[u8]) -> Result<(), IoError> {
         let path = self.mesh_dir.join(name);
-        std::fs::write(&path, bytes).map_err(|e| IoError::os(&path, e))
+        crate::files::write_synced(&path, bytes).map_err(|e| IoError::os(&path, e))
     }
 
     /// A reflectance parameter: `<rgb>` or a bitmap texture (written as EXR once per image).
@@ -457,13 +457,71 @@ pub fn to_mitsuba_xml(desc: &SceneDesc, spp: u32, max_depth: i32, mesh_dir: &Pat
 }
 
 /// Write `desc` as a Mitsuba 3 scene at `xml_path`, with its meshes and textures in a
-/// `meshes/` folder beside it.
+/// `meshes/` folder beside it, by the rule of [`crate::files`]: the XML path and the folder are
+/// checked first; every file is written into a staged folder and a staged XML, and only when
+/// all are complete are they renamed into place (the staged folder becomes `meshes/` when there
+/// is none, else its files replace those of the same name there, each checked again first:
+/// never an input of this run, never anything but a regular file), the XML last. Any failure
+/// (a full disk) removes what was staged and leaves the previous files untouched.
 pub fn write_mitsuba_scene(desc: &SceneDesc, spp: u32, max_depth: i32, xml_path: &Path) -> Result<(), IoError> {
-    let dir = xml_path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or_else(|| Path::new("."));
-    let mesh_dir = dir.join("meshes");
-    std::fs::create_dir_all(&mesh_dir).map_err(|e| IoError::os(&mesh_dir, e))?;
-    let xml = to_mitsuba_xml(desc, spp, max_depth, &mesh_dir, "meshes/")?;
-    crate::image_io::write_bytes_atomically(xml_path, xml.as_bytes())
+    use crate::files;
+    files::check_output(xml_path).map_err(IoError::Output)?;
+    let mesh_dir = files::folder_of(xml_path).join("meshes");
+    check_mesh_dir(&mesh_dir)?;
+    let staged_dir = files::staging_name(&mesh_dir, "staged");
+    let staged_xml = files::staging_name(xml_path, "staged");
+    files::note_staged(&staged_dir);
+    files::note_staged(&staged_xml);
+    let result = std::fs::create_dir(&staged_dir)
+        .map_err(|e| IoError::os(&staged_dir, e))
+        .and_then(|()| to_mitsuba_xml(desc, spp, max_depth, &staged_dir, "meshes/"))
+        .and_then(|xml| files::write_synced(&staged_xml, xml.as_bytes()).map_err(|e| IoError::os(xml_path, e)))
+        .and_then(|()| commit_mesh_dir(&staged_dir, &mesh_dir))
+        .and_then(|()| files::commit(&staged_xml, xml_path).map_err(IoError::Output));
+    let _ = std::fs::remove_dir_all(&staged_dir);
+    let _ = std::fs::remove_file(&staged_xml);
+    files::forget_staged(&staged_dir);
+    files::forget_staged(&staged_xml);
+    result
+}
+
+/// `meshes/` beside the XML: absent, or a folder (a link to one counts).
+fn check_mesh_dir(mesh_dir: &Path) -> Result<(), IoError> {
+    match std::fs::metadata(mesh_dir) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(m) => Err(IoError::Output(format!(
+            "'{}' is {}: the exported meshes go into a folder of that name",
+            mesh_dir.display(),
+            crate::files::kind_of(&m.file_type())
+        ))),
+        Err(_) if std::fs::symlink_metadata(mesh_dir).is_ok() => {
+            Err(IoError::Output(format!("'{}' is a dangling link: the exported meshes go into a folder of that name", mesh_dir.display())))
+        }
+        Err(_) => Ok(()),
+    }
+}
+
+/// Move the complete staged folder's files into `mesh_dir` (module docs of
+/// [`write_mitsuba_scene`]): every target is checked before the first rename.
+fn commit_mesh_dir(staged_dir: &Path, mesh_dir: &Path) -> Result<(), IoError> {
+    let mut names: Vec<std::ffi::OsString> = std::fs::read_dir(staged_dir)
+        .and_then(|d| d.map(|e| e.map(|e| e.file_name())).collect())
+        .map_err(|e| IoError::os(staged_dir, e))?;
+    names.sort();
+    if names.is_empty() {
+        return Ok(());
+    }
+    check_mesh_dir(mesh_dir)?;
+    if std::fs::symlink_metadata(mesh_dir).is_err() {
+        return std::fs::rename(staged_dir, mesh_dir).map_err(|e| IoError::os(mesh_dir, e));
+    }
+    for n in &names {
+        crate::files::recheck_output(&mesh_dir.join(n)).map_err(IoError::Output)?;
+    }
+    for n in &names {
+        crate::files::commit(&staged_dir.join(n), &mesh_dir.join(n)).map_err(IoError::Output)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

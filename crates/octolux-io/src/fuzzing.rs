@@ -16,7 +16,7 @@ use std::path::Path;
 pub const FUZZ_MEMORY_LIMIT: u64 = 256 << 20;
 
 /// Names of the targets, which are also the folders under `fuzz/corpus/`.
-pub const TARGETS: [&str; 6] = ["xml", "obj", "ply", "serialized", "image", "cache"];
+pub const TARGETS: [&str; 9] = ["xml", "obj", "ply", "serialized", "image", "cache", "gltf", "settings", "paths"];
 
 /// Run target `name` on `data`; `None` for an unknown target name.
 pub fn run_target(name: &str, data: &[u8]) -> Option<Result<(), IoError>> {
@@ -27,6 +27,9 @@ pub fn run_target(name: &str, data: &[u8]) -> Option<Result<(), IoError>> {
         "serialized" => serialized(data),
         "image" => image(data),
         "cache" => cache(data),
+        "gltf" => gltf(data),
+        "settings" => settings(data),
+        "paths" => paths(data),
         _ => return None,
     })
 }
@@ -71,4 +74,52 @@ pub fn image(data: &[u8]) -> Result<(), IoError> {
 /// checksum's own refusals are tested in `tests/cache.rs`).
 pub fn cache(data: &[u8]) -> Result<(), IoError> {
     crate::cache::load_bytes(data, false).map(|_| ()).map_err(|m| IoError::invalid(Path::new("fuzz.oxc"), m))
+}
+
+/// A glTF scene (`.gltf` JSON or `.glb` binary, told apart by the bytes): buffers and images
+/// are `data:` URIs or the GLB's chunk (a relative URI would name a file of the current folder,
+/// where the budget and the rules of [`crate::files`] hold as for any file).
+pub fn gltf(data: &[u8]) -> Result<(), IoError> {
+    crate::gltf_scene::load_bytes(Path::new("fuzz.gltf"), data).map(|_| ())
+}
+
+/// A settings file (`--settings`): the first byte selects JSON or TOML, the rest is the text
+/// (invalid UTF-8 replaced), resolved alone into an integrator's settings and checked.
+pub fn settings(data: &[u8]) -> Result<(), IoError> {
+    let (name, text) = match data.split_first() {
+        Some((&i, rest)) => (if i % 2 == 0 { "fuzz.json" } else { "fuzz.toml" }, rest),
+        None => ("fuzz.json", data),
+    };
+    let path = Path::new(name);
+    crate::settings::resolve_file_text(path, &String::from_utf8_lossy(text)).map(|_| ()).map_err(|e| IoError::invalid(path, e.0))
+}
+
+/// A camera path (first byte even: JSON, odd: TOML) or, for a first byte of 2 or 3 modulo 4, an
+/// object path (JSON); a valid path's frames are all made (cameras, transforms), as `render`
+/// makes them.
+pub fn paths(data: &[u8]) -> Result<(), IoError> {
+    let (kind, text) = match data.split_first() {
+        Some((&i, rest)) => (i % 4, String::from_utf8_lossy(rest)),
+        None => (0, String::from_utf8_lossy(data)),
+    };
+    match kind {
+        0 | 1 => {
+            let path = Path::new(if kind == 0 { "fuzz.json" } else { "fuzz.toml" });
+            let p = crate::paths::parse_camera_path(path, &text)?;
+            let base = octolux::scene::camera::CameraDesc::default();
+            for i in 1..=p.frame_count().min(10_000) {
+                let cam = p.pose_at(p.frame_time(i)).camera(&base);
+                cam.validate().map_err(|m| IoError::invalid(path, format!("frame {i}: {m}")))?;
+                let _ = octolux::scene::camera::Camera::new(&cam, 16, 9);
+            }
+        }
+        _ => {
+            let path = Path::new("fuzz.json");
+            let p = crate::paths::parse_object_path(path, &text)?;
+            for i in 1..=p.frame_count().min(10_000) {
+                let _ = p.transform_at(p.frame_time(i));
+            }
+        }
+    }
+    Ok(())
 }

@@ -14,8 +14,7 @@
 use crate::IoError;
 use octolux::image::Image;
 use octolux::math::Color;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
 
 /// sRGB transfer function (linear -> encoded), for values in `[0, 1]`.
 #[inline]
@@ -44,31 +43,28 @@ pub fn encode_srgb8(v: f32) -> u8 {
     (linear_to_srgb(v) * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
 }
 
-/// Name of a fresh temporary file next to `path` (same folder, so the final rename is atomic).
-fn temp_path_for(path: &Path) -> PathBuf {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "output".into());
-    path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()))
-}
-
-/// Write a file atomically: `write` produces the complete file at the temporary path it is
-/// given (an error message on failure); on success it is renamed to `path`. On any failure the
-/// temporary file is removed and `path` is left untouched.
+/// Write a file atomically, by the rule of [`crate::files`]: the target is checked (a regular
+/// file or nothing, not an input), `write` produces the complete file at the staging path it is
+/// given (an error message on failure), and on success it is renamed to `path` after a second
+/// check. On any failure the staged file is removed and `path` is left untouched.
 pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), IoError> {
     if path.file_name().is_none() {
         return Err(IoError::invalid(path, "output path has no file name"));
     }
-    let tmp = temp_path_for(path);
-    if let Err(msg) = write(&tmp) {
+    crate::files::recheck_output(path).map_err(IoError::Output)?;
+    let tmp = crate::files::staging_name(path, "tmp");
+    crate::files::note_staged(&tmp);
+    let result = match write(&tmp) {
+        Err(msg) => Err(IoError::invalid(path, format!("could not write: {msg}"))),
+        Ok(()) => crate::files::recheck_output(path)
+            .map_err(IoError::Output)
+            .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| IoError::os(path, e))),
+    };
+    if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
-        return Err(IoError::invalid(path, format!("could not write: {msg}")));
     }
-    if let Err(e) = std::fs::rename(&tmp, path) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(IoError::os(path, e));
-    }
-    Ok(())
+    crate::files::forget_staged(&tmp);
+    result
 }
 
 /// Write bytes to a file atomically (see [`write_atomically`]).
@@ -105,7 +101,7 @@ pub fn write_exr(path: &Path, img: &Image) -> Result<(), IoError> {
 
 /// Read the first RGB(A) layer of an OpenEXR file as linear RGB (alpha is ignored).
 pub fn read_exr(path: &Path) -> Result<Image, IoError> {
-    let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
+    let bytes = crate::files::read(path)?;
     decode_exr(path, &bytes)
 }
 
@@ -148,8 +144,35 @@ pub fn decode_exr(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
             }
             Ok(img)
         }
-        Err(e) => Err(invalid(e)),
+        // no R, G, B: a grey image of one channel (`Y`, or the only one), as Mitsuba writes
+        Err(e) => decode_exr_grey(path, bytes).unwrap_or_else(|| Err(invalid(e))),
     }
+}
+
+/// A one-channel OpenEXR image (its `Y` channel, or its only channel) as grey RGB; `None`
+/// when the file has no such channel (the RGB reader's error is then the answer).
+fn decode_exr_grey(path: &Path, bytes: &[u8]) -> Option<Result<Image, IoError>> {
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
+        .ok()?;
+    let layer = image.layer_data;
+    let list = &layer.channel_data.list;
+    let channel = list.iter().find(|c| c.name.eq("Y")).or_else(|| (list.len() == 1).then(|| &list[0]))?;
+    let (w, h) = (layer.size.width(), layer.size.height());
+    if w == 0 || h == 0 {
+        return Some(Err(IoError::invalid(path, "the EXR image is empty")));
+    }
+    let data: Vec<Color> = channel.sample_data.values_as_f32().map(Color::splat).collect();
+    if data.len() != w * h {
+        return Some(Err(IoError::invalid(path, format!("the EXR channel holds {} values for {w}x{h} pixels", data.len()))));
+    }
+    Some(Ok(Image { width: w as u32, height: h as u32, data }))
 }
 
 /// The pixels as 8-bit sRGB RGB bytes, as the PNG output develops them ([`encode_srgb8`]).
@@ -174,6 +197,38 @@ pub fn encode_png_rgb8(width: u32, height: u32, rgb: Vec<u8>) -> Result<Vec<u8>,
     Ok(out.into_inner())
 }
 
+/// Texels checked as colours are (a colour with NaN or a negative component is refused): a
+/// non-finite texel is an error; negative texels, which filters and denoisers leave in HDR
+/// files, are clamped to 0 with the warning returned (the values a colour may not have).
+pub fn check_texels(path: &Path, img: &mut Image) -> Result<Option<String>, IoError> {
+    let bad = img.data.iter().filter(|c| !c.is_finite()).count();
+    if bad > 0 {
+        let first = img.data.iter().position(|c| !c.is_finite()).unwrap_or(0);
+        let (x, y) = (first % img.width.max(1) as usize, first / img.width.max(1) as usize);
+        return Err(IoError::invalid(
+            path,
+            format!("{bad} texels hold NaN or infinite values (the first at x {x}, y {y}); a texture's values must be finite"),
+        ));
+    }
+    let negative = img.data.iter().filter(|c| c.min_element() < 0.0).count();
+    if negative == 0 {
+        return Ok(None);
+    }
+    let lowest = img.data.iter().map(|c| c.min_element()).fold(0.0f32, f32::min);
+    for c in &mut img.data {
+        *c = c.max(Color::ZERO);
+    }
+    Ok(Some(format!("{}: {negative} texels have negative values (the lowest {lowest}); clamped to 0", path.display())))
+}
+
+/// [`read_image`] and [`check_texels`]: a texture as materials and lights read it, with the
+/// warning of its negative texels if any.
+pub fn read_texture(path: &Path) -> Result<(Image, Option<String>), IoError> {
+    let mut img = read_image(path)?;
+    let warning = check_texels(path, &mut img)?;
+    Ok((img, warning))
+}
+
 /// Read a texture as linear RGB: `.exr` and `.hdr` are linear, `.png`/`.jpg`/`.jpeg` are
 /// sRGB-decoded. Alpha is dropped; grey images are replicated to RGB.
 pub fn read_image(path: &Path) -> Result<Image, IoError> {
@@ -181,7 +236,7 @@ pub fn read_image(path: &Path) -> Result<Image, IoError> {
     if !matches!(ext.as_str(), "exr" | "hdr" | "rgbe" | "pic" | "png" | "jpg" | "jpeg") {
         return Err(IoError::invalid(path, format!("unsupported image format '.{ext}' (expected png, jpg, exr or hdr)")));
     }
-    let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
+    let bytes = crate::files::read(path)?;
     decode_image(path, &bytes)
 }
 
@@ -203,6 +258,16 @@ pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
             format!("could not decode image: {e} (memory limit {})", octolux::budget::format_bytes(octolux::budget::memory_limit())),
         ),
         e => IoError::invalid(path, format!("could not decode image: {e}")),
+    };
+    // Mitsuba (and other writers) start Radiance files with `#?RGBE`, which the decoder does not
+    // know; the format is the same as under `#?RADIANCE`
+    let renamed;
+    let bytes = match bytes.strip_prefix(b"#?RGBE") {
+        Some(rest) if !srgb => {
+            renamed = [&b"#?RADIANCE"[..], rest].concat();
+            &renamed[..]
+        }
+        _ => bytes,
     };
     let open = || image::ImageReader::new(std::io::Cursor::new(bytes)).with_guessed_format().map_err(|e| IoError::os(path, e));
     let (w, h) = open()?.into_dimensions().map_err(decode_err)?;

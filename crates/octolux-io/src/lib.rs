@@ -8,11 +8,13 @@
 pub mod builtin;
 pub mod cache;
 pub mod export;
+pub mod files;
 pub mod fuzzing;
 pub mod gltf_scene;
 pub mod image_io;
 pub mod mesh;
 pub mod mitsuba;
+pub mod paths;
 pub mod settings;
 pub mod shared;
 
@@ -33,6 +35,9 @@ pub enum IoError {
     /// The file was read but its content is unusable.
     #[error("{}: {msg}", file.display())]
     Invalid { file: PathBuf, msg: String },
+    /// An output the rule of [`files`] refuses (the message names the path).
+    #[error("{0}")]
+    Output(String),
     #[error("unknown scene '{name}': not a file and not a built-in scene (built-in: {known})")]
     UnknownScene { name: String, known: String },
 }

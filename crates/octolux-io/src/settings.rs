@@ -104,6 +104,40 @@ pub struct SettingsInput<'a> {
     pub sets: &'a [String],
 }
 
+/// `max_depth` (Mitsuba's, in path vertices): -1 (unbounded) or at least 0. The one check of
+/// the value, for the flag, `--set`, settings files, caches and `export` alike (the baselines
+/// refuse 0 besides, when they are built).
+pub fn check_max_depth(d: i64) -> std::result::Result<(), String> {
+    if d < -1 {
+        return Err(format!("{d} must be -1 (unbounded) or at least 0"));
+    }
+    Ok(())
+}
+
+/// The one check of an integrator's values, whatever layer they come from (flags, `--set`,
+/// a settings file, a lighting cache, the Python module): run by [`resolve`] on the merged
+/// settings and by [`crate::cache`] on a cache's, before any long work. It calls the library's
+/// own validators (the octree settings', each baseline's), so that a value refused when the
+/// integrator is built is refused here first, naming its source. This is the single hook for
+/// validators that live with an integrator's settings.
+pub fn check_values(s: &IntegratorSettings) -> std::result::Result<(), String> {
+    let depth = |d: i32| check_max_depth(d as i64).map_err(|e| format!("max_depth {e}"));
+    match s {
+        IntegratorSettings::Path(p) => depth(p.max_depth),
+        IntegratorSettings::Octree(o) => {
+            depth(o.max_depth)?;
+            if o.photons.photons == 0 {
+                return Err("photons.photons must be at least 1".into());
+            }
+            o.global.validate().map_err(|e| format!("global: {e}"))?;
+            o.caustic.validate().map_err(|e| format!("caustic: {e}"))
+        }
+        IntegratorSettings::Photonmap(p) => depth(p.max_depth).and_then(|()| p.validate().map_err(|e| e.to_string())),
+        IntegratorSettings::Ward(w) => depth(w.max_depth).and_then(|()| w.validate().map_err(|e| e.to_string())),
+        IntegratorSettings::Christensen(c) => depth(c.max_depth).and_then(|()| c.validate().map_err(|e| e.to_string())),
+    }
+}
+
 /// The merged settings and the warnings met on the way.
 #[derive(Debug)]
 pub struct Resolved {
@@ -122,6 +156,17 @@ struct Write {
 /// Merges the layers (module docs) into the settings of one integrator.
 pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
     let file = input.file.map(read_settings_file).transpose()?;
+    resolve_with(input, file)
+}
+
+/// The settings a settings file's text gives alone (no flag, no `--set`), as if read from
+/// `path` (whose extension gives the format): the fuzz target's entry ([`crate::fuzzing`]).
+pub fn resolve_file_text(path: &Path, text: &str) -> Result<Resolved> {
+    let file = parse_settings_file(path, text)?;
+    resolve_with(&SettingsInput { integrator: None, base: None, derived: vec![], file: Some(path), flags: vec![], sets: &[] }, Some(file))
+}
+
+fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Resolved> {
     let name = match (input.integrator, file.as_ref().and_then(|f| f.integrator.as_deref())) {
         (Some(flag), Some(ty)) if flag != ty => {
             bail!(
@@ -154,7 +199,8 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
         let source = format!("settings file {}", path.display());
         let mut leaves = Vec::new();
         flatten(&f.values, String::new(), &mut leaves);
-        for (key, value) in leaves {
+        // an empty file (`{}`, an empty .toml) sets nothing
+        for (key, value) in leaves.into_iter().filter(|(k, _)| !k.is_empty()) {
             writes.push(Write { source: source.clone(), key, value });
         }
     }
@@ -193,7 +239,12 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
         if key == "type" {
             bail!("--set {s}: the integrator is chosen with --integrator (or the settings file's `type`)");
         }
-        let value = serde_json::from_str(raw).unwrap_or_else(|_| Value::String(raw.to_string()));
+        let value = match serde_json::from_str(raw) {
+            Ok(v) => v,
+            // JSON has no NaN or infinity: said so, not "invalid type: string"
+            Err(_) if is_non_finite_word(raw) => bail!("--set {s}: {} is not a finite number", raw.trim()),
+            Err(_) => Value::String(raw.to_string()),
+        };
         writes.push(Write { source: format!("--set {s}"), key: key.to_string(), value });
     }
     for w in &writes[set_writes..] {
@@ -201,6 +252,18 @@ pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
     }
 
     let settings = deserialize(&name, &merged).map_err(|e| attribute(e, &name, &base, &writes))?;
+    if let Err(msg) = check_values(&settings) {
+        // named after the first write that fails the check alone
+        for w in &writes {
+            let mut alone = base.clone();
+            let fails = place(&mut alone, &mut HashSet::new(), &w.key, w.value.clone())
+                && deserialize(&name, &alone).is_ok_and(|s| check_values(&s).is_err());
+            if fails {
+                bail!("{}: {msg}", w.source);
+            }
+        }
+        bail!("the settings of --integrator {name}: {msg}");
+    }
     // a key the deserialization dropped (a field of an enum variant it does not know, say)
     let round = serde_json::to_value(&settings)?;
     for w in &writes {
@@ -259,12 +322,23 @@ struct SettingsFile {
 }
 
 fn read_settings_file(path: &Path) -> Result<SettingsFile> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read settings file {}", path.display()))?;
+    let text = crate::files::read_to_string(path).map_err(|e| SettingsError(format!("cannot read settings file {e}")))?;
+    parse_settings_file(path, &text)
+}
+
+fn parse_settings_file(path: &Path, text: &str) -> Result<SettingsFile> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     // both errors say the line and column of a syntax error
     let value: Value = match ext.as_str() {
-        "json" => serde_json::from_str(&text).with_context(|| format!("settings file {} is not valid JSON", path.display()))?,
-        "toml" => toml::from_str(&text).with_context(|| format!("settings file {} is not valid TOML", path.display()))?,
+        "json" => serde_json::from_str(text).with_context(|| format!("settings file {} is not valid JSON", path.display()))?,
+        "toml" => {
+            let t: toml::Value = toml::from_str(text).with_context(|| format!("settings file {} is not valid TOML", path.display()))?;
+            // NaN and infinity became JSON null ("invalid type: null"): refused by name first
+            if let Some((key, v)) = non_finite_float(&t, String::new()) {
+                bail!("settings file {}: `{key}` = {v} is not a finite number", path.display());
+            }
+            serde_json::to_value(t)?
+        }
         _ => bail!("settings file {}: expected a .json or .toml file", path.display()),
     };
     let Value::Object(mut map) = value else { bail!("settings file {}: expected a table of settings at the top", path.display()) };
@@ -274,6 +348,24 @@ fn read_settings_file(path: &Path) -> Result<SettingsFile> {
         Some(t) => bail!("settings file {}: `type` = {t} is not an integrator ({})", path.display(), IntegratorSettings::NAMES.join(", ")),
     };
     Ok(SettingsFile { integrator, values: Value::Object(map) })
+}
+
+/// `nan`, `inf`, `-infinity`, ... (any case): a number JSON cannot write.
+fn is_non_finite_word(raw: &str) -> bool {
+    let w = raw.trim().trim_start_matches(['+', '-']).to_ascii_lowercase();
+    matches!(w.as_str(), "nan" | "inf" | "infinity")
+}
+
+/// The first float of a TOML value that is NaN or infinite, with its dotted key.
+fn non_finite_float(v: &toml::Value, key: String) -> Option<(String, f64)> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => Some((key, *f)),
+        toml::Value::Table(t) => {
+            t.iter().find_map(|(k, v)| non_finite_float(v, if key.is_empty() { k.clone() } else { format!("{key}.{k}") }))
+        }
+        toml::Value::Array(a) => a.iter().enumerate().find_map(|(i, v)| non_finite_float(v, format!("{key}[{i}]"))),
+        _ => None,
+    }
 }
 
 /// The defaults of integrator `name` as a JSON object without its `type` tag.
@@ -315,6 +407,29 @@ fn place_checked(
     others: &[(&str, Value)],
     warnings: &mut Vec<String>,
 ) -> Result<()> {
+    // A table of settings (an object of several keys) takes an object, key by key (`{}`
+    // changes nothing; it reset the fields to their struct defaults, which are not the
+    // integrator's); any other value is refused (an array filled the fields by position).
+    if let Some(Value::Object(m)) = lookup(merged, &w.key).filter(|v| v.as_object().is_some_and(|m| m.len() > 1)) {
+        let Value::Object(given) = &w.value else {
+            let keys: Vec<&str> = m.keys().map(String::as_str).collect();
+            bail!(
+                "{}: `{}` is a table of settings ({}), not a value: set its keys (`{}.{}=...`) or give an object",
+                w.source,
+                w.key,
+                keys.join(", "),
+                w.key,
+                keys[0]
+            );
+        };
+        let mut leaves = Vec::new();
+        flatten(&Value::Object(given.clone()), String::new(), &mut leaves);
+        for (k, v) in leaves.into_iter().filter(|(k, _)| !k.is_empty()) {
+            let sub = Write { source: w.source.clone(), key: format!("{}.{k}", w.key), value: v };
+            place_checked(merged, created, &sub, name, others, warnings)?;
+        }
+        return Ok(());
+    }
     if place(merged, created, &w.key, w.value.clone()) {
         return Ok(());
     }
@@ -444,11 +559,16 @@ pub fn get(settings: &IntegratorSettings, key: &str) -> Option<Value> {
 pub const BAKE_KEYS: [&str; 4] = ["photons", "global", "caustic", "max_depth"];
 
 /// A lighting cache's settings as the base layer of a render's ([`SettingsInput::base`]: an
-/// object without `type`).
+/// object without `type`). The render-time `view` starts from the integrator's default, not
+/// the bake's (a bake made with `--view leaves` made every later render write the leaves).
 pub fn cache_base(c: &LoadedCache) -> Result<Value> {
     let mut v = serde_json::to_value(c.integrator.settings())?;
+    let view = defaults(c.integrator.name())?.get("view").cloned();
     if let Value::Object(m) = &mut v {
         m.remove("type");
+        if let (Some(view), Some(slot)) = (view, m.get_mut("view")) {
+            *slot = view;
+        }
     }
     Ok(v)
 }

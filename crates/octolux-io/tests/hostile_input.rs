@@ -422,3 +422,390 @@ fn referenced_scene_level_area_emitter_is_used_without_warning() {
     assert_eq!(s.warnings[0], "h.xml:2: <emitter type=\"area\" id=\"e\">: an area emitter must be nested in a shape; ignored");
     assert_eq!(s.desc.shapes[0].emission, None);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Round 3 (issue 27): amplification, reference cycles, files that are not regular, glTF
+// ---------------------------------------------------------------------------------------------
+
+/// The issue's one-line scene: a bsdf that holds a reference to itself overflowed the stack
+/// (SIGABRT). A cycle is an error naming its ids at the `<ref>` that closes it.
+#[test]
+fn ref_cycles_are_errors_naming_ids_and_line() {
+    assert_eq!(
+        xml_err(r#"<scene version="3.0.0"><bsdf type="twosided" id="x"><ref id="x"/></bsdf></scene>"#),
+        "h.xml:1: <ref id=\"x\">: the references make a cycle: x -> x (an object cannot hold itself)"
+    );
+    let two = "<scene version=\"3.0.0\">\n<bsdf type=\"twosided\" id=\"a\"><ref id=\"b\"/></bsdf>\n\
+               <bsdf type=\"twosided\" id=\"b\">\n<bsdf type=\"mask\"><ref id=\"a\"/></bsdf></bsdf>\n</scene>";
+    assert_eq!(xml_err(two), "h.xml:2: <ref id=\"b\">: the references make a cycle: b -> a -> b (an object cannot hold itself)");
+    // through an alias
+    let alias = "<scene version=\"3.0.0\">\n<bsdf type=\"twosided\" id=\"a\"><ref id=\"z\"/></bsdf>\n<alias id=\"a\" as=\"z\"/>\n</scene>";
+    assert_eq!(xml_err(alias), "h.xml:2: <ref id=\"z\">: the references make a cycle: z -> z (an object cannot hold itself)");
+    // a chain of 300 objects, each holding the next: nested too deep through references
+    let mut chain = String::from("<scene version=\"3.0.0\">\n");
+    for i in 0..300 {
+        chain.push_str(&format!("<bsdf type=\"twosided\" id=\"b{i}\"><ref id=\"b{}\"/></bsdf>\n", i + 1));
+    }
+    chain.push_str("<bsdf type=\"diffuse\" id=\"b300\"/>\n</scene>");
+    let e = xml_err(&chain);
+    assert!(e.ends_with("objects are nested more than 256 levels deep through references"), "{e}");
+    // a shared object referenced many times is fine
+    let mut shared = String::from("<scene version=\"3.0.0\"><bsdf type=\"diffuse\" id=\"m\"/>");
+    for _ in 0..2000 {
+        shared.push_str("<shape type=\"sphere\"><ref id=\"m\"/></shape>");
+    }
+    shared.push_str("</scene>");
+    setup();
+    assert_eq!(load_str(&shared, Path::new("h.xml"), &[]).unwrap().desc.shapes.len(), 2000);
+}
+
+/// The issue's 1 KB chain of `<default>`s, each value ten copies of the one before: it asked
+/// for 9.6 GB and aborted (six levels gave a 12 MB error line). The value's length is known
+/// before each substitution and refused past 64 KiB.
+#[test]
+fn default_chains_that_multiply_are_refused() {
+    let mut text = String::from("<scene version=\"3.0.0\">\n<default name=\"a0\" value=\"0123456789\"/>\n");
+    for i in 1..10 {
+        text.push_str(&format!("<default name=\"a{i}\" value=\"{}\"/>\n", format!("$a{}", i - 1).repeat(10)));
+    }
+    text.push_str("<integrator type=\"path\"><string name=\"x\" value=\"$a9\"/></integrator>\n</scene>");
+    assert_eq!(
+        xml_err(&text),
+        "h.xml:6: the value of <default> would grow to 100000 bytes once $a3 is substituted, more than 65536 \
+         (<default>s whose values repeat each other multiply)"
+    );
+    // many values each under the cap, but all together too much
+    let mut text = String::from("<scene version=\"3.0.0\">\n");
+    text.push_str(&format!("<default name=\"big\" value=\"{}\"/>\n", "x".repeat(60_000)));
+    for _ in 0..1200 {
+        text.push_str("<integrator type=\"path\"><string name=\"x\" value=\"$big\"/></integrator>\n");
+    }
+    text.push_str("</scene>");
+    let e = xml_err(&text);
+    assert!(e.ends_with("$name substitution has produced more than 67108864 bytes in this scene"), "{e}");
+}
+
+/// 12 files with 4 `<include>`s each of the next (4^11 includes) ran for minutes; the includes
+/// of a scene are counted, all files together.
+#[test]
+fn includes_that_multiply_are_counted() {
+    setup();
+    let dir = tmp_dir("includes_multiply");
+    for i in 0..12 {
+        let body =
+            if i == 11 { "<bsdf type=\"diffuse\"/>".to_string() } else { format!("<include filename=\"f{}.xml\"/>", i + 1).repeat(4) };
+        std::fs::write(dir.join(format!("f{i}.xml")), format!("<scene version=\"3.0.0\">{body}</scene>")).unwrap();
+    }
+    let main = dir.join("f0.xml");
+    let e = octolux_io::mitsuba::load(&main, &[]).unwrap_err().to_string();
+    assert!(e.ends_with("<include>: more than 10000 files included in all (files that include each other several times multiply)"), "{e}");
+    assert!(e.starts_with(&dir.display().to_string()), "names the file: {e}");
+}
+
+/// A folder or a device given as an include, a bitmap or a mesh: it was "not found"; now the
+/// message says what it is. A device is never read (`/dev/zero` would fill the memory).
+#[test]
+fn inputs_that_are_not_regular_files_say_what_they_are() {
+    setup();
+    let dir = tmp_dir("not_regular");
+    std::fs::create_dir_all(dir.join("inc.xml")).unwrap();
+    std::fs::create_dir_all(dir.join("tex.png")).unwrap();
+    let load = |body: &str| {
+        let p = dir.join("h.xml");
+        std::fs::write(&p, format!("<scene version=\"3.0.0\">\n{body}\n</scene>")).unwrap();
+        octolux_io::mitsuba::load(&p, &[]).unwrap_err().to_string()
+    };
+    let h = dir.join("h.xml").display().to_string();
+    let d = dir.display().to_string();
+    assert_eq!(
+        load("<include filename=\"inc.xml\"/>"),
+        format!("{h}:2: cannot read included file {d}/inc.xml: this is a folder, not a file")
+    );
+    assert_eq!(
+        load("<include filename=\"/dev/zero\"/>"),
+        format!(
+            "{h}:2: cannot read included file /dev/zero: this is a character device, not a regular file: octolux reads only regular files"
+        )
+    );
+    let bitmap = |f: &str| {
+        format!(
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">\
+             <string name=\"filename\" value=\"{f}\"/></texture></bsdf></shape>"
+        )
+    };
+    assert_eq!(load(&bitmap("tex.png")), format!("{d}/tex.png: this is a folder, not a file"));
+    std::os::unix::fs::symlink("/dev/zero", dir.join("zero.png")).unwrap();
+    assert_eq!(
+        load(&bitmap("zero.png")),
+        format!("{d}/zero.png: this is a character device, not a regular file: octolux reads only regular files")
+    );
+    std::os::unix::fs::symlink("/dev/zero", dir.join("zero.ply")).unwrap();
+    let e = load("<shape type=\"ply\"><string name=\"filename\" value=\"zero.ply\"/></shape>");
+    assert!(e.ends_with("zero.ply: this is a character device, not a regular file: octolux reads only regular files"), "{e}");
+    let e = octolux_io::cache::read(Path::new("/dev/zero")).err().expect("refused").to_string();
+    assert_eq!(e, "/dev/zero: this is a character device, not a regular file: octolux reads only regular files");
+    let e = read_exr(Path::new("/dev/zero")).unwrap_err().to_string();
+    assert_eq!(e, "/dev/zero: this is a character device, not a regular file: octolux reads only regular files");
+    // a FIFO is never opened (opening one blocks until a writer comes)
+    let fifo = dir.join("pipe.obj");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let e = octolux_io::load_scene(&fifo.display().to_string(), &[]).unwrap_err().to_string();
+    assert_eq!(e, format!("{}: this is a FIFO (named pipe), not a regular file: octolux reads only regular files", fifo.display()));
+}
+
+/// Standard base64 (RFC 4648, padded), for the `data:` URIs of the glTF cases.
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::new();
+    for ch in bytes.chunks(3) {
+        let n = (ch[0] as u32) << 16 | (*ch.get(1).unwrap_or(&0) as u32) << 8 | *ch.get(2).unwrap_or(&0) as u32;
+        for i in 0..4 {
+            s.push(if i <= ch.len() { A[(n >> (18 - 6 * i) & 63) as usize] as char } else { '=' });
+        }
+    }
+    s
+}
+
+/// One triangle's buffer: 3 positions (36 bytes), 3 u16 indices (6 bytes), padding (2).
+fn triangle_buffer() -> Vec<u8> {
+    let mut b = Vec::new();
+    for v in [0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    for i in [0u16, 1, 2] {
+        b.extend_from_slice(&i.to_le_bytes());
+    }
+    b.extend_from_slice(&[0, 0]);
+    b
+}
+
+/// A glTF document of one triangle mesh (accessor 0: positions, 1: indices of `index_count`),
+/// with `nodes` (JSON) and scene roots `roots`, and the buffer at `uri` (default: a data URI).
+fn gltf_doc(nodes: &str, roots: &str, index_count: u64, uri: Option<&str>) -> String {
+    let data = format!("data:application/octet-stream;base64,{}", base64(&triangle_buffer()));
+    format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": {roots}}}], "nodes": {nodes},
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}},
+    {{"bufferView": 1, "componentType": 5123, "count": {index_count}, "type": "SCALAR"}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 36}}, {{"buffer": 0, "byteOffset": 36, "byteLength": 6}}],
+  "buffers": [{{"byteLength": 44, "uri": "{}"}}]}}"#,
+        uri.unwrap_or(&data)
+    )
+}
+
+fn gltf_err(text: &str) -> String {
+    setup();
+    octolux_io::gltf_scene::load_bytes(Path::new("h.gltf"), text.as_bytes()).unwrap_err().to_string()
+}
+
+/// A 3-node cycle said "more than a million nodes"; nodes that list the next one twice made
+/// 262,144 instances of a mesh and aborted on allocation: the instances and the triangles
+/// after instancing are counted before any mesh is read.
+#[test]
+fn gltf_node_cycles_and_instancing_are_bounded() {
+    let cycle = r#"[{"children": [1]}, {"children": [2]}, {"children": [0], "mesh": 0}]"#;
+    assert_eq!(
+        gltf_err(&gltf_doc(cycle, "[0]", 3, None)),
+        "h.gltf: node 0 is its own ancestor: the node tree has a cycle (0 -> 1 -> 2 -> 0)"
+    );
+    // 18 nodes, each listing the next twice; the last holds a mesh of 2,000 triangles
+    let doubling = |levels: usize| {
+        let mut nodes: Vec<String> = (0..levels - 1).map(|i| format!("{{\"children\": [{0}, {0}]}}", i + 1)).collect();
+        nodes.push("{\"mesh\": 0}".into());
+        format!("[{}]", nodes.join(", "))
+    };
+    assert_eq!(
+        gltf_err(&gltf_doc(&doubling(18), "[0]", 6000, None)),
+        format!(
+            "h.gltf: the node tree, once instanced: a mesh of 393216 vertices and 262144000 triangles would need {} of memory, \
+             more than the limit of 1.0 GiB (set OCTOLUX_MEMORY_LIMIT to change the limit)",
+            budget::format_bytes(393216 * budget::VERTEX_BYTES + 262144000 * budget::TRIANGLE_BYTES)
+        )
+    );
+    assert_eq!(
+        gltf_err(&gltf_doc(&doubling(21), "[0]", 3, None)),
+        "h.gltf: the node tree makes 2097151 node instances, more than 1000000 (a node listed as a child several times is copied each time)"
+    );
+    // a few instances are fine
+    setup();
+    let s = octolux_io::gltf_scene::load_bytes(Path::new("h.gltf"), gltf_doc(&doubling(3), "[0]", 3, None).as_bytes()).unwrap();
+    assert_eq!(s.desc.shapes.len(), 4);
+}
+
+/// An index accessor of 3,000,000 over 6 bytes was ignored and the primitive drawn without
+/// indices; a bad position accessor said "has no positions". Each names the accessor now.
+#[test]
+fn gltf_accessors_outside_their_buffer_are_errors() {
+    assert_eq!(
+        gltf_err(&gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3_000_000, None)),
+        "h.gltf: mesh 0: primitive 0: its index accessor 1 (3000000 values of 2 bytes from offset 0) lies outside its buffer view 1 \
+         (6 bytes from offset 36 of a 44-byte buffer)"
+    );
+    let doc = gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, None).replace(r#""count": 3, "type": "VEC3""#, r#""count": 30, "type": "VEC3""#);
+    assert_eq!(
+        gltf_err(&doc),
+        "h.gltf: mesh 0: primitive 0: its POSITION accessor 0 (30 values of 12 bytes from offset 0) lies outside its buffer view 0 \
+         (36 bytes from offset 0 of a 44-byte buffer)"
+    );
+    let doc = gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, None).replace(r#""componentType": 5123"#, r#""componentType": 5126"#);
+    assert_eq!(
+        gltf_err(&doc),
+        "h.gltf: mesh 0: primitive 0: its index accessor 1 holds Scalar of F32, expected Scalar of U8 or U16 or U32"
+    );
+    // a POSITION naming an accessor the file lacks: the gltf crate's validation indexed it
+    // before checking it (a panic the fuzz target found)
+    let doc = gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, None).replace(r#""POSITION": 0"#, r#""POSITION": 5"#);
+    assert_eq!(gltf_err(&doc), "h.gltf: mesh 0: primitive 0: POSITION names accessor 5, but the file has 2");
+    // a .glb whose header gives a length below the header's own 12 bytes: the gltf crate's
+    // splitter subtracted before checking (an overflow panic the fuzz target found)
+    assert_eq!(
+        gltf_err("glTF\u{2}\0\0\0\u{4}\0\0\0"),
+        "h.gltf: not a valid .glb file: the header gives a length of 4 bytes, but the file has 12"
+    );
+    let json = gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, None);
+    let chunk = json.len() as u32 + 100;
+    let glb = [&b"glTF\x02\0\0\0"[..], &(20 + json.len() as u32).to_le_bytes(), &chunk.to_le_bytes(), b"JSON", json.as_bytes()].concat();
+    setup();
+    assert_eq!(
+        octolux_io::gltf_scene::load_bytes(Path::new("h.glb"), &glb).unwrap_err().to_string(),
+        format!("h.glb: not a valid .glb file: chunk 0 of {chunk} bytes passes the end of the file")
+    );
+    let glb =
+        [&b"glTF\x02\0\0\0"[..], &(20 + json.len() as u32).to_le_bytes(), &(json.len() as u32).to_le_bytes(), b"JSON", json.as_bytes()]
+            .concat();
+    assert_eq!(octolux_io::gltf_scene::load_bytes(Path::new("h.glb"), &glb).unwrap().desc.shapes.len(), 1);
+    // a buffer shorter than its byteLength
+    let short = format!("data:application/octet-stream;base64,{}", base64(&triangle_buffer()[..40]));
+    assert_eq!(
+        gltf_err(&gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, Some(&short))),
+        "h.gltf: buffer 0 holds 40 bytes, less than its byteLength 44"
+    );
+}
+
+/// `extras` may hold any JSON value (an array was refused), and URIs stay in the file's folder.
+#[test]
+fn gltf_extras_of_any_kind_and_uris_inside_the_folder() {
+    setup();
+    let doc = gltf_doc(r#"[{"mesh": 0, "extras": [1, 2, {"a": "b"}]}]"#, "[0]", 3, None);
+    let s = octolux_io::gltf_scene::load_bytes(Path::new("h.gltf"), doc.as_bytes()).unwrap();
+    assert_eq!(s.desc.shapes.len(), 1);
+    for uri in ["/dev/zero", "../../../../etc/hostname", "file:///etc/hostname"] {
+        assert_eq!(
+            gltf_err(&gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, Some(uri))),
+            format!("h.gltf: buffer 0: URI \"{uri}\" names a file outside the glTF file's folder (allow it with --allow-outside-uris)")
+        );
+    }
+    // a buffer file beside it (also through `sub/..`) is read
+    let dir = tmp_dir("gltf_uris");
+    std::fs::write(dir.join("tri.bin"), triangle_buffer()).unwrap();
+    std::fs::create_dir_all(dir.join("sub")).unwrap();
+    for uri in ["tri.bin", "sub/../tri.bin"] {
+        let p = dir.join("h.gltf");
+        std::fs::write(&p, gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, Some(uri))).unwrap();
+        assert_eq!(octolux_io::gltf_scene::load(&p).unwrap().desc.shapes.len(), 1, "{uri}");
+    }
+    // a folder named as a buffer
+    let p = dir.join("h.gltf");
+    std::fs::write(&p, gltf_doc(r#"[{"mesh": 0}]"#, "[0]", 3, Some("sub"))).unwrap();
+    assert_eq!(
+        octolux_io::gltf_scene::load(&p).unwrap_err().to_string(),
+        format!("{}: buffer 0: {}/sub: this is a folder, not a file", p.display(), dir.display())
+    );
+}
+
+/// Valid files that were refused: a Radiance file with Mitsuba's `#?RGBE` header ("format
+/// could not be determined"; these are the bytes Mitsuba 3.9.1 writes for a 3x2 image of 0.5),
+/// and a one-channel EXR (Mitsuba's `Y` format), as a texture and as `compare` reads it.
+#[test]
+fn mitsuba_hdr_and_one_channel_exr_are_read() {
+    setup();
+    let mut hdr = b"#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 3\n".to_vec();
+    hdr.extend_from_slice(&[0x80; 24]);
+    let img = decode_image(Path::new("mi.hdr"), &hdr).unwrap();
+    assert_eq!((img.width, img.height), (3, 2));
+    // RGBE (128, 128, 128, e 128) is (128 + 0.5) / 256: the decoder's rounding
+    assert!(img.data.iter().all(|c| (c.x - 0.5).abs() < 4e-3 && c.x == c.y && c.y == c.z), "{:?}", img.data[0]);
+
+    let dir = tmp_dir("one_channel_exr");
+    for name in ["Y", "L"] {
+        let path = dir.join(format!("{name}.exr"));
+        let channel = exr::prelude::AnyChannel::new(name, exr::prelude::FlatSamples::F32(vec![0.25, 0.5, 0.75, 1.0, 1.25, 1.5]));
+        let layer = exr::prelude::Layer::new(
+            (3, 2),
+            exr::prelude::LayerAttributes::default(),
+            exr::prelude::Encoding::FAST_LOSSLESS,
+            exr::prelude::AnyChannels::sort(vec![channel].into()),
+        );
+        use exr::prelude::WritableImage;
+        exr::prelude::Image::from_layer(layer).write().to_file(&path).unwrap();
+        let img = read_exr(&path).unwrap();
+        assert_eq!((img.width, img.height), (3, 2));
+        assert_eq!(img.data.iter().map(|c| c.x).collect::<Vec<_>>(), [0.25, 0.5, 0.75, 1.0, 1.25, 1.5], "{name}");
+        assert!(img.data.iter().all(|c| c.x == c.y && c.y == c.z));
+        assert_eq!(octolux_io::image_io::read_image(&path).unwrap().data, img.data, "as a texture");
+    }
+}
+
+/// Texels are checked as colours are: NaN or infinity is an error naming the file and the
+/// first texel; negative texels are clamped to 0 with a warning.
+#[test]
+fn texels_are_checked_as_colours() {
+    setup();
+    let dir = tmp_dir("texels");
+    let px = |v: f32| Color::new(v, v, v);
+    let scene = |tex: &str| {
+        format!(
+            "<scene version=\"3.0.0\"><shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">\
+             <string name=\"filename\" value=\"{tex}\"/></texture></bsdf></shape></scene>"
+        )
+    };
+    let nan = Image { width: 2, height: 2, data: vec![px(0.5), px(0.5), Color::new(0.1, f32::NAN, 0.1), px(f32::INFINITY)] };
+    write_exr(&dir.join("nan.exr"), &nan).unwrap();
+    let p = dir.join("h.xml");
+    std::fs::write(&p, scene("nan.exr")).unwrap();
+    assert_eq!(
+        octolux_io::mitsuba::load(&p, &[]).unwrap_err().to_string(),
+        format!(
+            "{}/nan.exr: 2 texels hold NaN or infinite values (the first at x 0, y 1); a texture's values must be finite",
+            dir.display()
+        )
+    );
+    let neg = Image { width: 2, height: 1, data: vec![px(0.5), Color::new(0.2, -0.25, 0.0)] };
+    write_exr(&dir.join("neg.exr"), &neg).unwrap();
+    std::fs::write(&p, scene("neg.exr")).unwrap();
+    let s = octolux_io::mitsuba::load(&p, &[]).unwrap();
+    assert!(
+        s.warnings.contains(&format!("{}/neg.exr: 1 texels have negative values (the lowest -0.25); clamped to 0", dir.display())),
+        "{:?}",
+        s.warnings
+    );
+    assert_eq!(s.desc.images[0].data[1], Color::new(0.2, 0.0, 0.0));
+}
+
+/// Values far out of range: a reflectance of 5 and a mask opacity of 2 warn (they passed
+/// silently); a `-D` given twice keeps the last value, with a warning (it kept the first).
+#[test]
+fn out_of_range_colours_warn_and_repeated_defines_take_the_last() {
+    setup();
+    let text = "<scene version=\"3.0.0\">\n<bsdf type=\"diffuse\" id=\"a\">\n<rgb name=\"reflectance\" value=\"5\"/></bsdf>\n\
+                <bsdf type=\"mask\" id=\"b\">\n<float name=\"opacity\" value=\"2\"/><bsdf type=\"diffuse\"/></bsdf>\n\
+                <shape type=\"sphere\"><ref id=\"a\"/></shape><shape type=\"sphere\"><ref id=\"b\"/></shape>\n</scene>";
+    let s = load_str(text, Path::new("h.xml"), &[]).unwrap();
+    let above = |line: u32, what: &str, c: &str| {
+        format!("h.xml:{line}: {what}: {c} is above 1: a reflectance over 1 creates light (an opacity or a blend weight is read as 1); kept as given")
+    };
+    assert!(s.warnings.contains(&above(3, "<rgb name=\"reflectance\">", "5")), "{:?}", s.warnings);
+    assert!(s.warnings.contains(&above(5, "<float name=\"opacity\">", "2")), "{:?}", s.warnings);
+    let text = "<scene version=\"3.0.0\"><default name=\"r\" value=\"0.1\"/>\
+                <shape type=\"sphere\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"$r\"/></bsdf></shape></scene>";
+    let defines = [("r".to_string(), "0.2".to_string()), ("r".to_string(), "0.3".to_string())];
+    let s = load_str(text, Path::new("h.xml"), &defines).unwrap();
+    assert_eq!(s.warnings[0], "-D r=0.3 repeats -D r=0.2: the last value wins");
+    let octolux::scene::material::Material::Diffuse { reflectance: octolux::scene::material::Texture::Const(c) } = &s.desc.materials[0]
+    else {
+        panic!("{:?}", s.desc.materials[0])
+    };
+    assert_eq!(*c, Color::splat(0.3));
+}

@@ -23,7 +23,7 @@
 //! result then depends on the machine's speed).
 //!
 //! Interrupts: [`render_cancellable`] takes a flag (set from a signal handler, say) checked
-//! before each tile; once it is set the pass under way is dropped and the loop stops, so the
+//! before each tile and every few samples inside it; once it is set the pass under way is dropped and the loop stops, so the
 //! image holds the whole passes done so far ([`RenderStats::interrupted`], `passes`, `spp`).
 
 use crate::film::{camera_sample, Pixel};
@@ -123,7 +123,11 @@ where
     render_film_cancellable(w, h, filter, settings, progress, None, li)
 }
 
-/// [`render_film`] that stops when `cancel` becomes true (checked before each tile): the pass
+/// Samples between two looks at the cancel flag inside a pixel (and at every pixel's first).
+const CANCEL_EVERY: u32 = 16;
+
+/// [`render_film`] that stops when `cancel` becomes true (checked before each tile and every
+/// [`CANCEL_EVERY`] samples of each pixel, so a signal stops even one long tile): the pass
 /// under way is dropped, and the image and statistics are those of the whole passes done.
 pub fn render_film_cancellable<F>(
     w: u32,
@@ -183,6 +187,10 @@ where
                     for x in x0..x1 {
                         let pixel = Pixel { x, y, width: w };
                         for s in 0..spp {
+                            // inside the tile too: one tile of 10^8 samples must stop at once
+                            if s % CANCEL_EVERY == 0 && cancelled() {
+                                return None;
+                            }
                             let sample_index = pass as u64 * spp as u64 + s as u64;
                             let (mut sampler, pos) =
                                 camera_sample(settings.sampler, settings.seed, pixel, sample_index, filter, reconstruction);

@@ -95,7 +95,7 @@ fn lower_extension(path: &Path) -> String {
 }
 
 fn read_file(path: &Path) -> Result<Vec<u8>, IoError> {
-    std::fs::read(path).map_err(|e| IoError::os(path, e))
+    crate::files::read(path)
 }
 
 /// Fan triangulation `(v0, v_k, v_k+1)` of a polygon, appended to `out`.

@@ -4,7 +4,6 @@
 use super::{
     compute_vertex_normals, merge_normals, push_fan, read_file, remove_degenerate_with_warning, RawMesh, VertexMap, DEFAULT_REFLECTANCE,
 };
-use crate::image_io::read_image;
 use crate::IoError;
 use glam::{Vec2, Vec3};
 use octolux::image::Image;
@@ -295,9 +294,10 @@ fn convert_mtl(m: &tobj::Material, mtl_dir: &Path, images: &mut Vec<Image>, warn
     if let Some(tex) = &m.diffuse_texture {
         // `map_Kd` may carry options before the file name: try the whole string, then its last word.
         let candidates = [mtl_dir.join(tex), mtl_dir.join(tex.split_whitespace().last().unwrap_or(tex))];
-        let file = candidates.iter().find(|p| p.is_file()).unwrap_or(&candidates[0]);
-        match read_image(file) {
-            Ok(img) => {
+        let file = candidates.iter().find(|p| p.exists()).unwrap_or(&candidates[0]);
+        match crate::image_io::read_texture(file) {
+            Ok((img, negative)) => {
+                warnings.extend(negative);
                 images.push(img);
                 diffuse = Texture::bitmap((images.len() - 1) as u32, Vec2::ONE);
             }
@@ -368,7 +368,10 @@ pub(super) fn obj_scene(path: &Path, desc: &mut SceneDesc, default_material: &Ma
     let mut mtl: HashMap<String, (tobj::Material, PathBuf)> = HashMap::new();
     for (lib, line) in &data.mtllibs {
         let lib_path = dir.join(lib);
-        match tobj::load_mtl(&lib_path) {
+        let read = crate::files::read(&lib_path)
+            .map_err(|e| e.to_string())
+            .and_then(|bytes| tobj::load_mtl_buf(&mut std::io::Cursor::new(bytes)).map_err(|e| e.to_string()));
+        match read {
             Ok((mats, _)) => {
                 let lib_dir = lib_path.parent().map(Path::to_path_buf).unwrap_or_else(|| dir.clone());
                 for m in mats {

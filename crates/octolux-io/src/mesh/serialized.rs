@@ -52,14 +52,14 @@ pub struct SerializedMesh {
 
 /// Number of meshes in a serialized file (from its end-of-file dictionary; 1 when it has none).
 pub fn serialized_shape_count(path: &Path) -> Result<u32, IoError> {
-    let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
+    let bytes = crate::files::read(path)?;
     let version = header(path, &bytes, 0)?;
     Ok(dictionary(&bytes, version).map(|d| d.len() as u32).unwrap_or(1))
 }
 
 /// Read mesh `shape_index` of a serialized file.
 pub fn load_serialized(path: &Path, shape_index: u32) -> Result<SerializedMesh, IoError> {
-    let bytes = std::fs::read(path).map_err(|e| IoError::os(path, e))?;
+    let bytes = crate::files::read(path)?;
     parse_serialized(path, &bytes, shape_index)
 }
 

@@ -65,7 +65,8 @@ impl<'t> Builder<'t> {
         let name = p.string("filename")?.ok_or_else(|| e.loc.error(format!("{} needs a \"filename\"", e.describe())))?;
         let path = resolve_file(&e.loc, name, &self.main_dir, self.search_dirs)
             .ok_or_else(|| e.loc.error(format!("{}: image file \"{name}\" not found", e.describe())))?;
-        let mut img = crate::image_io::read_image(&path)?;
+        let (mut img, negative) = crate::image_io::read_texture(&path)?;
+        self.warnings.extend(negative);
         let eight_bit = !path.extension().is_some_and(|x| {
             let x = x.to_ascii_lowercase();
             x == "exr" || x == "hdr" || x == "rgbe" || x == "pic"

@@ -76,6 +76,7 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
             return Err(a.loc.error(format!("<alias>: id \"{to}\" is already used")));
         }
     }
+    RefCheck { ids: &ids, memo: HashMap::new(), path: Vec::new() }.subtree(&tree.root, 0)?;
     let mut referenced = HashSet::new();
     collect_refs(&tree.root, &mut referenced);
     for a in &aliases {
@@ -105,6 +106,64 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
     };
     b.scene(&tree.root)?;
     Ok(LoadedScene { desc: b.desc, warnings: b.warnings, sensors: b.sensors, notes: b.notes })
+}
+
+/// The check of `<ref>`s before any plugin is built (issue 27): the builder follows a `<ref>`
+/// into its target, so a cycle (`<bsdf id="x"><ref id="x"/></bsdf>`) would recurse until the
+/// stack overflows, and a long chain of objects each holding a reference to the next would
+/// too. A cycle is an error naming its ids at the `<ref>` that closes it; nesting through
+/// references deeper than [`tree::MAX_XML_DEPTH`] levels is an error like nesting in a file.
+/// Each target is walked once (its depth remembered), so shared objects cost nothing more.
+struct RefCheck<'t> {
+    ids: &'t HashMap<String, &'t Elem>,
+    /// Deepest nesting below each target already walked.
+    memo: HashMap<*const Elem, usize>,
+    /// The references followed to the element being walked.
+    path: Vec<(&'t str, *const Elem)>,
+}
+
+impl<'t> RefCheck<'t> {
+    /// The deepest nesting below `e` (0 for a leaf), references followed; `base` is `e`'s.
+    fn subtree(&mut self, e: &'t Elem, base: usize) -> Result<usize, IoError> {
+        let mut deepest = 0;
+        for c in &e.children {
+            let below = match (c.tag.as_str(), c.attr("id").and_then(|id| self.ids.get(id).map(|t| (id, *t)))) {
+                // an unknown id is reported where the reference is used
+                ("ref", Some((id, target))) => self.target(c, id, target, base + 1)?,
+                ("ref", None) => 0,
+                _ => self.subtree(c, base + 1)?,
+            };
+            deepest = deepest.max(1 + below);
+        }
+        Ok(deepest)
+    }
+
+    fn target(&mut self, r: &'t Elem, id: &'t str, target: &'t Elem, base: usize) -> Result<usize, IoError> {
+        let key = target as *const Elem;
+        if let Some(pos) = self.path.iter().position(|&(_, k)| k == key) {
+            let ids: Vec<&str> = self.path[pos..].iter().map(|&(i, _)| i).chain([id]).collect();
+            return Err(r
+                .loc
+                .error(format!("<ref id=\"{id}\">: the references make a cycle: {} (an object cannot hold itself)", ids.join(" -> "))));
+        }
+        let depth = match self.memo.get(&key) {
+            Some(&d) => d,
+            None if base > tree::MAX_XML_DEPTH => 0,
+            None => {
+                self.path.push((id, key));
+                let d = self.subtree(target, base)?;
+                self.path.pop();
+                self.memo.insert(key, d);
+                d
+            }
+        };
+        if base + depth > tree::MAX_XML_DEPTH {
+            return Err(r
+                .loc
+                .error(format!("<ref id=\"{id}\">: objects are nested more than {} levels deep through references", tree::MAX_XML_DEPTH)));
+        }
+        Ok(depth)
+    }
 }
 
 /// The ids named by `<ref>` elements anywhere under `e`.

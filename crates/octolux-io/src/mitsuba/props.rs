@@ -193,11 +193,19 @@ fn parse_hex(e: &Elem, s: &str) -> Result<Color, IoError> {
 }
 
 /// Parse a colour value element (`rgb`, `srgb`, `spectrum` without type, `float`, `integer`);
-/// `warnings` receives a note when a spectrum had to be clamped. Negative values are errors.
+/// `warnings` receives a note when a spectrum had to be clamped, and when a reflectance-like
+/// value (a [`ColorKind::Bounded`] one: reflectance, opacity, blend weight) is above 1. Negative
+/// values are errors.
 pub(crate) fn parse_color(e: &Elem, kind: ColorKind, warnings: &mut Vec<String>) -> Result<Color, IoError> {
     let c = parse_color_unchecked(e, kind, warnings)?;
     if c.min_element() < 0.0 {
         return Err(e.loc.error(format!("{}: colour {c} has a negative component", e.describe())));
+    }
+    if kind == ColorKind::Bounded && c.max_element() > 1.0 {
+        let v = if c.x == c.y && c.y == c.z { c.x.to_string() } else { c.to_string() };
+        warnings.push(e.warning(format!(
+            "{v} is above 1: a reflectance over 1 creates light (an opacity or a blend weight is read as 1); kept as given"
+        )));
     }
     Ok(c)
 }
@@ -265,7 +273,7 @@ fn parse_color_unchecked(e: &Elem, kind: ColorKind, warnings: &mut Vec<String>) 
 
 /// Read a Mitsuba `.spd` file (lines of `wavelength value`, `#` comments).
 fn read_spd(e: &Elem, path: &std::path::Path) -> Result<(Vec<f64>, Vec<f64>), IoError> {
-    let text = std::fs::read_to_string(path).map_err(|err| IoError::os(path, err))?;
+    let text = crate::files::read_to_string(path)?;
     let (mut wl, mut vals) = (Vec::new(), Vec::new());
     for (i, line) in text.lines().enumerate() {
         let line = line.split('#').next().unwrap_or("").trim();

@@ -57,8 +57,9 @@ impl<'t> Builder<'t> {
         }
         let p = self.props(e)?;
         let name = p.string("filename")?.ok_or_else(|| e.loc.error(format!("{} needs a \"filename\"", e.describe())))?;
-        resolve_file(&e.loc, name, &self.main_dir, self.search_dirs)
+        let path = resolve_file(&e.loc, name, &self.main_dir, self.search_dirs)
             .ok_or_else(|| e.loc.error(format!("{}: image file \"{name}\" not found", e.describe())))?;
+        crate::files::check_input(&path)?;
         Ok(())
     }
 
@@ -77,7 +78,8 @@ impl<'t> Builder<'t> {
                 let image = match self.images.get(&key) {
                     Some(&i) => i,
                     None => {
-                        let mut img = crate::image_io::read_image(&path)?;
+                        let (mut img, negative) = crate::image_io::read_texture(&path)?;
+                        self.warnings.extend(negative);
                         if raw {
                             // The stored values themselves (the decoding undone, exact to float rounding).
                             for c in &mut img.data {

@@ -9,6 +9,10 @@
 //! - `<include filename>` (resolved relative to the including file, then the main scene's
 //!   folder, then `<path>` folders): the children of an included `<scene>` are spliced in place,
 //!   any other root element is inserted as is;
+//! - budgets against amplification (issue 27): a substituted value has at most
+//!   [`MAX_VALUE_BYTES`] and all substitutions together [`MAX_SUBSTITUTED_BYTES`]; a scene has
+//!   at most [`MAX_INCLUDES`] includes and [`MAX_INCLUDED_BYTES`] of included text, besides the
+//!   include depth of 15;
 //! - `<path value>` adds a folder to the resource search path;
 //! - the 0.5/0.6 dialect (root `version` < 2.0.0): parameter names are converted from
 //!   camelCase to snake_case exactly like Mitsuba 3's `upgrade_tree`, `<lookAt>` becomes
@@ -23,6 +27,17 @@ use std::rc::Rc;
 
 /// Maximal nesting of `<include>` (Mitsuba uses the same kind of limit against cycles).
 const MAX_INCLUDE_DEPTH: usize = 15;
+/// Most `<include>`s in one scene, all files together: files that include each other several
+/// times multiply (12 files of 4 includes each make 4^11), which the depth limit lets through.
+pub(crate) const MAX_INCLUDES: usize = 10_000;
+/// Most bytes of included text in one scene, all files together.
+pub(crate) const MAX_INCLUDED_BYTES: u64 = 256 << 20;
+/// Longest attribute value once `$name`s are substituted. A chain of `<default>`s, each value
+/// ten copies of the one before, would otherwise grow tenfold per link (a 1 KB file asked for
+/// 9.6 GB); real values (a matrix, a file name, a spectrum) are far shorter.
+pub(crate) const MAX_VALUE_BYTES: usize = 64 << 10;
+/// Most bytes that substitution may produce in one scene, all values together.
+pub(crate) const MAX_SUBSTITUTED_BYTES: usize = 64 << 20;
 /// Maximal nesting of XML elements in one file. Real scenes nest a dozen levels at most; the
 /// bound keeps the recursive stages of the loader far from the end of the stack.
 pub(crate) const MAX_XML_DEPTH: usize = 256;
@@ -171,12 +186,24 @@ pub(crate) struct Tree {
 
 /// Read and process the scene file at `path`.
 pub(crate) fn read(path: &Path, defines: &[(String, String)], warnings: &mut Vec<String>) -> Result<Tree, IoError> {
-    let text = std::fs::read_to_string(path).map_err(|e| IoError::os(path, e))?;
+    let text = crate::files::read_to_string(path)?;
     read_str(&text, path, defines, warnings)
 }
 
 /// Process scene text as if read from `path` (used for messages and relative file names).
 pub(crate) fn read_str(text: &str, path: &Path, defines: &[(String, String)], warnings: &mut Vec<String>) -> Result<Tree, IoError> {
+    // a name given twice: the last value wins (as a later option wins), with a warning
+    let mut given: Vec<(String, String)> = Vec::new();
+    for (name, value) in defines {
+        match given.iter_mut().find(|(n, _)| n == name) {
+            Some(first) => {
+                warnings.push(format!("-D {name}={value} repeats -D {name}={}: the last value wins", first.1));
+                first.1 = value.clone();
+            }
+            None => given.push((name.clone(), value.clone())),
+        }
+    }
+    let defines = &given[..];
     let mut b = Builder {
         params: defines.to_vec(),
         defines_used: vec![false; defines.len()],
@@ -184,6 +211,9 @@ pub(crate) fn read_str(text: &str, path: &Path, defines: &[(String, String)], wa
         search_dirs: Vec::new(),
         warnings,
         nesting: 0,
+        includes: 0,
+        included_bytes: 0,
+        substituted_bytes: 0,
     };
     let file = Rc::new(path.to_path_buf());
     let mut out = Vec::new();
@@ -242,6 +272,11 @@ struct Builder<'w> {
     warnings: &'w mut Vec<String>,
     /// Elements open around the current one, across included files.
     nesting: usize,
+    /// `<include>`s met so far and the bytes of their text (module docs: budgets).
+    includes: usize,
+    included_bytes: u64,
+    /// Bytes produced by `$name` substitution so far.
+    substituted_bytes: usize,
 }
 
 impl Builder<'_> {
@@ -328,21 +363,43 @@ impl Builder<'_> {
         let mut params: Vec<(usize, &(String, String))> = self.params.iter().enumerate().collect();
         params.sort_by_key(|p| std::cmp::Reverse(p.1 .0.len()));
         let mut v = value.to_string();
+        let line = || doc.row(node.range().start);
         for (i, (name, val)) in params {
             let reference = format!("${name}");
-            if v.contains(&reference) {
+            let count = v.matches(&reference).count();
+            if count > 0 {
                 if let Some(u) = self.defines_used.get_mut(i) {
                     *u = true;
+                }
+                // the length after the replacement, known before it is made
+                let grown = (v.len() - count * reference.len()).saturating_add(count.saturating_mul(val.len()));
+                if grown > MAX_VALUE_BYTES {
+                    return Err(IoError::parse(
+                        file,
+                        line(),
+                        format!(
+                            "the value of <{}> would grow to {grown} bytes once ${name} is substituted, more than {MAX_VALUE_BYTES} \
+                             (<default>s whose values repeat each other multiply)",
+                            node.tag_name().name()
+                        ),
+                    ));
+                }
+                self.substituted_bytes += grown;
+                if self.substituted_bytes > MAX_SUBSTITUTED_BYTES {
+                    return Err(IoError::parse(
+                        file,
+                        line(),
+                        format!("$name substitution has produced more than {MAX_SUBSTITUTED_BYTES} bytes in this scene"),
+                    ));
                 }
                 v = v.replace(&reference, val);
             }
         }
         if let Some(pos) = v.find('$') {
             let name: String = v[pos + 1..].chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
-            let line = doc.row(node.range().start);
             return Err(IoError::parse(
                 file,
-                line,
+                line(),
                 format!("undefined parameter \"${name}\" in \"{value}\" (define it with <default name=\"{name}\" value=\"...\"/> or -D {name}=...)"),
             ));
         }
@@ -408,8 +465,20 @@ impl Builder<'_> {
                 let path = self.resolve(&elem.loc, name).ok_or_else(|| {
                     elem.loc.error(format!("included file \"{name}\" not found (looked next to {})", elem.loc.file.display()))
                 })?;
-                let text = std::fs::read_to_string(&path)
-                    .map_err(|e| elem.loc.error(format!("cannot read included file \"{}\": {e}", path.display())))?;
+                self.includes += 1;
+                if self.includes > MAX_INCLUDES {
+                    return Err(elem.loc.error(format!(
+                        "<include>: more than {MAX_INCLUDES} files included in all (files that include each other several times multiply)"
+                    )));
+                }
+                let text = crate::files::read_to_string(&path).map_err(|e| elem.loc.error(format!("cannot read included file {e}")))?;
+                self.included_bytes += text.len() as u64;
+                if self.included_bytes > MAX_INCLUDED_BYTES {
+                    return Err(elem.loc.error(format!(
+                        "<include>: more than {} of included text in all",
+                        octolux::budget::format_bytes(MAX_INCLUDED_BYTES)
+                    )));
+                }
                 let inc = Rc::new(path);
                 self.document(&text, &inc, Some(legacy), depth + 1, out)
             }
@@ -454,13 +523,16 @@ impl Builder<'_> {
 pub(crate) fn resolve_file(loc: &Loc, name: &str, main_dir: &Path, search_dirs: &[PathBuf]) -> Option<PathBuf> {
     let p = Path::new(name);
     if p.is_absolute() {
-        return p.is_file().then(|| p.to_path_buf());
+        return p.exists().then(|| p.to_path_buf());
     }
-    std::iter::once(loc.dir())
+    let candidates: Vec<PathBuf> = std::iter::once(loc.dir())
         .chain(std::iter::once(main_dir))
         .chain(search_dirs.iter().map(PathBuf::as_path))
         .map(|d| d.join(p))
-        .find(|c| c.is_file())
+        .collect();
+    // the first regular file; else the first thing of that name, which the reader then refuses
+    // saying what it is (a folder, a device), rather than "not found"
+    candidates.iter().find(|c| c.is_file()).or_else(|| candidates.iter().find(|c| c.exists())).cloned()
 }
 
 #[cfg(test)]

@@ -56,6 +56,32 @@ impl CameraDesc {
         }
         Ok(())
     }
+
+    /// A warning when `near_clip` lies beyond every point of `scene` (the geometry's bounds):
+    /// a valid value that renders only what is at infinity (`near_clip` 1e30 gave a black
+    /// image, exit 0).
+    pub fn near_clip_warning(&self, scene: &crate::math::Bounds3) -> Option<String> {
+        if !(scene.min.is_finite() && scene.max.is_finite()) {
+            return None;
+        }
+        let eye = self.to_world.transform_point3(Vec3::ZERO);
+        let farthest = (0..8)
+            .map(|i| {
+                let c = Vec3::new(
+                    if i & 1 == 0 { scene.min.x } else { scene.max.x },
+                    if i & 2 == 0 { scene.min.y } else { scene.max.y },
+                    if i & 4 == 0 { scene.min.z } else { scene.max.z },
+                );
+                (c - eye).length()
+            })
+            .fold(0.0f32, f32::max);
+        (self.near_clip >= farthest).then(|| {
+            format!(
+                "near_clip {} is beyond the whole scene (its farthest point is {farthest} away): no surface can be seen",
+                self.near_clip
+            )
+        })
+    }
 }
 
 /// A camera ready to generate rays for a film of a given size.

@@ -118,6 +118,25 @@ pub struct CameraPose {
 }
 
 impl CameraPose {
+    /// A usable camera: finite, the target away from the position, `up` neither zero nor
+    /// along the view direction, the fov in (0, 180) degrees.
+    pub fn check(&self) -> Result<(), String> {
+        if !(self.position.is_finite() && self.target.is_finite() && self.up.is_finite()) {
+            return Err("position, target and up must be finite".into());
+        }
+        let dir = self.target - self.position;
+        if dir.length() <= 1e-6 * (1.0 + self.position.abs().max_element()) {
+            return Err("target is the position".into());
+        }
+        if self.up.length() == 0.0 || dir.normalize().cross(self.up).length() <= 1e-4 * self.up.length() {
+            return Err("up is zero or along the view direction".into());
+        }
+        if !(self.fov.is_finite() && self.fov > 0.0 && self.fov < 180.0) {
+            return Err(format!("fov {} degrees is outside (0, 180)", self.fov));
+        }
+        Ok(())
+    }
+
     /// The camera description: `base`'s fov axis and near clip, this pose's transform and fov.
     pub fn camera(&self, base: &CameraDesc) -> CameraDesc {
         CameraDesc { to_world: look_at(self.position, self.target, self.up), fov_deg: self.fov, ..base.clone() }
@@ -132,27 +151,21 @@ impl Keyframe {
 
 impl CameraPath {
     /// Check the path: a keyframe at least, finite increasing times, a positive `fps`, at most
-    /// [`MAX_FRAMES`] frames, and every key a valid camera. The message names the key (from 1).
+    /// [`MAX_FRAMES`] frames, every key a valid camera ([`CameraPose::check`]), and then every
+    /// frame's interpolated pose too: valid keys can still put a frame between them where the
+    /// position meets the target or `up` interpolates to zero (a black frame, exit 0). The
+    /// message names the key (from 1) or the frame and its time.
     pub fn validate(&self) -> Result<(), String> {
         Timeline::check_keys("camera", self.keyframes.iter().map(|k| k.time), self.fps)?;
         for (i, k) in self.keyframes.iter().enumerate() {
-            let at = |m: String| Err(format!("keyframe {}: {m}", i + 1));
-            let p = k.pose();
-            if !(p.position.is_finite() && p.target.is_finite() && p.up.is_finite()) {
-                return at("position, target and up must be finite".into());
-            }
-            let dir = p.target - p.position;
-            if dir.length() <= 1e-6 * (1.0 + p.position.abs().max_element()) {
-                return at("target is the position".into());
-            }
-            if dir.normalize().cross(p.up).length() <= 1e-4 * p.up.length() || p.up.length() == 0.0 {
-                return at("up is zero or along the view direction".into());
-            }
-            if !(k.fov.is_finite() && k.fov > 0.0 && k.fov < 180.0) {
-                return at(format!("fov {} degrees is outside (0, 180)", k.fov));
-            }
+            k.pose().check().map_err(|m| format!("keyframe {}: {m}", i + 1))?;
         }
-        self.timeline().check()
+        self.timeline().check()?;
+        for i in 1..=self.frame_count() {
+            let t = self.frame_time(i);
+            self.pose_at(t).check().map_err(|m| format!("frame {i} (time {t} s, between keyframes): {m}"))?;
+        }
+        Ok(())
     }
 
     fn timeline(&self) -> Timeline {
@@ -281,6 +294,13 @@ mod tests {
             let e = p.validate().expect_err(word);
             assert!(e.contains(word), "{e} should say {word}");
         }
+        // valid keys, and a frame between them where the position meets the target, or where
+        // `up` interpolates to zero (both rendered black frames)
+        let k = |time: f64, x: f32, up: [f32; 3]| Keyframe { time, position: [x, 0.0, 0.0], target: [1.0, 0.0, 0.0], up, fov: 40.0 };
+        let meets = CameraPath { fps: 2.0, keyframes: vec![k(0.0, 0.0, [0.0, 1.0, 0.0]), k(1.0, 2.0, [0.0, 1.0, 0.0])] };
+        assert_eq!(meets.validate().unwrap_err(), "frame 2 (time 0.5 s, between keyframes): target is the position");
+        let flips = CameraPath { fps: 2.0, keyframes: vec![k(0.0, 0.0, [0.0, 1.0, 0.0]), k(1.0, 0.0, [0.0, -1.0, 0.0])] };
+        assert_eq!(flips.validate().unwrap_err(), "frame 2 (time 0.5 s, between keyframes): up is zero or along the view direction");
         let parsed: CameraPath =
             serde_json::from_str(r#"{"keyframes": [{"time": 0, "position": [0,0,1], "target": [0,0,0], "fov": 40}]}"#).unwrap();
         assert_eq!((parsed.fps, parsed.keyframes[0].up), (24.0, [0.0, 1.0, 0.0]));

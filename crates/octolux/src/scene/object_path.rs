@@ -12,6 +12,10 @@ use serde::{Deserialize, Serialize};
 
 /// Most frames a path may make.
 pub const MAX_FRAMES: u64 = super::camera_path::MAX_FRAMES;
+/// Largest scale of a keyframe, and the smallest is its inverse: an object a million times
+/// larger or smaller than as loaded is a typo (`scale` 1e30 put every point of the object
+/// beyond what single-precision intersection can resolve).
+pub const MAX_SCALE: f32 = 1e6;
 
 /// One keyframe (scene units, degrees, seconds).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -68,8 +72,20 @@ impl ObjectPath {
             if !(k.scale.is_finite() && k.scale > 0.0) {
                 return at(format!("scale {} must be a positive number", k.scale));
             }
+            if !(k.scale >= 1.0 / MAX_SCALE && k.scale <= MAX_SCALE) {
+                return at(format!("scale {:e} is out of range [{:e}, {MAX_SCALE:e}]", k.scale, 1.0 / MAX_SCALE));
+            }
         }
-        self.timeline().check()
+        self.timeline().check()?;
+        // every frame's transform, not only the keys'
+        for i in 1..=self.frame_count() {
+            let t = self.frame_time(i);
+            let m = self.transform_at(t);
+            if !(m.is_finite() && m.determinant() > 0.0) {
+                return Err(format!("frame {i} (time {t} s): the interpolated transform is not a valid placement"));
+            }
+        }
+        Ok(())
     }
 
     fn timeline(&self) -> super::camera_path::Timeline {
@@ -146,6 +162,9 @@ mod tests {
         let mut p = path();
         p.keyframes[0].scale = 0.0;
         assert!(p.validate().unwrap_err().contains("scale"));
+        let mut p = path();
+        p.keyframes[1].scale = 1e30;
+        assert_eq!(p.validate().unwrap_err(), "keyframe 2: scale 1e30 is out of range [1e-6, 1e6]");
         let mut p = path();
         p.fps = f64::NAN;
         assert!(p.validate().unwrap_err().contains("fps"));

@@ -205,6 +205,13 @@ impl Default for OctreeSettings {
 
 /// Deepest level a 63-bit Morton key can address.
 pub const MAX_DEPTH: u32 = 21;
+/// Largest `epsilon`: an enlarged cell 11 times its leaf's edge. The paper uses 0.2 and 0.6;
+/// far beyond, each leaf gathers the photons of a large part of the scene over an area that
+/// grows with the square of the enlargement, and the indirect light fades to nothing
+/// (`--epsilon 1e30` rendered it black, exit 0).
+pub const MAX_EPSILON: f32 = 10.0;
+/// Largest `alpha`: a query box 100 times the smallest leaf's edge (the paper's 1.5).
+pub const MAX_ALPHA: f32 = 100.0;
 
 impl OctreeSettings {
     /// Check every field; the message names the field and the rule it breaks.
@@ -221,11 +228,11 @@ impl OctreeSettings {
         if self.n_min > self.n_max {
             return bad(format!("n_min = {} is above n_max = {}", self.n_min, self.n_max));
         }
-        if !self.epsilon.is_finite() || self.epsilon < 0.0 {
-            return bad(format!("epsilon = {} must be finite and >= 0", self.epsilon));
+        if !self.epsilon.is_finite() || self.epsilon < 0.0 || self.epsilon > MAX_EPSILON {
+            return bad(format!("epsilon = {} must be in [0, {MAX_EPSILON}]", self.epsilon));
         }
-        if !self.alpha.is_finite() || self.alpha <= 0.0 {
-            return bad(format!("alpha = {} must be finite and > 0", self.alpha));
+        if !self.alpha.is_finite() || self.alpha <= 0.0 || self.alpha > MAX_ALPHA {
+            return bad(format!("alpha = {} must be in (0, {MAX_ALPHA}]", self.alpha));
         }
         if !self.min_cos.is_finite() || self.min_cos <= 0.0 || self.min_cos > 1.0 {
             return bad(format!("min_cos = {} must be in (0, 1]", self.min_cos));
