@@ -32,6 +32,18 @@
 //! A path that ends nowhere is the path tracer's, bit for bit: [`Ending::end`] may not draw
 //! from the sampler unless it ends the path.
 //!
+//! # The residual
+//! A policy may answer an ending with a [`Residual`]: the path is then traced on, its
+//! continuation through the wide lobes weighed `1/q`, and the cache's value for it, `Ĉ`,
+//! subtracted with the same weight, so that the vertex estimates `C + (L − Ĉ)/q` (and `C` when
+//! the policy chose, with probability `1 − q`, to end). Its mean is `L`'s whatever the cache
+//! holds, as long as `Ĉ`'s mean over the BSDF-sampled direction is `C`
+//! ([`ControlVariate`]). What the continuation counts exactly once either way: the emitter its
+//! first ray meets (direct light, MIS-weighted with the light sample) and, when the cache lacks
+//! them, the caustics through delta bounces (the tail keeps weight `1 − 1/q` of them, the
+//! path `1/q`). A path traced on from a residual does not end in the cache again: a second
+//! level multiplies the variance by `1/q` once more.
+//!
 //! # The ray cone
 //! When the policy asks for it ([`Ending::FOOTPRINT`]), the loop carries the path's ray cone
 //! (as NVIDIA SHaRC and neural radiance caching do): width `w` at the current vertex and
@@ -47,7 +59,7 @@ use crate::math::{max_component, Color, Ray, RayDifferential};
 use crate::sampling::Sampler;
 use crate::scene::material::{Lobe, Material, TexCoord};
 use crate::scene::{Scene, SurfaceHit};
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 
 /// Cone spread of a diffuse bounce (width per unit distance): a cone of half-angle 45°, the
 /// widest a bounce gives. After a diffuse bounce the footprint at the next vertex is about
@@ -96,6 +108,38 @@ pub struct CacheEnd {
     /// light is its light sample alone (no MIS, no BSDF-sampled ray); otherwise the sampled
     /// ray's emitter hit is MIS-weighted with it (the tail).
     pub light_sample_only: bool,
+    /// With `ends`: the path is traced on to correct the cache's value (module docs, "The
+    /// residual"); the policy drew the decision, of probability [`Residual::q`].
+    pub residual: Option<Residual>,
+}
+
+/// A residual continuation where a path ends in a cache (module docs, "The residual").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Residual {
+    /// The probability with which the policy chose to trace on, in (0, 1].
+    pub q: f32,
+    /// The cache's value for the continuation, subtracted from it.
+    pub cv: ControlVariate,
+}
+
+/// What a residual continuation subtracts (module docs, "The residual"): a control variate
+/// whose mean over the BSDF-sampled direction is [`CacheEnd::radiance`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ControlVariate {
+    /// The cache's value itself, W/(m² sr), whatever direction was sampled.
+    Constant(Color),
+    /// A linear incident-radiance field `L̃_c(ω) = a_c · ω` per colour channel (the columns
+    /// of the matrix, world space, W/(m² sr)), weighed by the sampled direction's
+    /// `f cos θ / pdf`: exact in mean where the wide lobes are Lambertian.
+    Linear(Mat3),
+}
+
+impl ControlVariate {
+    /// The linear field's radiance towards `-wi` (world direction `wi` from the vertex).
+    #[inline]
+    pub fn linear_radiance(a: &Mat3, wi: Vec3) -> Color {
+        Color::new(a.col(0).dot(wi), a.col(1).dot(wi), a.col(2).dot(wi))
+    }
 }
 
 /// The policy of the loop: where a path may end in a cache, and what the cache gives there.
@@ -170,6 +214,8 @@ pub fn li<E: Ending>(
     let mut prev_delta = true;
     let mut prev_p = ray.o;
     let mut specular_chain = true;
+    // Traced on from a residual: no further vertex ends in the cache (module docs).
+    let mut residual_on = false;
     let (mut cone_width, mut cone_spread) = (0.0f32, if E::FOOTPRINT && diff.is_some() { scene.camera.pixel_spread() } else { 0.0 });
     if max_depth == 0 {
         return result;
@@ -233,8 +279,11 @@ pub fn li<E: Ending>(
                 footprint: cone_width,
                 specular_chain,
             };
-            if let Some(e) = ending.end(scene, &v, sampler, counters) {
+            if let Some(e) = if residual_on { None } else { ending.end(scene, &v, sampler, counters) } {
                 result += throughput * e.radiance;
+                if let Some(Residual { q, cv: ControlVariate::Constant(c) }) = e.residual {
+                    result -= throughput * c / q;
+                }
                 end = Some(e);
                 if e.ends {
                     counters.cache_ends[(depth as usize).min(3)] += 1;
@@ -282,6 +331,16 @@ pub fn li<E: Ending>(
             break;
         }
         let wi = hit.frame.to_world(bs.wi);
+        // A linear control variate is weighed by the sample's f cos θ / pdf before the shading
+        // factor: its mean is then the integral over the whole shading hemisphere.
+        let linear = end.and_then(|e| match e.residual?.cv {
+            ControlVariate::Linear(a) => Some((e.residual?.q, a, e.min_alpha)),
+            ControlVariate::Constant(_) => None,
+        });
+        if let (Some((q, a, min_alpha)), false) = (linear, bs.lobe.is_delta()) {
+            let wide = material.eval_split(&scene.images, hit.uv, wo, bs.wi, min_alpha).wide;
+            result -= throughput * wide * ControlVariate::linear_radiance(&a, wi) / (bs.pdf * q);
+        }
         let k = if bs.lobe == Lobe::Null { 1.0 } else { hit.shading_factor(wi) };
         if k == 0.0 {
             break;
@@ -300,7 +359,14 @@ pub fn li<E: Ending>(
             // share whose caustic light the cache gave.
             let s = material.eval_split(&scene.images, hit.uv, wo, bs.wi, e.min_alpha);
             let g = k / bs.pdf;
-            if e.ends {
+            if let (true, Some(r)) = (e.ends, e.residual) {
+                // traced on: the wide lobes' continuation weighs 1/q, its first emitter 1
+                let wide = throughput * s.wide * g;
+                (tail, tail_on, tail_traces) = (wide * (1.0 - 1.0 / r.q), true, !e.caustics);
+                throughput = throughput * s.narrow * g + wide / r.q;
+                residual_on = true;
+                skip_on = false;
+            } else if e.ends {
                 (tail, tail_on, tail_traces) = (throughput * s.wide * g, true, !e.caustics);
                 throughput *= s.narrow * g;
                 alive = alive && throughput.max_element() > 0.0;

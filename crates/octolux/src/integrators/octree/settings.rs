@@ -27,7 +27,7 @@ pub enum OctreeView {
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum LeakTest {
-    /// The mode's own: `none` with `mode = terminate` (one bounce from the camera a leak is a
+    /// The mode's own: `none` with `mode = terminate` and `unbiased` (one bounce from the camera a leak is a
     /// twentieth of the direct read's, and the test cost 10–35% of the render for no measured
     /// gain on the ten benchmark scenes), `visible_sample` with `mode = paper`.
     #[default]
@@ -46,7 +46,7 @@ impl LeakTest {
     /// The test a query runs in `mode` ([`LeakTest::Auto`] resolved).
     pub fn resolved(self, mode: Mode) -> LeakTest {
         match (self, mode) {
-            (LeakTest::Auto, Mode::Terminate) => LeakTest::None,
+            (LeakTest::Auto, Mode::Terminate | Mode::Unbiased) => LeakTest::None,
             (LeakTest::Auto, Mode::Paper) => LeakTest::VisibleSample,
             (t, _) => t,
         }
@@ -82,6 +82,10 @@ pub struct OctreeIntegratorSettings {
     /// photons, 64 spp): cornell-spheres relMSE 6.9e-4 with 0, 7.0e-4 with 4, 2.6e-3 with 16,
     /// 1.8e-2 never (path-traced caustics); cbox 9.3e-4, 9.3e-4, 4.0e-3, 1.8e-2.
     pub caustic_photons: u32,
+    /// With `mode = unbiased`: the probability that a path ending in the cache is traced on to
+    /// correct the cache's value (the residual estimator, docs/octree.md "Without bias"), in
+    /// (0, 1]. 1 traces every path on: the cache is then a pure control variate.
+    pub q: f32,
     /// Where a path ends at a vertex whose lobes are all the cache's: `true` samples the BSDF
     /// once more for the emitter its ray meets (MIS with the light sample), `false` takes the
     /// light sample alone.
@@ -103,6 +107,11 @@ pub enum Mode {
     /// and the lobe rough enough (`footprint`, `min_alpha`): never at a glossy camera vertex.
     #[default]
     Terminate,
+    /// `terminate`'s rule without its bias: where a path ends, the cache's value `C` is
+    /// corrected by a path-traced continuation taken with probability `q`,
+    /// `C + [u < q] (L − Ĉ) / q` (`Ĉ`: the cache's value for the sampled direction, of mean
+    /// `C`), so that the image converges to the path tracer's (docs/octree.md "Without bias").
+    Unbiased,
     /// The paper's renderer (§8): the cache is read at the first vertex with a non-delta lobe
     /// after a specular chain from the camera, every lobe shaded from it.
     Paper,
@@ -111,10 +120,10 @@ pub enum Mode {
 impl Mode {
     /// The one vertex at which a path may end when `max_depth` is bounded (photons then bounce
     /// at most `max_depth - 1 - end_vertex` times, so that no path is longer than the path
-    /// tracer's): 2 for `terminate` (one bounce from the camera), 1 for `paper`.
+    /// tracer's): 2 for `terminate` and `unbiased` (one bounce from the camera), 1 for `paper`.
     pub fn end_vertex(self) -> u32 {
         match self {
-            Mode::Terminate => 2,
+            Mode::Terminate | Mode::Unbiased => 2,
             Mode::Paper => 1,
         }
     }
@@ -124,6 +133,8 @@ impl Mode {
 pub const DEFAULT_FOOTPRINT: f32 = 1.0;
 /// Default of [`OctreeIntegratorSettings::min_alpha`].
 pub const DEFAULT_MIN_ALPHA: f32 = 0.3;
+/// Default of [`OctreeIntegratorSettings::q`].
+pub const DEFAULT_Q: f32 = 0.5;
 /// Default of [`OctreeIntegratorSettings::caustic_photons`].
 pub const DEFAULT_CAUSTIC_PHOTONS: u32 = 4;
 
@@ -157,6 +168,7 @@ impl Default for OctreeIntegratorSettings {
             footprint: DEFAULT_FOOTPRINT,
             min_alpha: DEFAULT_MIN_ALPHA,
             caustic_photons: DEFAULT_CAUSTIC_PHOTONS,
+            q: DEFAULT_Q,
             tail: true,
             view: OctreeView::Render,
             leak: LeakTest::default(),
@@ -172,6 +184,9 @@ impl OctreeIntegratorSettings {
         }
         if !(self.footprint >= 0.0) {
             return Err(format!("footprint must be a number at least 0, not {}", self.footprint));
+        }
+        if !(self.q > 0.0 && self.q <= 1.0) {
+            return Err(format!("q must lie in (0, 1], not {}", self.q));
         }
         if !(0.0..=1.0).contains(&self.min_alpha) {
             return Err(format!("min_alpha must lie in [0, 1], not {}", self.min_alpha));

@@ -23,7 +23,7 @@
 use super::leak::keep_leaf;
 use super::{LeakTest, Mode, OctreeIntegrator, Tree};
 use crate::integrators::common::RayCounters;
-use crate::integrators::pathloop::{CacheEnd, CacheVertex, Ending};
+use crate::integrators::pathloop::{CacheEnd, CacheVertex, ControlVariate, Ending, Residual};
 use crate::math::Color;
 use crate::sampling::Sampler;
 use crate::scene::material::Material;
@@ -40,7 +40,12 @@ impl Ending for OctreeIntegrator {
             min_alpha,
             ends,
             caustics,
-            light_sample_only: ends && caustics && !s.tail && v.material.only_wide_lobes(&scene.images, v.hit.uv, min_alpha),
+            light_sample_only: ends
+                && caustics
+                && !s.tail
+                && s.mode != Mode::Unbiased
+                && v.material.only_wide_lobes(&scene.images, v.hit.uv, min_alpha),
+            residual: None,
         };
         match s.mode {
             Mode::Paper => {
@@ -51,20 +56,28 @@ impl Ending for OctreeIntegrator {
                 let radiance = self.cache_radiance(scene, v, 0.0, true, sampler, counters).unwrap_or(Color::ZERO);
                 Some(CacheEnd { radiance, ..read(true, 0.0, true) })
             }
-            Mode::Terminate => {
+            Mode::Terminate | Mode::Unbiased => {
                 if !v.material.has_wide_lobe(&scene.images, v.hit.uv, s.min_alpha) {
                     return None;
                 }
                 let caustics = self.caustic_trusted(v.hit.p);
-                let ends = (s.max_depth < 0 || v.index == Mode::Terminate.end_vertex())
+                let ends = (s.max_depth < 0 || v.index == s.mode.end_vertex())
                     && self.global.leaf_at(v.hit.p).is_some_and(|leaf| v.footprint >= s.footprint * leaf.bounds.extent().x);
+                if ends && s.mode == Mode::Unbiased {
+                    return self.residual_end(scene, v, caustics, sampler, counters).map(|(radiance, residual)| CacheEnd {
+                        radiance,
+                        residual,
+                        ..read(true, s.min_alpha, caustics)
+                    });
+                }
                 if ends {
                     if let Some(radiance) = self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters) {
                         return Some(CacheEnd { radiance, ..read(true, s.min_alpha, caustics) });
                     }
                 }
-                // the path goes on; the caustic octree gives the caustic light where it is trusted
-                if !caustics || self.caustic.is_none() || self.inserted.shapes.contains(&v.hit.shape) {
+                // the path goes on; the caustic octree gives the caustic light where it is
+                // trusted (not without bias: the loop traces it then)
+                if !caustics || s.mode == Mode::Unbiased || self.caustic.is_none() || self.inserted.shapes.contains(&v.hit.shape) {
                     return None;
                 }
                 let radiance = self.tree_radiance(scene, Tree::Caustic, v, s.min_alpha, counters).unwrap_or(Color::ZERO);
@@ -86,6 +99,47 @@ impl OctreeIntegrator {
             None => true,
             Some(c) => c.leaf_at(p).is_some_and(|l| l.photons >= self.settings.caustic_photons),
         }
+    }
+
+    /// An ending under `mode = unbiased`: the cache's value `C` at `v` and, with probability
+    /// `q` (drawn here), the residual continuation that corrects it (`integrators::pathloop`,
+    /// "The residual"; docs/octree.md "Without bias"). Where the wide lobes are Lambertian (of
+    /// albedo `ρ`) and no inserted object changes the value, the control variate is the linear
+    /// incident field `L̃_c(ω) = 3/(2π) m_c · ω` of the blended matrix's columns `m_c`: over the
+    /// hemisphere of `N` it has the irradiance vector `m_c` (`∫ ω ωᵀ dω = 2π/3 I` there), so its
+    /// reflected mean is `ρ/π m_c · N`, the irradiance query's value, exactly. Elsewhere it is the
+    /// constant `C`. `None` where the global octree has no value (the path goes on, unweighted).
+    fn residual_end(
+        &self,
+        scene: &Scene,
+        v: &CacheVertex,
+        caustics: bool,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+    ) -> Option<(Color, Option<Residual>)> {
+        let s = &self.settings;
+        let plain = self.inserted.shapes.is_empty();
+        let (c, linear) = match (plain, v.material.lambertian_albedo(&scene.images, v.hit.uv, v.wo)) {
+            (true, Some(rho)) => {
+                let mut m = self.incident_matrix(scene, Tree::Global, v.hit, v.n, counters)?;
+                if caustics {
+                    if let Some(mc) = self.incident_matrix(scene, Tree::Caustic, v.hit, v.n, counters) {
+                        m += mc;
+                    }
+                }
+                let e = Color::new(m.col(0).dot(v.n), m.col(1).dot(v.n), m.col(2).dot(v.n));
+                (rho * e * std::f32::consts::FRAC_1_PI, Some(m * (1.5 * std::f32::consts::FRAC_1_PI)))
+            }
+            _ => (self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters)?, None),
+        };
+        let residual = (sampler.next_1d() < s.q).then_some(Residual {
+            q: s.q,
+            cv: match linear {
+                Some(a) => ControlVariate::Linear(a),
+                None => ControlVariate::Constant(c),
+            },
+        });
+        Some((c, residual))
     }
 
     /// The indirect light the octrees give at `v`, reflected towards `v.wo` by the lobes at
