@@ -13,7 +13,8 @@ time-to-error references (tests/refs/tte/manifest.json, 160 wide, each with its 
 1e-3 or below; tests/refs/collection/ where a scene has none) and the four of
 tests/refs/manifest.json (cornell-box, cornell-spheres, cbox, bitterli; 128x128).
 Methods, each a ladder of runs, one process per run, all threads of the machine:
-  octree, octree-paper (--set mode=paper), ward, christensen, photonmap
+  octree, octree-paper (--set mode=paper), octree-unbiased (--set mode=unbiased), ward,
+  christensen, photonmap
       (photons, spp) = (1e5, 1), (3e5, 4), (1e6, 16), (2e6, 64), (4e6, 256), (8e6, 1024)
   path (octolux), mitsuba (Mitsuba 3 path, llvm_ad_rgb, tools/mitsuba/render.py, independent sampler)
       spp = 1, 4, 16, 64, 256, 1024, 4096, 16384
@@ -59,11 +60,13 @@ DOCS = ROOT / "docs" / "benchmarks.md"
 IMG = ROOT / "docs" / "img" / "time_to_error.png"
 COLLECTION = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"]
 CLASSIC = ["cornell-box", "cornell-spheres", "cbox", "bitterli"]
-CACHES = ["octree", "octree-paper", "ward", "christensen", "photonmap"]
-METHODS = ["octree", "octree-paper", "path", "mitsuba", "ward", "christensen", "photonmap"]
-DEFAULT_METHODS = ["octree", "octree-paper", "path", "mitsuba"]
+CACHES = ["octree", "octree-paper", "octree-unbiased", "ward", "christensen", "photonmap"]
+METHODS = ["octree", "octree-paper", "octree-unbiased", "path", "mitsuba", "ward", "christensen", "photonmap"]
+DEFAULT_METHODS = ["octree", "octree-paper", "octree-unbiased", "path", "mitsuba"]
 # --set flags of the octree variants (the integrator is `octree`)
-VARIANTS = {"octree-paper": ["--set", "mode=paper"]}
+# the methods whose error keeps falling as 1/cost past their last rung
+UNBIASED = ("path", "mitsuba", "octree-unbiased")
+VARIANTS = {"octree-paper": ["--set", "mode=paper"], "octree-unbiased": ["--set", "mode=unbiased"]}
 CACHE_RUNGS = [(100_000, 1), (300_000, 4), (1_000_000, 16), (2_000_000, 64), (4_000_000, 256), (8_000_000, 1024)]
 SPP_RUNGS = [1, 4, 16, 64, 256, 1024, 4096, 16384]
 TARGETS = [1.0, 0.3, 0.1, 0.03, 0.01, 0.003, 0.001]
@@ -228,9 +231,10 @@ def run_share(name: str, p: dict) -> float:
 
 def summarise(results: dict) -> str:
     lines = []
-    lines.append("| scene | res | ref noise | target | octree | path | Mitsuba 3 | ward | christensen | photonmap "
-                 "| octree vs Mitsuba |")
-    lines.append("|---|---|---|---|---|---|---|---|---|---|---|")
+    label = {"mitsuba": "Mitsuba 3"}
+    lines.append("| scene | res | ref noise | target | " + " | ".join(label.get(m, m) for m in METHODS)
+                 + " | octree vs Mitsuba |")
+    lines.append("|---" * (5 + len(METHODS)) + "|")
     heads = []
     for name, r in results["scenes"].items():
         sc = r["scene"]
@@ -241,7 +245,7 @@ def summarise(results: dict) -> str:
                 continue
             cells, times = [], {}
             for m in METHODS:
-                t, how = time_at(r["curves"].get(m, []), target, m in ("path", "mitsuba"))
+                t, how = time_at(r["curves"].get(m, []), target, m in UNBIASED)
                 times[m] = (t, how)
                 if t is None:
                     cells.append("—" if how == "none" else f"floor {floor[m]:.2g}" if floor[m] is not None else "—")
@@ -284,7 +288,7 @@ def plot(results: dict, path: Path) -> None:
     cols = 4
     rows = math.ceil(len(names) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4 * cols, 3.3 * rows), squeeze=False)
-    style = {"octree": ("C3", "o"), "path": ("C0", "s"), "mitsuba": ("k", "^"), "ward": ("C2", "v"),
+    style = {"octree": ("C3", "o"), "octree-paper": ("C5", "P"), "octree-unbiased": ("C6", "*"), "path": ("C0", "s"), "mitsuba": ("k", "^"), "ward": ("C2", "v"),
              "christensen": ("C4", "D"), "photonmap": ("C1", "x")}
     for ax, name in zip(axes.flat, names):
         r = results["scenes"][name]

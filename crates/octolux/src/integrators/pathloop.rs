@@ -89,6 +89,10 @@ pub struct CacheVertex<'a> {
     pub footprint: f32,
     /// Every bounce before this vertex sampled a delta lobe (a specular chain from the camera).
     pub specular_chain: bool,
+    /// The path's weight at the vertex (what its light is multiplied by).
+    pub throughput: Color,
+    /// What the path has gathered so far (its estimate before this vertex), W/(m² sr).
+    pub gathered: Color,
 }
 
 /// What a cache gives at a vertex (module docs).
@@ -278,6 +282,8 @@ pub fn li<E: Ending>(
                 index: depth + 1,
                 footprint: cone_width,
                 specular_chain,
+                throughput,
+                gathered: result,
             };
             if let Some(e) = if residual_on { None } else { ending.end(scene, &v, sampler, counters) } {
                 result += throughput * e.radiance;

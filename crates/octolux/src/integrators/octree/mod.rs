@@ -41,9 +41,10 @@ mod unbiased_tests;
 mod views;
 
 pub use leak::{ANCHOR_LIFT, PLANES_REACH};
+
 pub use settings::{
     LeakTest, Mode, OctreeIntegratorSettings, OctreeView, CAUSTIC_H_MAX, CAUSTIC_N_MAX, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT,
-    DEFAULT_MIN_ALPHA, DEFAULT_Q, MAX_SPECULAR_CHAIN,
+    DEFAULT_MIN_ALPHA, DEFAULT_Q, MAX_SPECULAR_CHAIN, Q_MIN,
 };
 pub(super) use shade::shade_matrix;
 

@@ -21,7 +21,7 @@
 //! octree is always read.
 
 use super::leak::keep_leaf;
-use super::{LeakTest, Mode, OctreeIntegrator, Tree};
+use super::{LeakTest, Mode, OctreeIntegrator, Tree, Q_MIN};
 use crate::integrators::common::RayCounters;
 use crate::integrators::pathloop::{CacheEnd, CacheVertex, ControlVariate, Ending, Residual};
 use crate::math::Color;
@@ -132,8 +132,13 @@ impl OctreeIntegrator {
             }
             _ => (self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters)?, None),
         };
-        let residual = (sampler.next_1d() < s.q).then_some(Residual {
-            q: s.q,
+        // Survival in proportion to the share of the path's light the cache puts beyond the
+        // vertex (docs/octree.md "Choosing q"): the cache drives the roulette.
+        let bc = crate::math::max_component(v.throughput * c);
+        let share = bc / (crate::math::max_component(v.gathered) + bc);
+        let q = if share.is_finite() { (2.0 * s.q * share).clamp(Q_MIN, 1.0) } else { 1.0 };
+        let residual = (sampler.next_1d() < q).then_some(Residual {
+            q,
             cv: match linear {
                 Some(a) => ControlVariate::Linear(a),
                 None => ControlVariate::Constant(c),
