@@ -13,8 +13,9 @@ time-to-error references (tests/refs/tte/manifest.json, 160 wide, each with its 
 1e-3 or below; tests/refs/collection/ where a scene has none) and the four of
 tests/refs/manifest.json (cornell-box, cornell-spheres, cbox, bitterli; 128x128).
 Methods, each a ladder of runs, one process per run, all threads of the machine:
-  octree, octree-paper (--set mode=paper), octree-unbiased (--set mode=unbiased), ward,
-  christensen, photonmap
+  octree, octree-unbiased (--set mode=unbiased): the octree modes that trace paths on
+      (photons, spp) = (1e5, 1), (2e5, 4), (4e5, 16), (8e5, 64), (1.6e6, 256), (3.2e6, 1024), ...
+  octree-paper (--set mode=paper), ward, christensen, photonmap
       (photons, spp) = (1e5, 1), (3e5, 4), (1e6, 16), (2e6, 64), (4e6, 256), (8e6, 1024)
   path (octolux), mitsuba (Mitsuba 3 path, llvm_ad_rgb, tools/mitsuba/render.py, independent sampler)
       spp = 1, 4, 16, 64, 256, 1024, 4096, 16384
@@ -51,7 +52,8 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-BIN = ROOT / "target" / "release" / "octolux"
+# OCTOLUX_BIN: a copy of the binary, so that a rebuild during a long run does not change it
+BIN = Path(os.environ.get("OCTOLUX_BIN", ROOT / "target" / "release" / "octolux"))
 OUT = ROOT / "target" / "tte"
 SHARED = Path(os.environ.get("OCTOLUX_SHARED", ROOT.parent / "shared"))
 MI_PYTHON = Path(os.environ.get("OCTOLUX_MI_PYTHON", ROOT / ".venv-mitsuba" / "bin" / "python"))
@@ -68,6 +70,12 @@ DEFAULT_METHODS = ["octree", "octree-paper", "octree-unbiased", "path", "mitsuba
 UNBIASED = ("path", "mitsuba", "octree-unbiased")
 VARIANTS = {"octree-paper": ["--set", "mode=paper"], "octree-unbiased": ["--set", "mode=unbiased"]}
 CACHE_RUNGS = [(100_000, 1), (300_000, 4), (1_000_000, 16), (2_000_000, 64), (4_000_000, 256), (8_000_000, 1024)]
+# The octree modes that trace paths on past the cache (terminate, unbiased) spend most of a rung
+# on its samples, and the cache's error is a small part of theirs: photons double per rung while
+# spp grow 4x, so the photon pass does not dominate the high rungs.
+TRACED_RUNGS = [(100_000, 1), (200_000, 4), (400_000, 16), (800_000, 64), (1_600_000, 256), (3_200_000, 1024),
+                (6_400_000, 4096)]
+TRACED = ("octree", "octree-unbiased")
 SPP_RUNGS = [1, 4, 16, 64, 256, 1024, 4096, 16384]
 TARGETS = [1.0, 0.3, 0.1, 0.03, 0.01, 0.003, 0.001]
 SEED = 7
@@ -181,7 +189,7 @@ def run_rung(name: str, sc: dict, method: str, rung, setup: float) -> dict:
 
 
 def ladder(name: str, sc: dict, method: str, budget: float, setup: float) -> list[dict]:
-    rungs = CACHE_RUNGS if method in CACHES else SPP_RUNGS
+    rungs = TRACED_RUNGS if method in TRACED else CACHE_RUNGS if method in CACHES else SPP_RUNGS
     growth = 3.8 if method in CACHES else 4.0
     pts, spent = [], 0.0
     for i, rung in enumerate(rungs):
