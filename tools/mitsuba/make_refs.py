@@ -27,7 +27,10 @@ and the generated test scenes of tests/scenes/ (tools/make_testdata.py), each 32
 the file's aspect ratio and max depth, independent sampler, the file's rfilter:
     .venv-mitsuba/bin/python tools/mitsuba/make_refs.py --collection [--only box] [--spp 1024]
 --tte makes the time-to-error bench's references the same way into tests/refs/tte/ (160 pixels
-wide, the research scenes only, each at the spp of TTE_SPP: its noise about 1e-3 or below).
+wide, the research scenes only, each at the spp of TTE_SPP: its noise about 2e-3 or below, except
+`box`, lit through caustics, whose halves differ by fireflies at any affordable spp). Those spp are
+meant for a GPU: the committed ones were made with `--variant cuda_ad_rgb` (sponza: `scalar_rgb` on
+16 cores); each manifest entry records its variant, threads and wall time.
 Each reference is the mean of two half-spp renders (seeds 1 and 2), stored as half-float EXR; the
 relMSE between the halves (/4) is the reference's own noise. The translation's notes and its
 approximations (phong, ward, sunsky: what Mitsuba 3 renders differently from 0.6) are recorded.
@@ -242,7 +245,8 @@ COLLECTION_WIDTHS = {"wrappers": 160}
 # references' noise at 1024 spp), so that errors down to 0.01 can be told from the reference's.
 TTE_DIR = os.path.join(REFS, "tte")
 TTE_WIDTH = 160
-TTE_SPP = {"sponza": 4096, "dining-room": 16384, "veach-lamp": 32768, "torus": 32768, "box": 65536, "classroom": 65536}
+TTE_SPP = {"sponza": 8192, "dining-room": 32768, "veach-lamp": 131072, "torus": 262144, "box": 262144,
+           "classroom": 65536}
 
 
 def collection_scene(src: str) -> str:
