@@ -32,46 +32,81 @@
 use crate::math::Bounds3;
 use glam::{DVec3, Vec3};
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+use std::ops::RangeInclusive;
 
-/// Unit vectors indexed by a coarse grid over their components, so that the first of them
+/// Hasher of [`NormalGrid`]'s small integer keys: the multiply–rotate hash of rustc's
+/// `FxHasher`, several times cheaper than SipHash. The grid's answers do not depend on it.
+#[derive(Clone, Copy, Default)]
+struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    #[inline]
+    fn write(&mut self, bytes: &[u8]) {
+        for c in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..c.len()].copy_from_slice(c);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+    #[inline]
+    fn write_i32(&mut self, v: i32) {
+        self.write_u64(v as u32 as u64);
+    }
+    #[inline]
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// Unit vectors indexed by a coarse grid over their components and an integer *slot* (a
+/// plane offset's bucket for the plane groups, 0 otherwise), so that the first of them
 /// (lowest index) within a small distance of a query is found without scanning them all: a
 /// leaf of a curved, finely tessellated mesh holds tens of thousands of distinct normals, and
-/// linear scans made [`lit_areas`] quadratic in them (minutes for one leaf of Bitterli's
-/// dining room). The answer is exactly a linear scan's (`Iterator::find` in index order).
+/// a room's furniture thousands of parallel planes; linear scans made [`lit_areas`] quadratic
+/// in them. The answer is exactly a linear scan's (`Iterator::find` in index order) for
+/// predicates that hold only within the given component radius and slot range.
 struct NormalGrid {
-    cells: HashMap<[i32; 3], Vec<u32>>,
+    cells: HashMap<[i32; 4], Vec<u32>, BuildHasherDefault<KeyHasher>>,
 }
 
 impl NormalGrid {
-    /// Grid step in normal components; a match lies within `(2 (1 − cos_min))^½ < STEP` of
-    /// the query, hence in one of the 27 cells around the query's.
+    /// Grid step in normal components.
     const STEP: f32 = 1e-2;
 
     fn new() -> NormalGrid {
-        NormalGrid { cells: HashMap::new() }
+        NormalGrid { cells: HashMap::default() }
     }
 
-    fn key(n: Vec3) -> [i32; 3] {
-        let k = (n / Self::STEP).floor();
-        [k.x as i32, k.y as i32, k.z as i32]
+    /// The cell of component `c` (monotone in `c`; `as` saturates).
+    #[inline]
+    fn cell(c: f32) -> i32 {
+        (c / Self::STEP).floor() as i32
     }
 
-    fn insert(&mut self, n: Vec3, index: u32) {
-        self.cells.entry(Self::key(n)).or_default().push(index);
+    fn insert(&mut self, n: Vec3, slot: i32, index: u32) {
+        self.cells.entry([Self::cell(n.x), Self::cell(n.y), Self::cell(n.z), slot]).or_default().push(index);
     }
 
-    /// The lowest index whose entry satisfies `matches` among those near `n` (for predicates
-    /// that hold only within [`Self::STEP`] of `n`).
-    fn first(&self, n: Vec3, mut matches: impl FnMut(u32) -> bool) -> Option<u32> {
-        let k = Self::key(n);
+    /// The lowest index whose entry satisfies `matches` among those whose normal lies within
+    /// `radius` of `n` in every component and whose slot is in `slots` (`matches` must hold
+    /// only there).
+    fn first(&self, n: Vec3, radius: f32, slots: RangeInclusive<i32>, mut matches: impl FnMut(u32) -> bool) -> Option<u32> {
+        let (lo, hi) = (n - Vec3::splat(radius), n + Vec3::splat(radius));
         let mut best: Option<u32> = None;
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    let Some(list) = self.cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]) else { continue };
-                    // lists grow in index order: the first match is the list's lowest
-                    if let Some(&i) = list.iter().take_while(|&&i| best.is_none_or(|b| i < b)).find(|&&i| matches(i)) {
-                        best = Some(i);
+        for x in Self::cell(lo.x)..=Self::cell(hi.x) {
+            for y in Self::cell(lo.y)..=Self::cell(hi.y) {
+                for z in Self::cell(lo.z)..=Self::cell(hi.z) {
+                    for s in slots.clone() {
+                        let Some(list) = self.cells.get(&[x, y, z, s]) else { continue };
+                        // lists grow in index order: the first match is the list's lowest
+                        if let Some(&i) = list.iter().take_while(|&&i| best.is_none_or(|b| i < b)).find(|&&i| matches(i)) {
+                            best = Some(i);
+                        }
                     }
                 }
             }
@@ -79,6 +114,12 @@ impl NormalGrid {
         best
     }
 }
+
+/// Component radius holding every unit vector `m` with `m·n > 1 − 1e-5` (plane groups):
+/// `|m − n| < (2e-5)^½ ≈ 4.47e-3`, with a margin for rounding.
+const GROUP_RADIUS: f32 = 5e-3;
+/// The same for `m·n > 1 − 1e-6` (merged output normals): `(2e-6)^½ ≈ 1.41e-3`.
+const MERGE_RADIUS: f32 = 1.6e-3;
 
 /// A triangle clipped to a cell: area inside the cell and which sides are lit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -206,6 +247,10 @@ pub(crate) fn lit_areas(
     let plane_tol = 1e-4 * edge + 1e-5 * (1.0 + cell.min.abs().max(cell.max.abs()).max_element());
     let mut groups: Vec<PlaneGroup> = Vec::new();
     let mut group_grid = NormalGrid::new();
+    // plane offsets in buckets of 4 tolerances: a group within the tolerance of `d` lies in
+    // the buckets of [d − 2 tol, d + 2 tol] (`as` saturates; NaN offsets match nothing)
+    let slot_step = 4.0 * plane_tol;
+    let slot = |d: f32| (d / slot_step).floor() as i32;
     for &ti in tri_ids {
         let t = &triangles[ti as usize];
         let area = clipped_area(t, cell);
@@ -218,24 +263,24 @@ pub(crate) fn lit_areas(
             let g = &groups[gi as usize];
             g.n.dot(on.n) > 1.0 - 1e-5 && (g.d - d).abs() <= plane_tol
         };
-        match group_grid.first(on.n, same) {
+        match group_grid.first(on.n, GROUP_RADIUS, slot(d - 2.0 * plane_tol)..=slot(d + 2.0 * plane_tol), same) {
             Some(gi) => {
                 let g = &mut groups[gi as usize];
                 g.area += area as f32;
                 g.tris.push(on);
             }
             None => {
-                group_grid.insert(on.n, groups.len() as u32);
+                group_grid.insert(on.n, slot(d), groups.len() as u32);
                 groups.push(PlaneGroup { n: on.n, d, area: area as f32, tris: vec![on] });
             }
         }
     }
     let mut out_grid = NormalGrid::new();
     let mut push = |n: Vec3, area: f32| {
-        if let Some(i) = out_grid.first(n, |i| out[i as usize].n.dot(n) > 1.0 - 1e-6) {
+        if let Some(i) = out_grid.first(n, MERGE_RADIUS, 0..=0, |i| out[i as usize].n.dot(n) > 1.0 - 1e-6) {
             out[i as usize].area += area;
         } else {
-            out_grid.insert(n, out.len() as u32);
+            out_grid.insert(n, 0, out.len() as u32);
             out.push(OrientedArea { n, area });
         }
     };
@@ -538,16 +583,16 @@ mod tests {
                 normals.push((base + off).normalize());
             }
         }
-        for cos_min in [1.0 - 1e-6, 1.0 - 1e-5] {
+        for (cos_min, radius) in [(1.0 - 1e-6, MERGE_RADIUS), (1.0 - 1e-5, GROUP_RADIUS)] {
             let mut grid = NormalGrid::new();
             let mut kept: Vec<Vec3> = Vec::new();
             let mut merged = 0;
             for &n in &normals {
                 let linear = kept.iter().position(|k| k.dot(n) > cos_min).map(|i| i as u32);
-                let found = grid.first(n, |i| kept[i as usize].dot(n) > cos_min);
+                let found = grid.first(n, radius, 0..=0, |i| kept[i as usize].dot(n) > cos_min);
                 assert_eq!(found, linear, "normal {n}");
                 if found.is_none() {
-                    grid.insert(n, kept.len() as u32);
+                    grid.insert(n, 0, kept.len() as u32);
                     kept.push(n);
                 } else {
                     merged += 1;
@@ -555,5 +600,46 @@ mod tests {
             }
             assert!(merged > 50 && kept.len() > 300, "the case should exercise both answers ({merged} merged, {} kept)", kept.len());
         }
+    }
+
+    /// With plane offsets in slots (as `lit_areas` groups planes): the same answer as a linear
+    /// scan over (normal, offset) pairs, for offsets on both sides of the tolerance and across
+    /// slot boundaries.
+    #[test]
+    fn normal_grid_with_offset_slots_answers_as_a_linear_scan() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut rand = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        let tol = 1e-3f32;
+        let step = 4.0 * tol;
+        let slot = |d: f32| (d / step).floor() as i32;
+        let mut planes: Vec<(Vec3, f32)> = Vec::new();
+        for _ in 0..200 {
+            let n = if rand() < 0.5 { Vec3::Y } else { Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize_or(Vec3::Z) };
+            let d = (rand() - 0.5) * 0.2;
+            planes.push((n, d));
+            for _ in 0..4 {
+                planes.push((n, d + (rand() - 0.5) * 5.0 * tol));
+            }
+        }
+        let mut grid = NormalGrid::new();
+        let mut kept: Vec<(Vec3, f32)> = Vec::new();
+        let (mut merged, mut new) = (0, 0);
+        for &(n, d) in &planes {
+            let same = |k: &(Vec3, f32)| k.0.dot(n) > 1.0 - 1e-5 && (k.1 - d).abs() <= tol;
+            let linear = kept.iter().position(same).map(|i| i as u32);
+            let found = grid.first(n, GROUP_RADIUS, slot(d - 2.0 * tol)..=slot(d + 2.0 * tol), |i| same(&kept[i as usize]));
+            assert_eq!(found, linear, "plane {n} {d}");
+            if found.is_none() {
+                grid.insert(n, slot(d), kept.len() as u32);
+                kept.push((n, d));
+                new += 1;
+            } else {
+                merged += 1;
+            }
+        }
+        assert!(merged > 100 && new > 300, "both answers exercised ({merged} merged, {new} new)");
     }
 }
