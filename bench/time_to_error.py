@@ -75,11 +75,27 @@ CACHE_RUNGS = [(100_000, 1), (300_000, 4), (1_000_000, 16), (2_000_000, 64), (4_
 # spp grow 4x, so the photon pass does not dominate the high rungs.
 TRACED_RUNGS = [(100_000, 1), (200_000, 4), (400_000, 16), (800_000, 64), (1_600_000, 256), (3_200_000, 1024),
                 (6_400_000, 4096)]
-TRACED = ("octree", "octree-unbiased")
+# Photons 4x per rung, as the spp: the cache's noise (1/photons) and the samples' (1/spp) then keep
+# their ratio, which is the optimum of error = A/photons + B/spp at cost = a photons + b spp.
+TRACED_RUNGS_X4 = [(12_500, 1), (50_000, 4), (200_000, 16), (800_000, 64), (3_200_000, 256), (12_800_000, 1024)]
+TRACED = ["octree", "octree-unbiased"]
 SPP_RUNGS = [1, 4, 16, 64, 256, 1024, 4096, 16384]
 TARGETS = [1.0, 0.3, 0.1, 0.03, 0.01, 0.003, 0.001]
 SEED = 7
 BEGIN, END = "<!-- tte:begin (bench/time_to_error.py --write-docs) -->", "<!-- tte:end -->"
+
+
+LADDER = {"traced": "doubling"}
+
+
+def add_variant(spec: str) -> str:
+    """--variant NAME=KEY=VALUE[,KEY=VALUE...]: an octree method with these --set keys (traced ladder)."""
+    name, _, keys = spec.partition("=")
+    VARIANTS[name] = [a for kv in filter(None, keys.split(",")) for a in ("--set", kv)]
+    for lst in (CACHES, METHODS, TRACED):
+        if name not in lst:
+            lst.append(name)
+    return name
 
 
 def log(msg: str) -> None:
@@ -189,7 +205,7 @@ def run_rung(name: str, sc: dict, method: str, rung, setup: float) -> dict:
 
 
 def ladder(name: str, sc: dict, method: str, budget: float, setup: float) -> list[dict]:
-    rungs = TRACED_RUNGS if method in TRACED else CACHE_RUNGS if method in CACHES else SPP_RUNGS
+    rungs = (TRACED_RUNGS_X4 if LADDER["traced"] == "x4" else TRACED_RUNGS) if method in TRACED else CACHE_RUNGS if method in CACHES else SPP_RUNGS
     growth = 3.8 if method in CACHES else 4.0
     pts, spent = [], 0.0
     for i, rung in enumerate(rungs):
@@ -237,8 +253,15 @@ def run_share(name: str, p: dict) -> float:
         return 0.0
 
 
+def methods_in(results: dict) -> list[str]:
+    """The known methods, then any other (a --variant) that the results hold curves of."""
+    seen = {m for r in results["scenes"].values() for m, pts in r["curves"].items() if pts}
+    return [m for m in METHODS if m in seen] + sorted(seen - set(METHODS))
+
+
 def summarise(results: dict) -> str:
     lines = []
+    METHODS = methods_in(results)
     label = {"mitsuba": "Mitsuba 3"}
     lines.append("| scene | res | ref noise | target | " + " | ".join(label.get(m, m) for m in METHODS)
                  + " | octree vs Mitsuba |")
@@ -293,6 +316,7 @@ def plot(results: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     names = list(results["scenes"])
+    METHODS = methods_in(results)
     cols = 4
     rows = math.ceil(len(names) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4 * cols, 3.3 * rows), squeeze=False)
@@ -303,7 +327,7 @@ def plot(results: dict, path: Path) -> None:
         for m in METHODS:
             pts = sorted(r["curves"].get(m, []), key=lambda p: p["cost_cpu_s"])
             if pts:
-                c, s = style[m]
+                c, s = style.get(m, (f"C{7 + METHODS.index(m) % 3}", "d"))
                 ax.loglog([p["cost_cpu_s"] for p in pts], [max(p["error"], 1e-5) for p in pts], color=c, marker=s,
                           label="Mitsuba 3 path" if m == "mitsuba" else m, lw=1.2, ms=4)
         ax.axhline(r["scene"]["ref_noise"], color="0.6", ls=":", lw=1)
@@ -335,13 +359,20 @@ def write_docs(md: str, results: dict) -> None:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", nargs="+", default=COLLECTION + CLASSIC)
-    ap.add_argument("--methods", nargs="+", default=DEFAULT_METHODS, choices=METHODS)
+    ap.add_argument("--methods", nargs="+", default=DEFAULT_METHODS)
     ap.add_argument("--budget", type=float, default=60.0, help="CPU seconds per method and scene (default 60)")
     ap.add_argument("--plot", action="store_true", help=f"write {IMG.relative_to(ROOT)}")
     ap.add_argument("--write-docs", action="store_true", help="replace the results block of docs/benchmarks.md")
     ap.add_argument("--plot-only", type=Path, help="re-plot and re-tabulate a results.json")
+    ap.add_argument("--variant", action="append", default=[],
+                    help="NAME=KEY=VALUE[,KEY=VALUE...]: an extra octree method with these --set keys")
+    ap.add_argument("--traced-ladder", choices=["doubling", "x4"], default="doubling",
+                    help="photons of the traced octree modes: doubling per rung, or 4x per rung as the spp")
     ap.add_argument("--reuse", action="store_true", help="keep the scenes already in target/tte/results.json")
     args = ap.parse_args()
+    LADDER["traced"] = args.traced_ladder
+    extra = [add_variant(v) for v in args.variant]
+    args.methods = list(dict.fromkeys(args.methods + extra))
     if args.plot_only:
         results = json.loads(args.plot_only.read_text())
     else:
