@@ -10,7 +10,7 @@
 //!   the radius of the disk the estimate gathered (the distance to the `n_max`-th photon, or
 //!   `r_max`): the scale on which the estimate itself is smoothed, so samples are spaced in
 //!   proportion to the photon density's resolution (dense where photons are dense). Option
-//!   [`PhotonRadius::SearchRadius`] uses `r_max` for every sample instead (see its docs for
+//!   [`PhotonRadius::SearchRadius`](super::priming::PhotonRadius::SearchRadius) uses `r_max` for every sample instead (see its docs for
 //!   the measured difference).
 //! - `final_gather` (Ward 1988's own form): `E = π/N Σ L_i` over `gather_rays`
 //!   cosine-distributed rays, `L_i` the radiance leaving each gather hit (NEE there + global
@@ -23,7 +23,7 @@
 //! Caustic photons are not in the cache: caustics are rendered from the caustic map.
 //!
 //! # Filling the cache deterministically
-//! A priming pass before rendering ([`super::priming`], [`PrimePoints`]) fills the cache from
+//! A priming pass before rendering ([`super::priming`], [`PrimePoints`](super::priming::PrimePoints)) fills the cache from
 //! an ordered list of camera samples — a grid of pixel centres, or the render's own samples —
 //! batch by batch, the same for any thread count. The render then only reads the cache; a lookup that finds it insufficient (a
 //! point the priming did not see, e.g. jittered inside a pixel with the grid priming) computes
