@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Flicker of a camera animation on a static scene (issue 13, item 3; table in docs/baking.md).
+"""Flicker of a camera animation on a static scene (issue 13, item 3; table in docs/lab/2026-11-30-baking.md).
 
     .venv-peers/bin/python bench/flicker.py [--quick] [--scenes cbox bitterli] [--out DIR]
 

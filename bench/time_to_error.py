@@ -37,7 +37,7 @@ path tracers are extrapolated past their last rung as error ~ 1/cost (marked ~);
 never reaches a target is biased there and its floor (lowest error seen) is reported.
 
 Writes target/tte/results.json, target/tte/results.md, and with --plot docs/img/time_to_error.png;
---write-docs replaces the block between the tte markers of docs/benchmarks.md with results.md.
+--write-docs replaces the block between the tte markers of docs/guide/benchmarks.md with results.md.
 """
 from __future__ import annotations
 
@@ -58,7 +58,7 @@ OUT = ROOT / "target" / "tte"
 SHARED = Path(os.environ.get("OCTOLUX_SHARED", ROOT.parent / "shared"))
 MI_PYTHON = Path(os.environ.get("OCTOLUX_MI_PYTHON", ROOT / ".venv-mitsuba" / "bin" / "python"))
 RENDER_PY = ROOT / "tools" / "mitsuba" / "render.py"
-DOCS = ROOT / "docs" / "benchmarks.md"
+DOCS = ROOT / "docs" / "guide" / "benchmarks.md"
 IMG = ROOT / "docs" / "img" / "time_to_error.png"
 COLLECTION = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"]
 CLASSIC = ["cornell-box", "cornell-spheres", "cbox", "bitterli"]
@@ -338,7 +338,7 @@ def main() -> int:
     ap.add_argument("--methods", nargs="+", default=DEFAULT_METHODS, choices=METHODS)
     ap.add_argument("--budget", type=float, default=60.0, help="CPU seconds per method and scene (default 60)")
     ap.add_argument("--plot", action="store_true", help=f"write {IMG.relative_to(ROOT)}")
-    ap.add_argument("--write-docs", action="store_true", help="replace the results block of docs/benchmarks.md")
+    ap.add_argument("--write-docs", action="store_true", help="replace the results block of docs/guide/benchmarks.md")
     ap.add_argument("--plot-only", type=Path, help="re-plot and re-tabulate a results.json")
     ap.add_argument("--reuse", action="store_true", help="keep the scenes already in target/tte/results.json")
     args = ap.parse_args()

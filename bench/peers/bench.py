@@ -29,7 +29,7 @@ equal-error speed-up of octolux `octree` over each peer: time each renderer need
 same relMSE, interpolated log-log along its curve (see time_to_error()).
 
 Nothing is written into the repository except with --write-docs (the results block of
-docs/benchmarks.md). Caches (references, exported scenes, LuxCore scene dumps) live in
+docs/guide/benchmarks.md). Caches (references, exported scenes, LuxCore scene dumps) live in
 target/peers-cache/ (git-ignored).
 """
 from __future__ import annotations
@@ -56,7 +56,7 @@ BIN = ROOT / "target" / "release" / "octolux"
 VPY = Path(os.environ.get("PEERS_PYTHON", ROOT / ".venv-peers" / "bin" / "python"))
 RENDER_PY = ROOT / "tools" / "mitsuba" / "render.py"
 CACHE = ROOT / "target" / "peers-cache"
-DOCS = ROOT / "docs" / "benchmarks.md"
+DOCS = ROOT / "docs" / "guide" / "benchmarks.md"
 
 sys.path.insert(0, str(ROOT / "tools" / "mitsuba"))
 import locations  # noqa: E402  (tools/mitsuba/locations.py: $OCTOLUX_SHARED or <repo>/../shared)
@@ -771,7 +771,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=None, help="output folder (default target/peers-results/<mode>)")
     ap.add_argument("--reuse", action="store_true", help="keep runs already in OUT/results.json (resume)")
     ap.add_argument("--report-only", action="store_true", help="only redo analysis, tables, plots from results.json")
-    ap.add_argument("--write-docs", action="store_true", help="write the tables into docs/benchmarks.md")
+    ap.add_argument("--write-docs", action="store_true", help="write the tables into docs/guide/benchmarks.md")
     args = ap.parse_args(argv)
 
     mode = "quick" if args.quick else "full"

@@ -1,4 +1,4 @@
-//! The octree build rate on a real scene (issue 14 item 4, docs/performance.md "Octree build
+//! The octree build rate on a real scene (issue 14 item 4, docs/lab/2026-11-30-performance.md "Octree build
 //! rate"): one photon pass, then the `octree` integrator's two trees (global and caustic,
 //! default settings, the scene's triangles and spheres for the geometry-area estimator) built
 //! `--repeat` times on each thread count, timed by wall clock and by the process's CPU time.

@@ -1,6 +1,6 @@
 //! Bytes against error: the paper's octree against adaptive SH irradiance probe grids (Unreal's
 //! volumetric lightmap, Unity's Adaptive Probe Volumes; `octolux::caches::probes`) at equal
-//! memory, from the same photons (issue 13, item 6; `docs/baking.md`, "Bytes against error").
+//! memory, from the same photons (issue 13, item 6; `docs/guide/baking.md`, "Bytes against error").
 //!
 //! ```sh
 //! cargo run --release -p octolux-cli --example probes_vs_octree -- --scene cbox [--photons 1000000]

@@ -1,5 +1,5 @@
 //! The octree's query against the rest of a camera sample, per query, on one core (issue 14
-//! item 4, `docs/performance.md`, "The octree's query").
+//! item 4, `docs/lab/2026-11-30-performance.md`, "The octree's query").
 //!
 //! ```sh
 //! cargo run --release -p octolux-cli --example query_cost -- cornell-box [--photons 1000000] [--res 128] [--rounds 3]

@@ -1,4 +1,4 @@
-//! `render --insert OBJECT --insert-path PATH.json` (issue 13, item 5; docs/baking.md
+//! `render --insert OBJECT --insert-path PATH.json` (issue 13, item 5; docs/guide/baking.md
 //! "Inserted objects"): an object absent from the bake renders from the cache over the frames of
 //! its path (the cache's fingerprint ignores it, a change of the scene is still refused), each
 //! frame's JSON lists the object's pixels, and bad paths or objects are refused by name.

@@ -1,6 +1,6 @@
 //! Baked lighting files (`.oxc`, issue 13): the `octree` integrator's global and caustic
 //! octrees with their settings, and the fingerprint of the scene they were baked in. The byte
-//! layout is tabled in docs/baking.md; in short (all integers little-endian):
+//! layout is tabled in docs/guide/baking.md; in short (all integers little-endian):
 //!
 //! ```text
 //! header   magic "OXCACHE\0" (8) | format version u32 | reserved u32 = 0 | body length u64

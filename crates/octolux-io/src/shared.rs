@@ -1,5 +1,5 @@
 //! Where the shared scenes folder is: the scenes that tests, benchmarks and tools read but that
-//! are never copied into the repository (see `docs/benchmarks.md`).
+//! are never copied into the repository (see `docs/guide/benchmarks.md`).
 //!
 //! The shared folder is the one that contains `scenes/`. It is `$OCTOLUX_SHARED` when that
 //! variable is set (and not empty), else `../shared` relative to the root of the source tree

@@ -1,4 +1,4 @@
-//! Lighting cache files (`octolux_io::cache`, docs/baking.md): the bytes round-trip to an
+//! Lighting cache files (`octolux_io::cache`, docs/guide/baking.md): the bytes round-trip to an
 //! integrator that renders bit-identically, and no byte string panics: every prefix, every
 //! single-byte change (checksum fixed so that the parser sees it) and random mutations are
 //! refused or accepted with checked octrees.
