@@ -519,6 +519,10 @@ pub fn run_render(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Re
     let made =
         make_integrator(&integrator_settings, &scene, cache_scene.as_ref().unwrap_or(&scene), cache, &job.scene.scene, fe, &mut warnings)?;
     let mut integrator = made.integrator;
+    if cache_scene.is_some() {
+        // the photons were traced in the cache scene, the rays of the leak test run here
+        integrator.prepare(&scene);
+    }
     let t_fill = Instant::now();
     if let (Some(ins), Integrator::Octree(o)) = (&insertion, &mut integrator) {
         if !o.global.has_atmosphere() {
