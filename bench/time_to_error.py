@@ -55,7 +55,8 @@ ROOT = Path(__file__).resolve().parent.parent
 # OCTOLUX_BIN: a copy of the binary, so that a rebuild during a long run does not change it
 BIN = Path(os.environ.get("OCTOLUX_BIN", ROOT / "target" / "release" / "octolux"))
 OUT = ROOT / "target" / "tte"
-SHARED = Path(os.environ.get("OCTOLUX_SHARED", ROOT.parent / "shared"))
+sys.path.insert(0, str(ROOT / "bench"))
+import scenes as aliases  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
 MI_PYTHON = Path(os.environ.get("OCTOLUX_MI_PYTHON", ROOT / ".venv-mitsuba" / "bin" / "python"))
 RENDER_PY = ROOT / "tools" / "mitsuba" / "render.py"
 DOCS = ROOT / "docs" / "guide" / "benchmarks.md"
@@ -94,16 +95,15 @@ def scenes() -> dict[str, dict]:
     tte = json.loads(tte_manifest.read_text())["references"] if tte_manifest.exists() else {}
     for name in COLLECTION:
         folder, r = ("tests/refs/tte", tte[name]) if name in tte else ("tests/refs/collection", coll[name])
-        src = r["source_scene"]
-        path = SHARED / src.removeprefix("../shared/") if src.startswith("../shared/") else ROOT / src
+        path = aliases.get(name)["scene"]
         out[name] = {"scene": str(path), "mi_scene": str(path), "ref": str(ROOT / folder / r["file"]),
                      "res": r["resolution"], "depth": int(r["max_depth"]),
                      "ref_noise": float(r["self_noise"]["ref_rel_mse"])}
     old = json.loads((ROOT / "tests/refs/manifest.json").read_text())["references"]
     for name in CLASSIC:
         r = old[name]
-        builtin = r["source_scene"].startswith("octolux built-in")
-        path = name if builtin else str(SHARED / r["source_scene"])
+        alias = aliases.get(name)
+        builtin, path = alias["builtin"], alias["scene"]
         # self_noise.rel_mse compares two independent full renders: the reference's own
         # expected relMSE against the exact image is half of it.
         out[name] = {"scene": path, "mi_scene": None if builtin else path, "ref": str(ROOT / "tests/refs" / r["file"]),

@@ -61,16 +61,20 @@ DOCS = ROOT / "docs" / "guide" / "benchmarks.md"
 sys.path.insert(0, str(ROOT / "tools" / "mitsuba"))
 import locations  # noqa: E402  (tools/mitsuba/locations.py: $OCTOLUX_SHARED or <repo>/../shared)
 
-SHARED = Path(locations.scenes_dir())
 
 # name -> where the scene comes from and the max_depth every renderer uses (Mitsuba's meaning),
 # the same choices as tests/refs/manifest.json.
-SCENES = {
-    "cornell-box": {"builtin": "cornell-box", "max_depth": -1},
-    "cornell-spheres": {"builtin": "cornell-spheres", "max_depth": 8},
-    "cbox": {"xml": SHARED / "mitsuba-tutorials-cbox" / "cbox.xml", "max_depth": 6},
-    "bitterli": {"xml": SHARED / "bitterli-cornell-box" / "scene_mitsuba.xml", "max_depth": 65},
-}
+sys.path.insert(0, str(ROOT / "bench"))
+import scenes as aliases  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
+
+
+def _scene(name: str) -> dict:
+    e = aliases.get(name)
+    where = {"builtin": e["scene"]} if e["builtin"] else {"xml": Path(e["scene"])}
+    return {**where, "max_depth": e["max_depth"]}
+
+
+SCENES = {name: _scene(name) for name in ["cornell-box", "cornell-spheres", "cbox", "bitterli"]}
 RENDERERS = ["octolux-path", "octolux-octree", "mitsuba-path", "luxcore-path", "luxcore-pgi"]
 LABELS = {
     "octolux-path": "octolux path",

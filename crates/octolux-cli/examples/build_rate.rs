@@ -25,19 +25,8 @@ use octolux::scene::Scene;
 use std::time::Instant;
 
 fn load(name: &str) -> Result<Scene> {
-    let rel = match name {
-        "cbox" => Some("mitsuba-tutorials-cbox/cbox.xml".to_string()),
-        "bitterli" => Some("bitterli-cornell-box/scene_mi3.xml".to_string()),
-        "box" | "classroom" | "dining-room" | "sponza" | "torus" | "veach-lamp" => Some(format!("bitterli-collection/{name}/scene.xml")),
-        _ => None,
-    };
-    let spec = match rel {
-        Some(rel) => {
-            let path = octolux_io::shared::shared_scene(&rel).with_context(|| format!("{rel}: not in the shared folder"))?;
-            path.to_str().context("utf-8 path")?.to_string()
-        }
-        None => name.to_string(),
-    };
+    // a name of the benches' alias table (bench/scenes.json), a built-in scene or a file
+    let spec = octolux_io::shared::scene_spec(name)?.with_context(|| format!("{name}: not in the shared folder"))?;
     let loaded = octolux_io::load_scene(&spec, &[])?;
     Ok(Scene::prepare(loaded.desc, BackendKind::Auto)?)
 }

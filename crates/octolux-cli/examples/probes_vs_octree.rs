@@ -77,13 +77,9 @@ fn parse() -> Result<Args> {
 }
 
 fn load(name: &str) -> Result<Option<Scene>> {
-    let rel = match name {
-        "cbox" => "mitsuba-tutorials-cbox/cbox.xml".to_string(),
-        "bitterli" => "bitterli-cornell-box/scene_mi3.xml".to_string(),
-        other => format!("bitterli-collection/{other}/scene.xml"),
-    };
-    let Some(path) = octolux_io::shared::shared_scene(&rel) else { return Ok(None) };
-    let loaded = octolux_io::load_scene(path.to_str().context("utf-8 path")?, &[])?;
+    // a name of the benches' alias table (bench/scenes.json), a built-in scene or a file
+    let Some(spec) = octolux_io::shared::scene_spec(name)? else { return Ok(None) };
+    let loaded = octolux_io::load_scene(&spec, &[])?;
     Ok(Some(Scene::prepare(loaded.desc, BackendKind::Auto)?))
 }
 

@@ -22,21 +22,9 @@ use octolux::sampling::Sampler;
 use octolux::scene::Scene;
 
 fn load(name: &str) -> Result<Option<Scene>> {
-    let path = match name {
-        "cornell-box" | "cornell-spheres" => name.to_string(),
-        "cbox" => "mitsuba-tutorials-cbox/cbox.xml".to_string(),
-        "bitterli" => "bitterli-cornell-box/scene_mi3.xml".to_string(),
-        other => format!("bitterli-collection/{other}/scene.xml"),
-    };
-    let path = if path.contains('/') {
-        match octolux_io::shared::shared_scene(&path) {
-            Some(p) => p.to_str().context("utf-8 path")?.to_string(),
-            None => return Ok(None),
-        }
-    } else {
-        path
-    };
-    let loaded = octolux_io::load_scene(&path, &[])?;
+    // a name of the benches' alias table (bench/scenes.json), a built-in scene or a file
+    let Some(spec) = octolux_io::shared::scene_spec(name)? else { return Ok(None) };
+    let loaded = octolux_io::load_scene(&spec, &[])?;
     Ok(Some(Scene::prepare(loaded.desc, BackendKind::Auto)?))
 }
 
