@@ -51,21 +51,26 @@ fn hash(t: &Octree) -> u64 {
     text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3))
 }
 
+/// The octree build rate on a real scene (see the file's docs).
+#[derive(clap::Parser)]
+struct Args {
+    /// A scene alias of bench/scenes.json, a built-in scene or a path.
+    #[arg(long, default_value = "cornell-box")]
+    scene: String,
+    #[arg(long, default_value_t = 1_000_000)]
+    photons: u64,
+    /// Thread counts, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    threads: Vec<usize>,
+    #[arg(long, default_value_t = 5)]
+    repeat: usize,
+    /// Full (216-byte) leaves instead of compressed ones.
+    #[arg(long)]
+    full: bool,
+}
+
 fn main() -> Result<()> {
-    let (mut scene_name, mut photons, mut threads, mut repeat, mut full) =
-        ("cornell-box".to_string(), 1_000_000u64, vec![1usize, 2], 5usize, false);
-    let mut it = std::env::args().skip(1);
-    while let Some(k) = it.next() {
-        let mut v = || it.next().with_context(|| format!("{k} needs a value"));
-        match k.as_str() {
-            "--scene" => scene_name = v()?,
-            "--photons" => photons = v()?.parse()?,
-            "--threads" => threads = v()?.split(',').map(|s| s.parse()).collect::<Result<_, _>>()?,
-            "--repeat" => repeat = v()?.parse()?,
-            "--full" => full = true,
-            _ => bail!("unknown argument {k}"),
-        }
-    }
+    let Args { scene: scene_name, photons, threads, repeat, full } = clap::Parser::parse();
     let scene = load(&scene_name)?;
     let mut settings = OctreeIntegratorSettings::default();
     settings.photons.photons = photons;
