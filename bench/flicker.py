@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Flicker of a camera animation on a static scene (issue 13, item 3; table in docs/baking.md).
+"""Flicker of a camera animation on a static scene (issue 13, item 3; table in docs/lab/2026-11-30-baking.md).
 
     .venv-peers/bin/python bench/flicker.py [--quick] [--scenes cbox bitterli] [--out DIR]
 
@@ -46,17 +46,19 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tools" / "mitsuba"))
 import locations  # noqa: E402  (tools/mitsuba/locations.py: $OCTOLUX_SHARED or <repo>/../shared)
 
-SHARED = Path(locations.scenes_dir())
 PEERS = ROOT / "bench" / "peers"
 
 # name -> scene file, max_depth (bench/peers' choices), camera move (two keys), fov along x.
+sys.path.insert(0, str(ROOT / "bench"))
+import scenes as aliases  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
+
 SCENES = {
     "cbox": {
-        "xml": SHARED / "mitsuba-tutorials-cbox" / "cbox.xml", "max_depth": 6, "fov": 39.3077,
+        "xml": Path(aliases.get("cbox")["scene"]), "max_depth": aliases.get("cbox")["max_depth"], "fov": 39.3077,
         "keys": [([-0.45, -0.05, 4.0], [0.0, 0.0, 0.0]), ([0.45, 0.1, 3.7], [0.0, 0.05, 0.0])],
     },
     "bitterli": {
-        "xml": SHARED / "bitterli-cornell-box" / "scene_mitsuba.xml", "max_depth": 65, "fov": 19.5,
+        "xml": Path(aliases.get("bitterli")["scene"]), "max_depth": aliases.get("bitterli")["max_depth"], "fov": 19.5,
         "keys": [([-0.5, 0.95, 6.8], [0.0, 1.0, 0.0]), ([0.5, 1.1, 6.5], [0.0, 1.0, 0.0])],
     },
 }

@@ -52,13 +52,15 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), 
 sys.path.insert(0, os.path.join(REPO, "tools", "mitsuba"))
 import locations  # noqa: E402  (tools/mitsuba/locations.py: $OCTOLUX_SHARED or <repo>/../shared)
 
-SHARED = locations.scenes_dir()
 MI_PY = locations.mitsuba_python()
 MI_RENDER = os.path.join(REPO, "tools", "mitsuba", "render.py")
 COLLECTION_MANIFEST = os.path.join(REPO, "tests", "refs", "collection", "manifest.json")
+sys.path.insert(0, os.path.join(REPO, "bench"))
+import scenes  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
+
+# the speed bench's own depths (unbounded on the boxes, to measure long paths); files from the table
 BUILTIN = {"cornell-box": -1, "cornell-spheres": 8}
-FILES = {"bitterli": (os.path.join(SHARED, "bitterli-cornell-box", "scene_mitsuba.xml"), -1),
-         "cbox": (os.path.join(SHARED, "mitsuba-tutorials-cbox", "cbox.xml"), 6)}
+FILES = {"bitterli": (scenes.get("bitterli")["scene"], -1), "cbox": (scenes.get("cbox")["scene"], 6)}
 COLLECTION = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"]
 DEFAULT_CASES = ["cornell-box", "cornell-spheres", "bitterli", "bitterli:65", "cbox"] + COLLECTION + ["mesh1m"]
 VARIANTS = ["llvm_ad_rgb"]
@@ -262,7 +264,7 @@ def main(argv=None) -> int:
                     log(f"writing the {2 * (MESH_N - 1) ** 2}-triangle mesh")
                     mesh.append(write_mesh_scene(tmp))
                 return mesh[0], mesh[0]
-            f = os.path.join(SHARED, "bitterli-collection", scene, "scene.xml")
+            f = scenes.get(scene)["scene"]
             return f, f
 
         for scene, depth, res in cases:

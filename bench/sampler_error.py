@@ -32,24 +32,17 @@ import sys
 import tempfile
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-sys.path.insert(0, os.path.join(REPO, "tools", "mitsuba"))
-import locations  # noqa: E402
+sys.path.insert(0, os.path.join(REPO, "bench"))
+import scenes  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
 
-SHARED = locations.scenes_dir()
-REFS = os.path.join(REPO, "tests", "refs")
-SCENES = {
-    # name: (what octolux renders, resolution, max_depth, reference)
-    "cornell-box": ("cornell-box", "128x128", -1, os.path.join(REFS, "cornell-box.exr")),
-    "bitterli": (os.path.join(SHARED, "bitterli-cornell-box", "scene_mitsuba.xml"), "128x128", 65,
-                 os.path.join(REFS, "bitterli.exr")),
-    "cbox": (os.path.join(SHARED, "mitsuba-tutorials-cbox", "cbox.xml"), "128x128", 6, os.path.join(REFS, "cbox.exr")),
-    "box": (os.path.join(SHARED, "bitterli-collection", "box", "scene.xml"), "320x240", 10,
-            os.path.join(REFS, "collection", "box.exr")),
-    "veach-lamp": (os.path.join(SHARED, "bitterli-collection", "veach-lamp", "scene.xml"), "320x180", 6,
-                   os.path.join(REFS, "collection", "veach-lamp.exr")),
-    "torus": (os.path.join(SHARED, "bitterli-collection", "torus", "scene.xml"), "320x240", 33,
-              os.path.join(REFS, "collection", "torus.exr")),
-}
+
+def _case(name: str) -> tuple:
+    e = scenes.get(name)
+    return (e["scene"], "x".join(map(str, e["resolution"])), e["max_depth"], e["reference"])
+
+
+# name: (what octolux renders, resolution, max_depth, reference)
+SCENES = {name: _case(name) for name in ["cornell-box", "bitterli", "cbox", "box", "veach-lamp", "torus"]}
 DEFAULT_CASES = ["cornell-box:path", "bitterli:path", "box:path", "cornell-box:octree", "box:octree"]
 SAMPLERS = ["independent", "sobol"]
 

@@ -37,7 +37,7 @@ path tracers are extrapolated past their last rung as error ~ 1/cost (marked ~);
 never reaches a target is biased there and its floor (lowest error seen) is reported.
 
 Writes target/tte/results.json, target/tte/results.md, and with --plot docs/img/time_to_error.png;
---write-docs replaces the block between the tte markers of docs/benchmarks.md with results.md.
+--write-docs replaces the block between the tte markers of docs/guide/benchmarks.md with results.md.
 """
 from __future__ import annotations
 
@@ -55,10 +55,11 @@ ROOT = Path(__file__).resolve().parent.parent
 # OCTOLUX_BIN: a copy of the binary, so that a rebuild during a long run does not change it
 BIN = Path(os.environ.get("OCTOLUX_BIN", ROOT / "target" / "release" / "octolux"))
 OUT = ROOT / "target" / "tte"
-SHARED = Path(os.environ.get("OCTOLUX_SHARED", ROOT.parent / "shared"))
+sys.path.insert(0, str(ROOT / "bench"))
+import scenes as aliases  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
 MI_PYTHON = Path(os.environ.get("OCTOLUX_MI_PYTHON", ROOT / ".venv-mitsuba" / "bin" / "python"))
 RENDER_PY = ROOT / "tools" / "mitsuba" / "render.py"
-DOCS = ROOT / "docs" / "benchmarks.md"
+DOCS = ROOT / "docs" / "guide" / "benchmarks.md"
 IMG = ROOT / "docs" / "img" / "time_to_error.png"
 COLLECTION = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"]
 CLASSIC = ["cornell-box", "cornell-spheres", "cbox", "bitterli"]
@@ -110,16 +111,15 @@ def scenes() -> dict[str, dict]:
     tte = json.loads(tte_manifest.read_text())["references"] if tte_manifest.exists() else {}
     for name in COLLECTION:
         folder, r = ("tests/refs/tte", tte[name]) if name in tte else ("tests/refs/collection", coll[name])
-        src = r["source_scene"]
-        path = SHARED / src.removeprefix("../shared/") if src.startswith("../shared/") else ROOT / src
+        path = aliases.get(name)["scene"]
         out[name] = {"scene": str(path), "mi_scene": str(path), "ref": str(ROOT / folder / r["file"]),
                      "res": r["resolution"], "depth": int(r["max_depth"]),
                      "ref_noise": float(r["self_noise"]["ref_rel_mse"])}
     old = json.loads((ROOT / "tests/refs/manifest.json").read_text())["references"]
     for name in CLASSIC:
         r = old[name]
-        builtin = r["source_scene"].startswith("octolux built-in")
-        path = name if builtin else str(SHARED / r["source_scene"])
+        alias = aliases.get(name)
+        builtin, path = alias["builtin"], alias["scene"]
         # self_noise.rel_mse compares two independent full renders: the reference's own
         # expected relMSE against the exact image is half of it.
         out[name] = {"scene": path, "mi_scene": None if builtin else path, "ref": str(ROOT / "tests/refs" / r["file"]),
@@ -362,7 +362,7 @@ def main() -> int:
     ap.add_argument("--methods", nargs="+", default=DEFAULT_METHODS)
     ap.add_argument("--budget", type=float, default=60.0, help="CPU seconds per method and scene (default 60)")
     ap.add_argument("--plot", action="store_true", help=f"write {IMG.relative_to(ROOT)}")
-    ap.add_argument("--write-docs", action="store_true", help="replace the results block of docs/benchmarks.md")
+    ap.add_argument("--write-docs", action="store_true", help="replace the results block of docs/guide/benchmarks.md")
     ap.add_argument("--plot-only", type=Path, help="re-plot and re-tabulate a results.json")
     ap.add_argument("--variant", action="append", default=[],
                     help="NAME=KEY=VALUE[,KEY=VALUE...]: an extra octree method with these --set keys")

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Write docs/scenes.md: octolux `path` and Mitsuba 3 side by side on the collection scenes.
+"""Write docs/guide/scenes.md: octolux `path` and Mitsuba 3 side by side on the collection scenes.
 
     cargo build --release -p octolux-cli
     .venv-mitsuba/bin/python tools/scenes_table.py [--spp 64] [--threads 2] [--only NAME ...]
@@ -41,7 +41,7 @@ from make_refs import COLLECTION, COLLECTION_DIR, collection_scene  # noqa: E402
 from render import load_env_file  # noqa: E402
 
 REPO = locations.REPO
-DOC = os.path.join(REPO, "docs", "scenes.md")
+DOC = os.path.join(REPO, "docs", "guide", "scenes.md")
 IMG_DIR = os.path.join(REPO, "docs", "img", "scenes")
 
 
@@ -169,7 +169,7 @@ def main(argv=None) -> int:
     ap.add_argument("--octolux", default=os.path.join(REPO, "target", "release", "octolux"))
     ap.add_argument("--variant", default=os.environ.get("OCTOLUX_MI_VARIANT", "llvm_ad_rgb"))
     ap.add_argument("--only", action="append", choices=sorted(COLLECTION))
-    ap.add_argument("--out", default=DOC, help="markdown file to write (default docs/scenes.md)")
+    ap.add_argument("--out", default=DOC, help="markdown file to write (default docs/guide/scenes.md)")
     args = ap.parse_args(argv)
     if not os.path.exists(args.octolux):
         raise SystemExit(f"{args.octolux} is missing: cargo build --release -p octolux-cli (or --octolux BIN)")
@@ -270,7 +270,7 @@ def write_doc(args, rows) -> None:
         L.append(f"## {name}\n")
         L.append(f"`{e['source_scene']}`, max depth {e['max_depth']}, reference {e['spp']} spp "
                  f"(its own noise: relMSE {e['self_noise']['ref_rel_mse']:.2e}).\n")
-        L.append(f"![{name}: octolux | reference | error](img/scenes/{name}.png)\n")
+        L.append(f"![{name}: octolux | reference | error](../img/scenes/{name}.png)\n")
         L.append("octolux | Mitsuba 3 reference | relative squared error (log scale, black 1e-4 to white 1)\n")
         if name in NOTES:
             L.append(NOTES[name] + "\n")

@@ -1,4 +1,4 @@
-"""An object inserted into baked lighting, measured (issue 13, item 5; docs/baking.md
+"""An object inserted into baked lighting, measured (issue 13, item 5; docs/guide/baking.md
 "Inserted objects").
 
 Bakes the built-in Cornell box, then renders a ball (ball.obj) moving along path.json (8 frames)

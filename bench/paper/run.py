@@ -135,8 +135,12 @@ def main() -> int:
         octolux("render", scene, "--integrator", "octree", "--spp", str(args.spp), "--resolution", RES, "--max-depth", str(max_depth), "-q",
                 "-o", str(out / f"fig2-{scene}-octree-render.exr"), *ph)
         fig3 = {}
-        for label, extra in (("epsilon-0.2", ["--epsilon", "0.2"]), ("epsilon-0.6", ["--epsilon", "0.6"]),
-                             ("alpha-0.5", ["--alpha", "0.5"]), ("alpha-1.0", ["--alpha", "1.0"]), ("alpha-1.5", ["--alpha", "1.5"]), ("alpha-3.0", ["--alpha", "3.0"])):
+        def both(key: str, v: str) -> list[str]:  # the key in the global and the caustic octree
+            return ["--set", f"global.{key}={v}", "--set", f"caustic.{key}={v}"]
+
+        for label, extra in (("epsilon-0.2", both("epsilon", "0.2")), ("epsilon-0.6", both("epsilon", "0.6")),
+                             ("alpha-0.5", both("alpha", "0.5")), ("alpha-1.0", both("alpha", "1.0")), ("alpha-1.5", both("alpha", "1.5")),
+                             ("alpha-3.0", both("alpha", "3.0"))):
             img = out / f"fig3-{scene}-{label}.exr"
             render(scene, img, "octree", args.spp, ph + extra, max_depth)
             fig3[label] = compare(img, ref)["rel_mse"]

@@ -29,7 +29,7 @@ equal-error speed-up of octolux `octree` over each peer: time each renderer need
 same relMSE, interpolated log-log along its curve (see time_to_error()).
 
 Nothing is written into the repository except with --write-docs (the results block of
-docs/benchmarks.md). Caches (references, exported scenes, LuxCore scene dumps) live in
+docs/guide/benchmarks.md). Caches (references, exported scenes, LuxCore scene dumps) live in
 target/peers-cache/ (git-ignored).
 """
 from __future__ import annotations
@@ -56,21 +56,25 @@ BIN = ROOT / "target" / "release" / "octolux"
 VPY = Path(os.environ.get("PEERS_PYTHON", ROOT / ".venv-peers" / "bin" / "python"))
 RENDER_PY = ROOT / "tools" / "mitsuba" / "render.py"
 CACHE = ROOT / "target" / "peers-cache"
-DOCS = ROOT / "docs" / "benchmarks.md"
+DOCS = ROOT / "docs" / "guide" / "benchmarks.md"
 
 sys.path.insert(0, str(ROOT / "tools" / "mitsuba"))
 import locations  # noqa: E402  (tools/mitsuba/locations.py: $OCTOLUX_SHARED or <repo>/../shared)
 
-SHARED = Path(locations.scenes_dir())
 
 # name -> where the scene comes from and the max_depth every renderer uses (Mitsuba's meaning),
 # the same choices as tests/refs/manifest.json.
-SCENES = {
-    "cornell-box": {"builtin": "cornell-box", "max_depth": -1},
-    "cornell-spheres": {"builtin": "cornell-spheres", "max_depth": 8},
-    "cbox": {"xml": SHARED / "mitsuba-tutorials-cbox" / "cbox.xml", "max_depth": 6},
-    "bitterli": {"xml": SHARED / "bitterli-cornell-box" / "scene_mitsuba.xml", "max_depth": 65},
-}
+sys.path.insert(0, str(ROOT / "bench"))
+import scenes as aliases  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
+
+
+def _scene(name: str) -> dict:
+    e = aliases.get(name)
+    where = {"builtin": e["scene"]} if e["builtin"] else {"xml": Path(e["scene"])}
+    return {**where, "max_depth": e["max_depth"]}
+
+
+SCENES = {name: _scene(name) for name in ["cornell-box", "cornell-spheres", "cbox", "bitterli"]}
 RENDERERS = ["octolux-path", "octolux-octree", "mitsuba-path", "luxcore-path", "luxcore-pgi"]
 LABELS = {
     "octolux-path": "octolux path",
@@ -771,7 +775,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=None, help="output folder (default target/peers-results/<mode>)")
     ap.add_argument("--reuse", action="store_true", help="keep runs already in OUT/results.json (resume)")
     ap.add_argument("--report-only", action="store_true", help="only redo analysis, tables, plots from results.json")
-    ap.add_argument("--write-docs", action="store_true", help="write the tables into docs/benchmarks.md")
+    ap.add_argument("--write-docs", action="store_true", help="write the tables into docs/guide/benchmarks.md")
     args = ap.parse_args(argv)
 
     mode = "quick" if args.quick else "full"

@@ -10,7 +10,7 @@ The image is written as float32 RGB .npy, rows top to bottom, exactly as LuxCore
 pixel row lower than Mitsuba's (LuxCore's row y + 1 is Mitsuba's row y, its top row is nearly black);
 the harness compares it with that shift and checks it (best of the 9 integer shifts).
 
-Translation (see docs/benchmarks.md):
+Translation (see docs/guide/benchmarks.md):
 * meshes are passed as numpy arrays (Scene.DefineMeshExt; LuxCore 2.11 reads PLY but not OBJ),
   world space, normals when the Mitsuba mesh had them;
 * diffuse -> matte (kd), perfect conductor -> mirror (kr), dielectric -> glass (kr, kt,

@@ -1,4 +1,4 @@
-//! The octree build rate on a real scene (issue 14 item 4, docs/performance.md "Octree build
+//! The octree build rate on a real scene (issue 14 item 4, docs/lab/2026-11-30-performance.md "Octree build
 //! rate"): one photon pass, then the `octree` integrator's two trees (global and caustic,
 //! default settings, the scene's triangles and spheres for the geometry-area estimator) built
 //! `--repeat` times on each thread count, timed by wall clock and by the process's CPU time.
@@ -25,19 +25,8 @@ use octolux::scene::Scene;
 use std::time::Instant;
 
 fn load(name: &str) -> Result<Scene> {
-    let rel = match name {
-        "cbox" => Some("mitsuba-tutorials-cbox/cbox.xml".to_string()),
-        "bitterli" => Some("bitterli-cornell-box/scene_mi3.xml".to_string()),
-        "box" | "classroom" | "dining-room" | "sponza" | "torus" | "veach-lamp" => Some(format!("bitterli-collection/{name}/scene.xml")),
-        _ => None,
-    };
-    let spec = match rel {
-        Some(rel) => {
-            let path = octolux_io::shared::shared_scene(&rel).with_context(|| format!("{rel}: not in the shared folder"))?;
-            path.to_str().context("utf-8 path")?.to_string()
-        }
-        None => name.to_string(),
-    };
+    // a name of the benches' alias table (bench/scenes.json), a built-in scene or a file
+    let spec = octolux_io::shared::scene_spec(name)?.with_context(|| format!("{name}: not in the shared folder"))?;
     let loaded = octolux_io::load_scene(&spec, &[])?;
     Ok(Scene::prepare(loaded.desc, BackendKind::Auto)?)
 }
@@ -62,21 +51,26 @@ fn hash(t: &Octree) -> u64 {
     text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3))
 }
 
+/// The octree build rate on a real scene (see the file's docs).
+#[derive(clap::Parser)]
+struct Args {
+    /// A scene alias of bench/scenes.json, a built-in scene or a path.
+    #[arg(long, default_value = "cornell-box")]
+    scene: String,
+    #[arg(long, default_value_t = 1_000_000)]
+    photons: u64,
+    /// Thread counts, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    threads: Vec<usize>,
+    #[arg(long, default_value_t = 5)]
+    repeat: usize,
+    /// Full (216-byte) leaves instead of compressed ones.
+    #[arg(long)]
+    full: bool,
+}
+
 fn main() -> Result<()> {
-    let (mut scene_name, mut photons, mut threads, mut repeat, mut full) =
-        ("cornell-box".to_string(), 1_000_000u64, vec![1usize, 2], 5usize, false);
-    let mut it = std::env::args().skip(1);
-    while let Some(k) = it.next() {
-        let mut v = || it.next().with_context(|| format!("{k} needs a value"));
-        match k.as_str() {
-            "--scene" => scene_name = v()?,
-            "--photons" => photons = v()?.parse()?,
-            "--threads" => threads = v()?.split(',').map(|s| s.parse()).collect::<Result<_, _>>()?,
-            "--repeat" => repeat = v()?.parse()?,
-            "--full" => full = true,
-            _ => bail!("unknown argument {k}"),
-        }
-    }
+    let Args { scene: scene_name, photons, threads, repeat, full } = clap::Parser::parse();
     let scene = load(&scene_name)?;
     let mut settings = OctreeIntegratorSettings::default();
     settings.photons.photons = photons;

@@ -1,6 +1,6 @@
 //! Bytes against error: the paper's octree against adaptive SH irradiance probe grids (Unreal's
 //! volumetric lightmap, Unity's Adaptive Probe Volumes; `octolux::caches::probes`) at equal
-//! memory, from the same photons (issue 13, item 6; `docs/baking.md`, "Bytes against error").
+//! memory, from the same photons (issue 13, item 6; `docs/guide/baking.md`, "Bytes against error").
 //!
 //! ```sh
 //! cargo run --release -p octolux-cli --example probes_vs_octree -- --scene cbox [--photons 1000000]
@@ -18,7 +18,7 @@
 //! free-space field there), against `integrators::path::indirect_irradiance` (`--rays`
 //! cosine-distributed paths each).
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use glam::Vec3;
 use octolux::accel::BackendKind;
 use octolux::caches::octree::{QueryLeaf, Surfaces};
@@ -33,57 +33,35 @@ use octolux::scene::Scene;
 use rayon::prelude::*;
 use std::time::Instant;
 
+/// Bytes against error: SH probes against the octree (see the file's docs).
+#[derive(clap::Parser)]
 struct Args {
+    /// A scene alias of bench/scenes.json, a built-in scene or a path.
+    #[arg(long, default_value = "cbox")]
     scene: String,
+    #[arg(long, default_value_t = 1_000_000)]
     photons: u64,
+    /// The octree's n_max values, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "2000,500,125")]
     n_max: Vec<u32>,
+    #[arg(long, default_value_t = 300)]
     free: usize,
+    #[arg(long, default_value_t = 10)]
     objects: usize,
+    #[arg(long, default_value_t = 30)]
     per_object: usize,
+    #[arg(long, default_value_t = 16384)]
     rays: u32,
+    #[arg(long, default_value_t = 2)]
     levels: u32,
+    #[arg(long)]
     out: Option<String>,
 }
 
-fn parse() -> Result<Args> {
-    let mut a = Args {
-        scene: "cbox".into(),
-        photons: 1_000_000,
-        n_max: vec![2000, 500, 125],
-        free: 300,
-        objects: 10,
-        per_object: 30,
-        rays: 16384,
-        levels: 2,
-        out: None,
-    };
-    let mut it = std::env::args().skip(1);
-    while let Some(k) = it.next() {
-        let mut v = || it.next().with_context(|| format!("{k} needs a value"));
-        match k.as_str() {
-            "--scene" => a.scene = v()?,
-            "--photons" => a.photons = v()?.parse()?,
-            "--n-max" => a.n_max = v()?.split(',').map(|s| s.parse()).collect::<Result<_, _>>()?,
-            "--free" => a.free = v()?.parse()?,
-            "--objects" => a.objects = v()?.parse()?,
-            "--per-object" => a.per_object = v()?.parse()?,
-            "--rays" => a.rays = v()?.parse()?,
-            "--levels" => a.levels = v()?.parse()?,
-            "--out" => a.out = Some(v()?),
-            _ => bail!("unknown argument {k}"),
-        }
-    }
-    Ok(a)
-}
-
 fn load(name: &str) -> Result<Option<Scene>> {
-    let rel = match name {
-        "cbox" => "mitsuba-tutorials-cbox/cbox.xml".to_string(),
-        "bitterli" => "bitterli-cornell-box/scene_mi3.xml".to_string(),
-        other => format!("bitterli-collection/{other}/scene.xml"),
-    };
-    let Some(path) = octolux_io::shared::shared_scene(&rel) else { return Ok(None) };
-    let loaded = octolux_io::load_scene(path.to_str().context("utf-8 path")?, &[])?;
+    // a name of the benches' alias table (bench/scenes.json), a built-in scene or a file
+    let Some(spec) = octolux_io::shared::scene_spec(name)? else { return Ok(None) };
+    let loaded = octolux_io::load_scene(&spec, &[])?;
     Ok(Some(Scene::prepare(loaded.desc, BackendKind::Auto)?))
 }
 
@@ -156,7 +134,7 @@ fn mean3(c: Vec3) -> f64 {
 }
 
 fn main() -> Result<()> {
-    let a = parse()?;
+    let a: Args = clap::Parser::parse();
     let Some(scene) = load(&a.scene)? else { return Ok(()) };
     let extent = scene.bounds.extent().max_element();
     let t0 = Instant::now();

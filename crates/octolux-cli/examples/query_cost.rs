@@ -1,5 +1,5 @@
 //! The octree's query against the rest of a camera sample, per query, on one core (issue 14
-//! item 4, `docs/performance.md`, "The octree's query").
+//! item 4, `docs/lab/2026-11-30-performance.md`, "The octree's query").
 //!
 //! ```sh
 //! cargo run --release -p octolux-cli --example query_cost -- cornell-box [--photons 1000000] [--res 128] [--rounds 3]
@@ -11,7 +11,7 @@
 //! whole `li` for the same rays; prints ns per query, ns per `li`, their ratio, and the leaves a
 //! query meets (mean and histogram) and the visibility rays it casts.
 
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use glam::Vec2;
 use octolux::accel::BackendKind;
 use octolux::integrators::common::walk_specular;
@@ -22,21 +22,9 @@ use octolux::sampling::Sampler;
 use octolux::scene::Scene;
 
 fn load(name: &str) -> Result<Option<Scene>> {
-    let path = match name {
-        "cornell-box" | "cornell-spheres" => name.to_string(),
-        "cbox" => "mitsuba-tutorials-cbox/cbox.xml".to_string(),
-        "bitterli" => "bitterli-cornell-box/scene_mi3.xml".to_string(),
-        other => format!("bitterli-collection/{other}/scene.xml"),
-    };
-    let path = if path.contains('/') {
-        match octolux_io::shared::shared_scene(&path) {
-            Some(p) => p.to_str().context("utf-8 path")?.to_string(),
-            None => return Ok(None),
-        }
-    } else {
-        path
-    };
-    let loaded = octolux_io::load_scene(&path, &[])?;
+    // a name of the benches' alias table (bench/scenes.json), a built-in scene or a file
+    let Some(spec) = octolux_io::shared::scene_spec(name)? else { return Ok(None) };
+    let loaded = octolux_io::load_scene(&spec, &[])?;
     Ok(Some(Scene::prepare(loaded.desc, BackendKind::Auto)?))
 }
 
@@ -48,19 +36,22 @@ fn thread_cpu() -> f64 {
     ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
 }
 
+/// The octree's query against the rest of a camera sample (see the file's docs).
+#[derive(clap::Parser)]
+struct Args {
+    /// A scene alias of bench/scenes.json, a built-in scene or a path.
+    #[arg(default_value = "cornell-box")]
+    scene: String,
+    #[arg(long, default_value_t = 1_000_000)]
+    photons: u64,
+    #[arg(long, default_value_t = 128)]
+    res: u32,
+    #[arg(long, default_value_t = 3)]
+    rounds: u32,
+}
+
 fn main() -> Result<()> {
-    let mut args = std::env::args().skip(1);
-    let (mut scene_name, mut photons, mut res, mut rounds) = ("cornell-box".to_string(), 1_000_000u64, 128u32, 3u32);
-    while let Some(a) = args.next() {
-        let mut val = || args.next().context("missing value");
-        match a.as_str() {
-            "--photons" => photons = val()?.parse()?,
-            "--res" => res = val()?.parse()?,
-            "--rounds" => rounds = val()?.parse()?,
-            s if !s.starts_with("--") => scene_name = s.to_string(),
-            other => bail!("unknown argument {other}"),
-        }
-    }
+    let Args { scene: scene_name, photons, res, rounds } = clap::Parser::parse();
     let Some(scene) = load(&scene_name)? else {
         println!("skip: {scene_name} (shared scenes not found)");
         return Ok(());

@@ -1,6 +1,6 @@
 //! `octolux flicker FRAMES --reference REF [--scene S --camera-path P]`: the temporal stability
 //! of a frame sequence against a reference sequence of the same frames
-//! ([`octolux::flicker`], issue 13 item 3, docs/baking.md). Frames are the `NAME_0001.exr`,
+//! ([`octolux::flicker`], issue 13 item 3, docs/guide/baking.md). Frames are the `NAME_0001.exr`,
 //! `NAME_0002.exr`, ... files of a folder, as `render --camera-path` writes them; the two
 //! folders must hold the same frame numbers. With the scene and its camera path, static world
 //! points (seen through the first frame's pixels) are reprojected into every frame, hidden ones
@@ -63,7 +63,7 @@ fn tracks(args: &FlickerArgs, scene_name: &str, indices: &[u64], w: u32, h: u32)
     let Some(path_file) = &args.camera_path else {
         bail!("--scene needs --camera-path: the cameras of the frames");
     };
-    let path = crate::frames::read_camera_path(path_file)?;
+    let path = octolux_io::job::frames::read_camera_path(path_file)?;
     if let Some(&i) = indices.iter().find(|&&i| i == 0 || i > path.frame_count()) {
         bail!("frame {i} is not a frame of camera path {} ({} frames)", path_file.display(), path.frame_count());
     }

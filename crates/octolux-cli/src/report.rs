@@ -127,7 +127,7 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
         bail!("report: give at least one image");
     }
     crate::note_inputs(images.iter().map(PathBuf::as_path).chain(reference).chain(bench.iter().map(PathBuf::as_path)));
-    crate::output::check_file(output)?;
+    octolux_io::job::output::check_file(output)?;
     let reference = reference.map(|p| Ok::<_, anyhow::Error>((p, read_checked(p)?))).transpose()?;
     let mut loaded = Vec::new();
     for p in images {
@@ -189,7 +189,7 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
     let data = json!({ "images": entries, "benches": benches, "octolux_version": env!("CARGO_PKG_VERSION") });
     // `</` cannot close the script element from inside the JSON
     let html = TEMPLATE.replace("\"__OCTOLUX_DATA__\"", &data.to_string().replace("</", "<\\/"));
-    crate::output::write_file_atomic(output, html.as_bytes())?;
+    octolux_io::job::output::write_file_atomic(output, html.as_bytes())?;
     eprintln!("report: {} images -> {} ({} bytes)", entries.len(), output.display(), html.len());
     Ok(())
 }

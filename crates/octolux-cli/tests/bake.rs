@@ -1,4 +1,4 @@
-//! `octolux bake` and `render --cache` (issue 13, docs/baking.md): a render from a cache
+//! `octolux bake` and `render --cache` (issue 13, docs/guide/baking.md): a render from a cache
 //! reproduces the uncached render bit for bit from two cameras; stale, truncated, corrupt,
 //! future-version and foreign files are refused with their messages; camera paths and the
 //! scene's sensors render numbered frames, and `--frames` renders exactly a part of them.
@@ -160,13 +160,19 @@ fn a_cache_is_refused_when_the_lighting_changed_and_used_when_only_the_camera_di
     a.extend(["-D", "mat=0.5", "-D", "light=9"]);
     assert!(refused(&a).contains("the materials, emitters changed since it was baked"));
     // settings that shaped the octrees cannot change; another integrator cannot use the cache
-    for (flags, word) in
-        [(&["--h-max", "4"][..], "global, caustic"), (&["--photons", "100"][..], "photons"), (&["--max-depth", "3"][..], "max_depth")]
-    {
+    for (flags, word, values) in [
+        (&["--set", "global.h_max=4"][..], "global.h_max", "global.h_max = 4 here, \"auto\" in the bake"),
+        (&["--photons", "100"][..], "photons.photons", "photons.photons = 100 here, 20000 in the bake"),
+        (&["--max-depth", "3"][..], "max_depth", "max_depth = 3 here, -1 in the bake"),
+    ] {
         let mut a = base.to_vec();
         a.extend_from_slice(flags);
         let e = refused(&a);
-        assert!(e.contains(&format!("the settings {word} differ from the bake's")), "{flags:?}: {e}");
+        assert!(e.contains(&format!("the settings {word} differ from the bake's ({values})")), "{flags:?}: {e}");
+        // the keys that may change are named, the baked ones are not among them
+        let free = e.split("with --cache only ").nth(1).unwrap_or("");
+        assert!(free.contains("mode, ") && free.ends_with("view may change)"), "{flags:?}: {e}");
+        assert!(!free.contains(" photons") && !free.contains("global") && !free.contains("max_depth"), "{flags:?}: {e}");
     }
     let mut a = base.to_vec();
     a.extend(["--integrator", "path"]);

@@ -9,7 +9,7 @@ fn octree_options_with_another_integrator_are_reported_as_ignored() {
     let out = dir.join("x.exr");
     let run = |integrator: &str| {
         let o = Command::new(env!("CARGO_BIN_EXE_octolux"))
-            .args(["render", "cornell-box", "--integrator", integrator, "--caustic-n-max", "40", "--split", "normal"])
+            .args(["render", "cornell-box", "--integrator", integrator, "--set", "caustic.n_max=60", "--view", "irradiance"])
             .args(["--spp", "1", "--resolution", "4x4", "--photons", "2000", "-q", "-o"])
             .arg(&out)
             .output()
@@ -18,10 +18,11 @@ fn octree_options_with_another_integrator_are_reported_as_ignored() {
         String::from_utf8_lossy(&o.stderr).into_owned()
     };
     let path = run("path");
-    assert!(path.contains("warning: --caustic-n-max applies to --integrator octree only"), "{path}");
-    assert!(path.contains("warning: --split applies to --integrator octree only"), "{path}");
+    assert!(path.contains("`caustic.n_max` is a setting of --integrator octree, photonmap, ward, christensen, not of path"), "{path}");
+    assert!(path.contains("warning: --view applies to --integrator octree, photonmap, ward, christensen only"), "{path}");
+    assert!(path.contains("warning: --photons applies to"), "{path}");
     let octree = run("octree");
-    assert!(!octree.contains("applies to --integrator octree only"), "{octree}");
+    assert!(!octree.contains("warning"), "{octree}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -34,4 +35,43 @@ fn the_removed_gather_flag_is_refused_with_what_replaced_it() {
         .expect("octolux runs");
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--gather was removed") && err.contains("mode=paper"), "{err}");
+}
+
+#[test]
+fn removed_flags_say_which_key_replaced_them() {
+    // the flags of single settings keys went; `--set` (and `octolux settings`) reach every key
+    for (flag, value, key) in [("--split", "normal", "global.split"), ("--h-max=7", "", "global.h_max"), ("--every", "3", "every=N")] {
+        let mut args = vec!["render", "cornell-box", flag];
+        if !value.is_empty() {
+            args.push(value);
+        }
+        let o = Command::new(env!("CARGO_BIN_EXE_octolux")).args(&args).output().expect("octolux runs");
+        let err = String::from_utf8_lossy(&o.stderr);
+        let name = flag.split('=').next().unwrap_or(flag);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.starts_with(&format!("error: {name} was removed: use `--set {key}")), "{err}");
+        assert!(err.contains("octolux settings INTEGRATOR"), "{err}");
+    }
+}
+
+#[test]
+fn settings_lists_every_key_with_its_default_type_and_doc() {
+    let run = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_octolux")).args(args).output().expect("octolux runs");
+    let o = run(&["settings", "octree"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    // a key of a nested table, an enum with its values and their docs, a number shown as set
+    assert!(text.contains("global.h_max = \"auto\"    (integer from 0 to 21, or \"auto\")"), "{text}");
+    assert!(text.contains("global.estimator = \"geometry_area\"    (\"paper\" | \"cosine\" | \"geometry_area\")"), "{text}");
+    assert!(text.contains("    - geometry_area: 1/cos and ΔA replaced by the lit geometry"), "{text}");
+    assert!(text.contains("global.epsilon = 0.2    (number)"), "{text}");
+    assert!(text.contains("leak = \"auto\""), "{text}");
+    // every key of the defaults is listed, each once
+    let listed: Vec<&str> =
+        text.lines().filter(|l| !l.starts_with(' ') && l.contains(" = ")).map(|l| l.split(" = ").next().unwrap()).collect();
+    assert_eq!(listed.len(), 37, "{listed:?}");
+    let o = run(&["settings"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("path, octree, photonmap, ward, christensen"));
+    let o = run(&["settings", "bdpt"]);
+    assert_eq!(o.status.code(), Some(2), "clap refuses an unknown integrator");
 }

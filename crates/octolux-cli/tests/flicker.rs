@@ -1,4 +1,4 @@
-//! `octolux flicker` (issue 13 item 3, docs/baking.md) on synthetic frames with a known flicker:
+//! `octolux flicker` (issue 13 item 3, docs/guide/baking.md) on synthetic frames with a known flicker:
 //! a grey sequence whose frames are alternately too bright and too dark, against a constant
 //! reference; with a scene and a camera path, static points are followed through the frames.
 //! Bad folders are refused with their messages. No rendering: the whole file runs in a second.

@@ -1,5 +1,5 @@
 //! The command line under hostile input and failing disks (issue 12, CLI side): each case with
-//! the exact message it must give (docs/errors.md lists them). Cases that need a tmpfs mount
+//! the exact message it must give (docs/guide/errors.md lists them). Cases that need a tmpfs mount
 //! (disk full, read-only folder) print one line and pass where mounting is not allowed.
 
 use octolux::budget;
@@ -802,7 +802,7 @@ fn camera_path_frames_and_baked_views_are_checked() {
 
 /// Issue 27, item 8: one validator per value, whatever the source: `max_depth` below -1 from
 /// the flag, `--set`, a settings file and `export`; `export --spp 0`; a non-object for a table
-/// of settings; `{}` for one changes nothing; NaN named as such; `--epsilon 1e30`; an empty
+/// of settings; `{}` for one changes nothing; NaN named as such; `global.epsilon=1e30`; an empty
 /// settings file; a repeated `-D` warns and the last wins.
 #[test]
 fn every_source_of_a_value_is_checked_alike() {
@@ -847,10 +847,11 @@ fn every_source_of_a_value_is_checked_alike() {
         stderr(&with(&["--settings", &path_str(&toml)])),
         format!("error: settings file {}: `global.epsilon` = inf is not a finite number\n", toml.display())
     );
-    let o = with(&["--integrator", "octree", "--epsilon", "1e30"]);
+    let o = with(&["--integrator", "octree", "--set", "global.epsilon=1e30"]);
     assert_eq!(
         stderr(&o),
-        "error: --epsilon: global: invalid octree settings: epsilon = 1000000000000000000000000000000 must be in [0, 10]\n"
+        "error: --set global.epsilon=1e30: global: invalid octree settings: epsilon = 1000000000000000000000000000000 must be in \
+         [0, 10]\n"
     );
     // empty settings files are valid (they said "no integrator has the setting ``")
     for (name, text) in [("e.json", "{}"), ("e.toml", "")] {

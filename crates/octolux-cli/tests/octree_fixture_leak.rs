@@ -1,5 +1,5 @@
 //! The light-fixture gap of Bitterli's Cornell box (`../shared/scenes/bitterli-cornell-box`,
-//! `docs/octree.md` "Leak control"): the rectangle light hangs 0.02 under the ceiling, and the
+//! `docs/guide/octree.md` "Leak control"): the rectangle light hangs 0.02 under the ceiling, and the
 //! octree's leaves (0.03–0.07 there) hold both the lit ceiling around the light and the dark
 //! ceiling above it. The camera sees the ceiling in the gap between the light's front edge and
 //! the ceiling. There the true irradiance is nearly 0 (the light's back is black and faces the

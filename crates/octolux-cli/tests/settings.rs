@@ -120,10 +120,10 @@ fn set_wins_over_flags_which_win_over_the_settings_file() {
     let (json, _) = rendered(&d.0, &base);
     assert_eq!(setting(&json, "photons.photons"), 3000);
     assert_eq!(setting(&json, "every"), 2);
-    let (json, _) = rendered(&d.0, &[&base[..], &["--photons", "4000", "--every", "3"]].concat());
+    let (json, _) = rendered(&d.0, &[&base[..], &["--photons", "4000", "--set", "every=3"]].concat());
     assert_eq!(setting(&json, "photons.photons"), 4000);
     assert_eq!(setting(&json, "every"), 3);
-    let (json, _) = rendered(&d.0, &[&base[..], &["--photons", "4000", "--set", "photons.photons=5000", "--every", "3"]].concat());
+    let (json, _) = rendered(&d.0, &[&base[..], &["--photons", "4000", "--set", "photons.photons=5000", "--set", "every=3"]].concat());
     assert_eq!(setting(&json, "photons.photons"), 5000);
     assert_eq!(setting(&json, "every"), 3);
     assert_eq!(json["build"]["photons"]["photons_emitted"], 5000, "the integrator was built with the value that won");
@@ -150,7 +150,7 @@ fn set_values_are_json_when_they_parse_and_strings_otherwise() {
     assert_eq!(setting(&json, "footprint"), 2.0);
     assert_eq!(setting(&json, "view"), "irradiance");
     assert_eq!(setting(&json, "global.epsilon"), 0.5);
-    assert_eq!(setting(&json, "caustic.epsilon").as_f64(), Some(0.2f32 as f64), "--set writes one key; --epsilon writes both trees");
+    assert_eq!(setting(&json, "caustic.epsilon").as_f64(), Some(0.2f32 as f64), "--set writes one key");
     // the scene's seed and max_depth reach the settings when nothing else gives them
     let (json, _) = rendered(&d.0, &["--integrator", "ward", "--photons", "2000", "--seed", "7"]);
     assert_eq!(setting(&json, "photons.seed"), 7);
@@ -168,9 +168,6 @@ fn options_the_integrator_does_not_have_warn_and_name_it() {
     );
     assert!(err.contains("warning: --view applies to"), "{err}");
     assert!(json["warnings"].as_array().unwrap().iter().any(|w| w.as_str().unwrap().contains("--photons")), "{json}");
-    // christensen's option given to ward
-    let (_, err) = rendered(&d.0, &["--integrator", "ward", "--photons", "2000", "--every", "3"]);
-    assert!(err.contains("warning: --every applies to --integrator christensen only; ignored by --integrator ward"), "{err}");
     // an octree key set for ward, and a file key of christensen's
     let f = d.file("s.toml", "every = 8\n");
     let (json, err) =
@@ -178,6 +175,27 @@ fn options_the_integrator_does_not_have_warn_and_name_it() {
     assert!(err.contains("warning: --set footprint=2: `footprint` is a setting of --integrator octree, not of ward; ignored"), "{err}");
     assert!(err.contains("s.toml: `every` is a setting of --integrator christensen, not of ward; ignored"), "{err}");
     assert!(setting(&json, "footprint").is_null() && setting(&json, "every").is_null());
+}
+
+#[test]
+fn an_enum_value_has_one_spelling_from_every_source() {
+    // `geometry-area` (a command-line spelling) and `geometry_area` (serde's) name one value,
+    // from --set, a settings file and the flags alike (issue 30, item 7)
+    let d = Scratch::new("spelling");
+    let (json, _) = rendered(&d.0, &["--integrator", "octree", "--photons", "2000", "--set", "global.estimator=paper"]);
+    assert_eq!(setting(&json, "global.estimator"), "paper");
+    let (json, _) = rendered(&d.0, &["--integrator", "octree", "--photons", "2000", "--set", "global.estimator=geometry-area"]);
+    assert_eq!(setting(&json, "global.estimator"), "geometry_area");
+    let f = d.file("s.toml", "type = \"octree\"\nview = \"irradiance-all\"\n[caustic]\nenlarge = \"under-n-min\"\n");
+    let (json, _) = rendered(&d.0, &["--photons", "2000", "--settings", f.to_str().unwrap()]);
+    assert_eq!((setting(&json, "view"), setting(&json, "caustic.enlarge")), (&Value::from("irradiance_all"), &Value::from("under_n_min")));
+    let (json, _) = rendered(&d.0, &["--integrator", "octree", "--photons", "2000", "--view", "irradiance-all"]);
+    assert_eq!(setting(&json, "view"), "irradiance_all");
+    let (json, _) = rendered(&d.0, &["--reconstruction", "importance-sampled"]);
+    assert_eq!(json["render_settings"]["reconstruction"], "importance_sampled");
+    // a wrong value is still refused, naming the key
+    let err = failed(&d.0, &["--integrator", "octree", "--set", "global.estimator=geometry-arena"]);
+    assert!(err.contains("--set global.estimator=geometry-arena") && err.contains("geometry_arena"), "{err}");
 }
 
 #[test]

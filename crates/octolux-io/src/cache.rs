@@ -1,6 +1,6 @@
 //! Baked lighting files (`.oxc`, issue 13): the `octree` integrator's global and caustic
 //! octrees with their settings, and the fingerprint of the scene they were baked in. The byte
-//! layout is tabled in docs/baking.md; in short (all integers little-endian):
+//! layout is tabled in docs/guide/baking.md; in short (all integers little-endian):
 //!
 //! ```text
 //! header   magic "OXCACHE\0" (8) | format version u32 | reserved u32 = 0 | body length u64
@@ -22,7 +22,10 @@
 //! ```
 //!
 //! Version 4 has version 3's bytes with the `octree` integrator's settings of the termination
-//! rule (`mode`, `footprint`, ...; no `gather`, no `query`) in the meta JSON.
+//! rule (`mode`, `footprint`, ...; no `gather`, no `query`) in the meta JSON. Version 5 leaves
+//! the build's times out of the statistics (the `meta` and per-tree JSON): the same bake gives
+//! the same bytes, for any thread count and any run ([`TIMING_KEYS`]; the bake's JSON report
+//! holds the times).
 //!
 //! Reading checks, in this order and before any large allocation: the file size against the
 //! memory budget (twice the file: its bytes and the octrees), the length (at least a
@@ -50,7 +53,7 @@ const ANCHORS_BYTES: usize = 6 * (1 + ANCHOR_SAMPLES);
 /// The first 8 bytes of a cache file.
 pub const MAGIC: [u8; 8] = *b"OXCACHE\0";
 /// The format version this octolux writes and reads.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 /// Header bytes: magic, version, reserved, body length.
 pub const HEADER_BYTES: usize = 24;
 /// Trailer bytes: the CRC-32.
@@ -88,6 +91,14 @@ pub struct LoadedCache {
     pub file_bytes: usize,
 }
 
+/// Keys of the build statistics that hold times (seconds, or rates per second; the crate's
+/// convention names them `*_s`): they change from run to run, so a file does not hold them and
+/// reads them back as 0. A cache's bytes then depend only on the scene, the settings and the
+/// octolux version (test `two_identical_bakes_give_identical_bytes`).
+pub const TIMING_KEYS: [&str; 4] = ["t_photons_s", "t_octree_s", "t_c_s", "build_photons_per_s"];
+/// The per-tree statistics' times ([`TIMING_KEYS`]).
+pub const TREE_TIMING_KEYS: [&str; 1] = ["t_build_s"];
+
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Meta {
@@ -95,13 +106,60 @@ struct Meta {
     scene: String,
     backend: String,
     settings: OctreeIntegratorSettings,
-    stats: OctreeBuildStats,
+    /// [`OctreeBuildStats`] without [`TIMING_KEYS`] (nor the trees' [`TREE_TIMING_KEYS`]).
+    stats: serde_json::Value,
 }
 
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TreeMeta {
-    stats: OctreeStats,
+    /// [`OctreeStats`] without [`TREE_TIMING_KEYS`].
+    stats: serde_json::Value,
+}
+
+/// `stats` as JSON without the keys `keys` (the times).
+fn without_times(stats: &impl Serialize, keys: &[&str]) -> serde_json::Value {
+    // plain numbers, strings and lists: serialising cannot fail
+    let mut v = serde_json::to_value(stats).unwrap_or_default();
+    if let serde_json::Value::Object(m) = &mut v {
+        for k in keys {
+            m.remove(*k);
+        }
+    }
+    v
+}
+
+/// The statistics a file holds ([`without_times`]) back as the library's, times 0. A key
+/// of `keys` present in the file is refused (it holds no times since version 5).
+fn with_zero_times<T: serde::de::DeserializeOwned>(mut v: serde_json::Value, keys: &[&str], what: &str) -> Result<T, String> {
+    let serde_json::Value::Object(m) = &mut v else { return Err(format!("{what}: not a JSON object")) };
+    for k in keys {
+        if m.insert(k.to_string(), serde_json::json!(0.0)).is_some() {
+            return Err(format!("{what}: `{k}` is a time, which a cache file does not hold"));
+        }
+    }
+    serde_json::from_value(v).map_err(|e| format!("{what}: {e}"))
+}
+
+/// The build statistics as a file holds them: [`TIMING_KEYS`] and the trees' times left out.
+fn build_stats_json(stats: &OctreeBuildStats) -> serde_json::Value {
+    let mut v = without_times(stats, &TIMING_KEYS);
+    for tree in ["global", "caustic"] {
+        if let Some(t) = v.get_mut(tree).filter(|t| t.is_object()) {
+            *t = without_times(t, &TREE_TIMING_KEYS);
+        }
+    }
+    v
+}
+
+fn build_stats_from_json(mut v: serde_json::Value) -> Result<OctreeBuildStats, String> {
+    for tree in ["global", "caustic"] {
+        if let Some(t) = v.get_mut(tree).filter(|t| t.is_object()) {
+            let s: OctreeStats = with_zero_times(t.take(), &TREE_TIMING_KEYS, &format!("metadata, {tree} statistics"))?;
+            *t = serde_json::to_value(s).map_err(|e| e.to_string())?;
+        }
+    }
+    with_zero_times(v, &TIMING_KEYS, "metadata, statistics")
 }
 
 // ---------------------------------------------------------------- writing
@@ -127,7 +185,7 @@ fn put_json(out: &mut Vec<u8>, v: &impl Serialize) {
 }
 
 fn put_tree(out: &mut Vec<u8>, t: &OctreeParts) {
-    put_json(out, &TreeMeta { stats: t.stats.clone() });
+    put_json(out, &TreeMeta { stats: without_times(&t.stats, &TREE_TIMING_KEYS) });
     for v in t.origin.to_array() {
         put_f32(out, v);
     }
@@ -187,7 +245,7 @@ pub fn encode(c: &CacheFile) -> Vec<u8> {
         scene: c.info.scene.clone(),
         backend: c.info.backend.clone(),
         settings: c.parts.settings.clone(),
-        stats: c.parts.stats.clone(),
+        stats: build_stats_json(&c.parts.stats),
     };
     put_json(&mut body, &meta);
     body.push(1 + c.parts.caustic.is_some() as u8);
@@ -277,6 +335,7 @@ fn words(b: &[u8]) -> impl Iterator<Item = u32> + '_ {
 fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSettings) -> Result<OctreeParts, String> {
     let what = |w: &str| format!("{name} octree, {w}");
     let meta: TreeMeta = r.json(&what("statistics"))?;
+    let stats: OctreeStats = with_zero_times(meta.stats, &TREE_TIMING_KEYS, &what("statistics"))?;
     let origin = Vec3::new(r.f32(&what("origin"))?, r.f32(&what("origin"))?, r.f32(&what("origin"))?);
     let size = r.f32(&what("size"))?;
     let h_max = r.u32(&what("depth limit"))?;
@@ -301,18 +360,7 @@ fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSetti
         }
         a => return Err(what(&format!("atmosphere flag {a} (0: none, 1: present)"))),
     };
-    Ok(OctreeParts {
-        origin,
-        size,
-        h_max,
-        settings: settings.clone(),
-        nodes,
-        values,
-        facing: facing.to_vec(),
-        anchors,
-        stats: meta.stats,
-        atmosphere,
-    })
+    Ok(OctreeParts { origin, size, h_max, settings: settings.clone(), nodes, values, facing: facing.to_vec(), anchors, stats, atmosphere })
 }
 
 fn read_values(r: &mut Reader, storage: &str, compressed: &str, full: &str) -> Result<LeafValueParts, String> {
@@ -352,8 +400,8 @@ pub fn decode(bytes: &[u8], verify_checksum: bool) -> Result<CacheFile, String> 
     }
     if (1..FORMAT_VERSION).contains(&version) {
         return Err(format!(
-            "cache format version {version} was written by an older octolux (its integrator settings differ); this one reads \
-             version {FORMAT_VERSION}: re-bake it"
+            "cache format version {version} was written by an older octolux (its layout or settings differ); this one \
+             reads version {FORMAT_VERSION}: re-bake it"
         ));
     }
     if version != FORMAT_VERSION {
@@ -397,7 +445,7 @@ pub fn decode(bytes: &[u8], verify_checksum: bool) -> Result<CacheFile, String> 
     Ok(CacheFile {
         fingerprint,
         info: CacheInfo { octolux_version: meta.octolux_version, scene: meta.scene, backend: meta.backend },
-        parts: OctreeIntegratorParts { settings: meta.settings, global, caustic, stats: meta.stats },
+        parts: OctreeIntegratorParts { settings: meta.settings, global, caustic, stats: build_stats_from_json(meta.stats)? },
     })
 }
 

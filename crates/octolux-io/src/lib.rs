@@ -1,6 +1,6 @@
 //! octolux-io: everything that touches files — scene loaders (built-in scenes, Mitsuba 3 XML
 //! including the 0.5/0.6 dialect, OBJ/MTL, PLY), image input/output (OpenEXR, PNG, textures),
-//! the Mitsuba XML exporter and baked lighting files ([`cache`], docs/baking.md).
+//! the Mitsuba XML exporter and baked lighting files ([`cache`], docs/guide/baking.md).
 //!
 //! Errors name the file (and line where there is one); problems that can be skipped safely are
 //! returned as warnings in [`LoadedScene::warnings`] instead.
@@ -12,6 +12,7 @@ pub mod files;
 pub mod fuzzing;
 pub mod gltf_scene;
 pub mod image_io;
+pub mod job;
 pub mod mesh;
 pub mod mitsuba;
 pub mod paths;

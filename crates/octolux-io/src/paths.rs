@@ -1,4 +1,4 @@
-//! Camera path and object path files (`render --camera-path`, `--insert-path`; docs/baking.md):
+//! Camera path and object path files (`render --camera-path`, `--insert-path`; docs/guide/baking.md):
 //! read by the rule of [`crate::files`], parsed (camera paths as JSON or TOML by extension,
 //! object paths as JSON) and validated, every frame's pose included
 //! ([`CameraPath::validate`], [`ObjectPath::validate`]). Errors name the file. Shared by the

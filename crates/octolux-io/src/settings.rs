@@ -20,6 +20,8 @@
 //! density.r_max.absolute=30` replaces `{"relative": ...}` by `{"absolute": 30}`. The
 //! deserialization then decides, and a key it drops is reported as unknown too.
 
+pub mod reference;
+
 use crate::cache::LoadedCache;
 use crate::mitsuba::PATH_TRACERS;
 use octolux::integrators::IntegratorSettings;
@@ -201,6 +203,7 @@ fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Res
         flatten(&f.values, String::new(), &mut leaves);
         // an empty file (`{}`, an empty .toml) sets nothing
         for (key, value) in leaves.into_iter().filter(|(k, _)| !k.is_empty()) {
+            let value = enum_spelling(lookup(&base, &key), &value);
             writes.push(Write { source: source.clone(), key, value });
         }
     }
@@ -225,7 +228,7 @@ fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Res
             let slot = lookup_mut(&mut merged, key).expect("present");
             match (f.at_most, slot.as_f64(), f.value.as_f64()) {
                 (true, Some(cur), Some(v)) if cur <= v => {}
-                _ => *slot = f.value.clone(),
+                _ => *slot = enum_spelling(Some(slot), &f.value),
             }
             // kept to name the flag in a deserialization error
             writes.push(Write { source: f.flag.to_string(), key: key.clone(), value: f.value.clone() });
@@ -245,6 +248,7 @@ fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Res
             Err(_) if is_non_finite_word(raw) => bail!("--set {s}: {} is not a finite number", raw.trim()),
             Err(_) => Value::String(raw.to_string()),
         };
+        let value = enum_spelling(lookup(&base, key), &value);
         writes.push(Write { source: format!("--set {s}"), key: key.to_string(), value });
     }
     for w in &writes[set_writes..] {
@@ -430,7 +434,8 @@ fn place_checked(
         }
         return Ok(());
     }
-    if place(merged, created, &w.key, w.value.clone()) {
+    let value = enum_spelling(lookup(merged, &w.key), &w.value);
+    if place(merged, created, &w.key, value) {
         return Ok(());
     }
     let users: Vec<&str> = others.iter().filter(|(_, d)| accepts(d, &w.key)).map(|(n, _)| *n).collect();
@@ -555,9 +560,6 @@ pub fn get(settings: &IntegratorSettings, key: &str) -> Option<Value> {
     lookup(&serde_json::to_value(settings).ok()?, key).cloned()
 }
 
-/// The settings keys that shape the octrees: a render from a lighting cache may not change them.
-pub const BAKE_KEYS: [&str; 4] = ["photons", "global", "caustic", "max_depth"];
-
 /// A lighting cache's settings as the base layer of a render's ([`SettingsInput::base`]: an
 /// object without `type`). The render-time `view` starts from the integrator's default, not
 /// the bake's (a bake made with `--view leaves` made every later render write the leaves).
@@ -573,28 +575,64 @@ pub fn cache_base(c: &LoadedCache) -> Result<Value> {
     Ok(v)
 }
 
-/// Refuse resolved settings that differ from the cache's in a key that shaped the octrees:
-/// [`BAKE_KEYS`], and `mode` when `max_depth` is bounded (the photons' bounces then depend on
-/// the vertex the mode reads the cache at).
+/// Refuse resolved settings that differ from the cache's in a key that shaped its octrees
+/// (`IntegratorSettings::baked_keys`), naming each dotted key with both values.
 pub fn check_cache_settings(path: &Path, c: &LoadedCache, resolved: &IntegratorSettings) -> Result<()> {
-    let (baked, now) = (serde_json::to_value(c.integrator.settings())?, serde_json::to_value(resolved)?);
-    let bounded = baked.get("max_depth").and_then(Value::as_i64).is_some_and(|d| d >= 0);
-    let keys = BAKE_KEYS.iter().copied().chain(bounded.then_some("mode"));
-    let changed: Vec<&str> = keys.clone().filter(|k| baked.get(k) != now.get(k)).collect();
-    if !changed.is_empty() {
-        let free: Vec<&str> = match &baked {
-            Value::Object(m) => m.keys().map(String::as_str).filter(|k| *k != "type" && !keys.clone().any(|b| b == *k)).collect(),
-            _ => vec![],
-        };
-        bail!(
-            "lighting cache {}: the settings {} differ from the bake's, and they shape the octrees: re-bake with them, or drop \
-             them (with --cache only {} may change)",
-            path.display(),
-            changed.join(", "),
-            free.join(", ")
-        );
+    let settings = c.integrator.settings();
+    let keys = settings.baked_keys();
+    let (baked, now) = (serde_json::to_value(&settings)?, serde_json::to_value(resolved)?);
+    let mut changed = Vec::new();
+    for k in &keys {
+        differing_leaves(baked.get(*k), now.get(*k), k, &mut changed);
     }
-    Ok(())
+    if changed.is_empty() {
+        return Ok(());
+    }
+    let free: Vec<&str> = match &baked {
+        Value::Object(m) => m.keys().map(String::as_str).filter(|k| *k != "type" && !keys.contains(k)).collect(),
+        _ => vec![],
+    };
+    let names: Vec<&str> = changed.iter().map(|(k, _, _)| k.as_str()).collect();
+    let values: Vec<String> = changed.iter().map(|(k, now, baked)| format!("{k} = {now} here, {baked} in the bake")).collect();
+    bail!(
+        "lighting cache {}: the settings {} differ from the bake's ({}); they shaped its octrees: re-bake with them, or leave \
+         them out (with --cache only {} may change)",
+        path.display(),
+        names.join(", "),
+        values.join("; "),
+        free.join(", ")
+    )
+}
+
+/// The dotted leaf keys under `key` whose values differ, with the value now and the baked one.
+fn differing_leaves(baked: Option<&Value>, now: Option<&Value>, key: &str, out: &mut Vec<(String, String, String)>) {
+    let show = |v: Option<&Value>| v.map_or("nothing".to_string(), |v| v.to_string());
+    match (baked, now) {
+        (Some(Value::Object(b)), Some(Value::Object(n))) => {
+            let mut keys: Vec<&String> = b.keys().chain(n.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            for k in keys {
+                differing_leaves(b.get(k), n.get(k), &format!("{key}.{k}"), out);
+            }
+        }
+        (b, n) if b != n => out.push((key.to_string(), show(n), show(b))),
+        _ => {}
+    }
+}
+
+/// One spelling for every value: an enum value may be written with `-` for `_`
+/// (`geometry-area`, as a command-line value would be) wherever the settings hold a string:
+/// the flag, `--set`, a settings file and Python alike. Returns the value to write.
+fn enum_spelling(current: Option<&Value>, value: &Value) -> Value {
+    match (current, value) {
+        (Some(Value::String(_)), Value::String(s))
+            if s.contains('-') && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') =>
+        {
+            Value::String(s.replace('-', "_"))
+        }
+        _ => value.clone(),
+    }
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
 //! Where the shared scenes folder is: the scenes that tests, benchmarks and tools read but that
-//! are never copied into the repository (see `docs/benchmarks.md`).
+//! are never copied into the repository (see `docs/guide/benchmarks.md`), and the one table of
+//! scene aliases of the benches and examples ([`scene_alias`], `bench/scenes.json`).
 //!
 //! The shared folder is the one that contains `scenes/`. It is `$OCTOLUX_SHARED` when that
 //! variable is set (and not empty), else `../shared` relative to the root of the source tree
@@ -60,6 +61,60 @@ pub fn skip_line(what: &str, path: &Path) -> String {
     format!("skip: {what} ({} not found; set {SHARED_ENV})", path.display())
 }
 
+/// One entry of the scene aliases of the benches and examples (`bench/scenes.json`, the one
+/// table both read; the Python benches through `bench/scenes.py`).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+pub struct SceneAlias {
+    /// A built-in scene name, `shared:PATH` inside the shared scenes folder, or a path from the
+    /// repository root.
+    pub scene: String,
+    /// The `max_depth` every renderer uses on it (Mitsuba's meaning).
+    pub max_depth: i32,
+    /// The resolution of its reference image, `[width, height]`.
+    pub resolution: [u32; 2],
+    /// Its reference image, from the repository root.
+    pub reference: String,
+}
+
+impl SceneAlias {
+    /// What a loader takes: the built-in name or the file's path; `None` after one `skip:` line
+    /// when a shared scene is absent ([`shared_scene`]).
+    pub fn spec(&self) -> Option<String> {
+        match self.scene.strip_prefix("shared:") {
+            Some(rel) => shared_scene(rel).map(|p| p.to_string_lossy().into_owned()),
+            None if self.scene.contains('/') => Some(repo_root().join(&self.scene).to_string_lossy().into_owned()),
+            None => Some(self.scene.clone()),
+        }
+    }
+}
+
+/// The alias table's file, `bench/scenes.json` in the repository.
+pub fn aliases_file() -> PathBuf {
+    repo_root().join("bench").join("scenes.json")
+}
+
+/// The scene called `name` in the alias table (`None`: not an alias; a built-in name or a path
+/// is then taken as it is).
+pub fn scene_alias(name: &str) -> Result<Option<SceneAlias>, crate::IoError> {
+    #[derive(serde::Deserialize)]
+    struct Table {
+        scenes: std::collections::BTreeMap<String, SceneAlias>,
+    }
+    let path = aliases_file();
+    let text = crate::files::read_to_string(&path)?;
+    let mut table: Table = serde_json::from_str(&text).map_err(|e| crate::IoError::invalid(&path, e.to_string()))?;
+    Ok(table.scenes.remove(name))
+}
+
+/// What a loader takes for `name`: an alias's scene ([`SceneAlias::spec`]), else `name` itself;
+/// `None` when the alias names an absent shared scene (a `skip:` line was printed).
+pub fn scene_spec(name: &str) -> Result<Option<String>, crate::IoError> {
+    Ok(match scene_alias(name)? {
+        Some(a) => a.spec(),
+        None => Some(name.to_string()),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -69,6 +124,23 @@ mod tests {
         let root = repo_root();
         let manifest = std::fs::read_to_string(root.join("Cargo.toml")).expect("workspace Cargo.toml at the repository root");
         assert!(manifest.contains("[workspace]"), "{} is not the workspace root", root.display());
+    }
+
+    #[test]
+    fn the_alias_table_names_the_references_and_the_built_ins() {
+        let a = scene_alias("cbox").expect("the table reads").expect("cbox is an alias");
+        assert_eq!((a.scene.as_str(), a.max_depth, a.resolution), ("shared:mitsuba-tutorials-cbox/cbox.xml", 6, [128, 128]));
+        let b = scene_alias("cornell-box").unwrap().unwrap();
+        assert_eq!(b.spec().as_deref(), Some("cornell-box"));
+        assert_eq!(scene_alias("no-such-alias").unwrap(), None);
+        assert_eq!(scene_spec("model.obj").unwrap().as_deref(), Some("model.obj"));
+        // every reference the table names is committed
+        let text = std::fs::read_to_string(aliases_file()).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        for (name, e) in v["scenes"].as_object().unwrap() {
+            let r = repo_root().join(e["reference"].as_str().unwrap());
+            assert!(r.is_file(), "{name}: {} is not a file", r.display());
+        }
     }
 
     #[test]

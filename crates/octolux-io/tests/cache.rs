@@ -1,4 +1,4 @@
-//! Lighting cache files (`octolux_io::cache`, docs/baking.md): the bytes round-trip to an
+//! Lighting cache files (`octolux_io::cache`, docs/guide/baking.md): the bytes round-trip to an
 //! integrator that renders bit-identically, and no byte string panics: every prefix, every
 //! single-byte change (checksum fixed so that the parser sees it) and random mutations are
 //! refused or accepted with checked octrees.
@@ -30,6 +30,44 @@ fn baked(storage: Storage) -> (Scene, OctreeIntegrator, Vec<u8>) {
     let info = CacheInfo { octolux_version: "test".into(), scene: "cornell-spheres".into(), backend: scene.backend_name() };
     let bytes = cache::encode(&CacheFile { fingerprint: scene.lighting_fingerprint(), info, parts: o.to_parts() });
     (scene, o, bytes)
+}
+
+/// A bake of `baked(Storage::Compressed)` on a pool of `threads` workers.
+fn bake_on(threads: usize) -> (OctreeIntegrator, Vec<u8>) {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
+    let (_, o, bytes) = pool.install(|| baked(Storage::Compressed));
+    (o, bytes)
+}
+
+#[test]
+fn two_identical_bakes_give_identical_bytes() {
+    // the times differ between the runs (and the thread counts); the files must not
+    let (a, first) = bake_on(1);
+    let (b, second) = bake_on(2);
+    assert!(a.stats.t_c_s > 0.0 && b.stats.t_c_s > 0.0, "the bakes took time");
+    assert_eq!(first.len(), second.len(), "two identical bakes, two file sizes");
+    let diff = first.iter().zip(&second).position(|(x, y)| x != y);
+    assert!(diff.is_none(), "two identical bakes differ from byte {diff:?} on");
+    // every time of the statistics is one the file leaves out: a new `*_s` field would make
+    // the bytes depend on the run again
+    let times = |v: &serde_json::Value| -> Vec<String> {
+        let mut k: Vec<String> = v.as_object().map(|m| m.keys().filter(|k| k.ends_with("_s")).cloned().collect()).unwrap_or_default();
+        k.sort();
+        k
+    };
+    let sorted = |keys: &[&str]| -> Vec<String> {
+        let mut k: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
+        k.sort();
+        k
+    };
+    let stats = serde_json::to_value(&a.stats).expect("stats");
+    assert_eq!(times(&stats), sorted(&cache::TIMING_KEYS));
+    assert_eq!(times(&stats["global"]), sorted(&cache::TREE_TIMING_KEYS));
+    // read back: the times are 0, the rest is the bake's
+    let c = cache::decode(&first, true).expect("decodes");
+    assert_eq!((c.parts.stats.t_c_s, c.parts.stats.t_photons_s, c.parts.global.stats.t_build_s), (0.0, 0.0, 0.0));
+    assert_eq!(c.parts.stats.global.valid_leaves, a.stats.global.valid_leaves);
+    assert_eq!(c.parts.stats.photons_emitted, a.stats.photons_emitted);
 }
 
 fn fix_crc(b: &mut [u8]) {

@@ -1,6 +1,6 @@
 //! Catalogue of hostile inputs (issue 12): each case is a file a careless or malicious user could
 //! give, and the exact error it must produce — never an abort, a panic or an allocation the
-//! memory budget refuses. `docs/errors.md` lists the same cases.
+//! memory budget refuses. `docs/guide/errors.md` lists the same cases.
 //!
 //! Every test sets the same process-wide memory limit ([`LIMIT`]) so that messages are exact
 //! whatever the machine.

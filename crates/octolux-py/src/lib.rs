@@ -2,10 +2,10 @@
 //! package `octolux` (`python/octolux/__init__.py`), which turns settings dicts into `--set`
 //! writes, stats JSON into dicts and scene warnings into Python warnings.
 //!
-//! The bindings take the CLI's paths, not copies of them: scenes load through
-//! `octolux_io::load_scene`, settings resolve through `octolux_io::settings::resolve` (so a bad
-//! key raises the CLI's message), integrators build through `octolux::integrators::build`, and
-//! lighting caches read, check and write through `octolux_io::cache`.
+//! The bindings call the CLI's code, not copies of it: every step is `octolux_io::job`'s (the
+//! scene's load and preparation, the settings' resolution, so that a bad key raises the CLI's
+//! message, the cache's checks, the integrator's build, the bake with its volumetric values,
+//! `OUT.json`), and `render_to_files` is `octolux render` itself (the Dask farm's frames).
 //!
 //! Long work (loading, the photon pass, rendering) runs on a worker thread while the calling
 //! thread waits with the GIL released, checking for signals every 20 ms: Ctrl-C stops a render
@@ -15,15 +15,14 @@
 use numpy::{PyArray1, PyReadonlyArray3, PyUntypedArrayMethods};
 use octolux::accel::BackendKind;
 use octolux::image::Image;
-use octolux::integrators::{build, Integrator, IntegratorSettings};
 use octolux::math::Color;
-use octolux::render::{render_cancellable, RenderSettings};
-use octolux_io::cache::{self, CacheFile, CacheInfo};
-use octolux_io::settings::{self, keys, SettingsInput};
+use octolux::render::RenderSettings;
+use octolux_io::job::{self, bake as jbake, stats, Collect, IntegratorRequest, RenderOutcome};
+use octolux_io::settings::{keys, FlagSetting};
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
-use serde_json::{json, Value};
-use std::path::{Path, PathBuf};
+use serde_json::json;
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -111,7 +110,7 @@ impl Scene {
 }
 
 /// Load and prepare a scene: a built-in name, a Mitsuba XML file (with `defines`, Mitsuba's
-/// `-D name=value`), or an OBJ/PLY mesh.
+/// `-D name=value`), a glTF file, or an OBJ/PLY mesh.
 #[pyfunction]
 #[pyo3(signature = (path, defines = Vec::new(), resolution = None, backend = "auto"))]
 fn load_scene(
@@ -126,61 +125,43 @@ fn load_scene(
         octolux::budget::check_film(w as u64, h as u64).map_err(|e| error(format!("resolution: {e}")))?;
     }
     let never = AtomicBool::new(false);
-    let spec = path.to_string();
-    interruptible(py, None, &never, || -> Result<Scene, String> {
-        let loaded = octolux_io::load_scene(&spec, &defines).map_err(|e| format!("cannot load scene '{spec}': {e}"))?;
+    let spec = job::SceneSpec { scene: path.to_string(), defines, allow_outside_uris: false };
+    interruptible(py, None, &never, || -> job::Result<Scene> {
+        let fe = Collect::default();
+        let loaded = job::load(&spec, &fe)?;
         let mut desc = loaded.desc;
-        if let Some((w, h)) = resolution {
-            desc.film.width = w;
-            desc.film.height = h;
-        }
-        octolux::budget::check_film(desc.film.width as u64, desc.film.height as u64).map_err(|e| format!("scene '{spec}': {e}"))?;
+        job::set_film(&mut desc, resolution, &spec.scene)?;
         let hints = desc.hints.clone();
-        let scene = octolux::scene::Scene::prepare(desc, kind).map_err(|e| format!("cannot prepare scene '{spec}': {e}"))?;
         let mut warnings = loaded.warnings;
-        warnings.extend(scene.light_warning().map(String::from));
-        Ok(Scene { scene, spec: spec.clone(), hints, warnings, notes: loaded.notes })
+        let scene = job::prepare(desc, kind, &spec.scene, &fe, &mut warnings)?;
+        Ok(Scene { scene, spec: spec.scene.clone(), hints, warnings, notes: loaded.notes })
     })?
     .map_err(error)
 }
 
-/// What a call says of the integrator's settings besides its name.
-struct Layers<'a> {
+/// What a call says of the integrator's settings besides its name: `photons=` and
+/// `max_depth=` are shortcuts for their keys, as the CLI's flags are.
+fn request(
+    integrator: Option<&str>,
     seed: u64,
     photons: Option<u64>,
     max_depth: Option<i32>,
-    /// `KEY=VALUE` writes, as `--set` takes them.
-    sets: &'a [String],
-    file: Option<&'a Path>,
-}
-
-/// The integrator settings of one call, through the CLI's resolution.
-fn resolve(scene: &Scene, integrator: Option<&str>, base: Option<Value>, l: &Layers) -> PyResult<(IntegratorSettings, Vec<String>)> {
-    let Layers { seed, photons, max_depth, sets, file: settings_file } = *l;
-    let mut sets = sets.to_vec();
-    if let Some(d) = max_depth {
-        if d < -1 {
-            return Err(error(format!("max_depth must be -1 (unbounded) or at least 0, got {d}")));
-        }
-        sets.insert(0, format!("{}={d}", keys::MAX_DEPTH));
-    }
+    sets: Vec<String>,
+    file: Option<PathBuf>,
+) -> PyResult<IntegratorRequest> {
+    job::check_max_depth(max_depth, "max_depth").map_err(error)?;
+    let mut flags = Vec::new();
     if let Some(n) = photons {
-        sets.insert(0, format!("{}={n}", keys::PHOTON_COUNT));
+        flags.push(FlagSetting { flag: "photons=", only: None, keys: vec![keys::PHOTON_COUNT.into()], value: json!(n), at_most: false });
     }
-    let derived = if base.is_some() {
-        vec![]
-    } else {
-        vec![(keys::MAX_DEPTH, json!(scene.hints.max_depth.unwrap_or(-1))), (keys::PHOTON_SEED, json!(seed))]
-    };
-    let r =
-        settings::resolve(&SettingsInput { integrator, base, derived, file: settings_file, flags: vec![], sets: &sets }).map_err(error)?;
-    if let Some(n) = settings::get(&r.settings, keys::PHOTON_COUNT).and_then(|v| v.as_u64()) {
-        octolux::budget::check_photons(n).map_err(|e| error(format!("the photon count (photons.photons): {e}")))?;
+    if let Some(d) = max_depth {
+        flags.push(FlagSetting { flag: "max_depth=", only: None, keys: vec![keys::MAX_DEPTH.into()], value: json!(d), at_most: false });
     }
-    Ok((r.settings, r.warnings))
+    Ok(IntegratorRequest { integrator: integrator.map(String::from), settings_file: file, flags, sets, seed })
 }
 
-/// Render; returns the pixels (row-major rgb f32, `height*width*3`) and the stats as JSON.
+/// Render; returns the pixels (row-major rgb f32, `height*width*3`) and the stats as JSON (the
+/// CLI's `OUT.json`).
 #[pyfunction]
 #[pyo3(signature = (scene, integrator = None, spp = None, seed = 0, max_depth = None, photons = None, sets = Vec::new(),
                     settings_file = None, cache = None, allow_stale_cache = false, threads = None, time_budget = None))]
@@ -207,58 +188,53 @@ fn render<'py>(
     if let Some(b) = time_budget.filter(|b| !(b.is_finite() && *b > 0.0)) {
         return Err(error(format!("time_budget must be a positive number of seconds, got {b}")));
     }
+    let req = request(integrator, seed, photons, max_depth, sets, settings_file)?;
     let cancel = AtomicBool::new(false);
-    let layers = Layers { seed, photons, max_depth, sets: &sets, file: settings_file.as_deref() };
-    let t_build = Instant::now();
-    let (built, settings, mut warnings, report) = match &cache {
-        Some(path) => {
-            if let Some(n) = integrator.filter(|&n| n != "octree") {
-                return Err(error(format!("cache holds the octree integrator's lighting; integrator {n} cannot render from it")));
-            }
-            let c = cache::read(path).map_err(error)?;
-            let base = settings::cache_base(&c).map_err(error)?;
-            let (s, mut warnings) = resolve(scene, Some("octree"), Some(base), &layers)?;
-            settings::check_cache_settings(path, &c, &s).map_err(error)?;
-            let fp = scene.scene.lighting_fingerprint();
-            warnings.extend(cache::check_fingerprint(path, &c, &fp, &scene.spec, allow_stale_cache).map_err(error)?);
-            let report = json!({ "file": path.display().to_string(), "file_bytes": c.file_bytes, "baked_from": c.info });
-            let mut integrator = c.integrator;
-            // only the render-time keys may differ: check_cache_settings
-            if let (Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&mut integrator, &s) {
-                o.settings = s.clone();
-            }
-            integrator.prepare(&scene.scene);
-            (integrator, s, warnings, report)
-        }
-        None => {
-            let (s, warnings) = resolve(scene, integrator, None, &layers)?;
-            let built = interruptible(py, threads, &cancel, || build(&s, &scene.scene))?.map_err(error)?;
-            (built, s, warnings, Value::Null)
-        }
-    };
-    let build_s = t_build.elapsed().as_secs_f64();
-    let chosen = integrator.is_some() || cache.is_some() || settings_file.is_some();
-    if let Some(settings::IntegratorRemark::Warning(w)) =
-        settings::scene_integrator_remark(scene.hints.integrator.as_deref(), &scene.spec, settings.name(), chosen)
-    {
-        warnings.push(w);
-    }
-    let rs = RenderSettings { spp, seed, time_budget_s: time_budget, ..Default::default() };
-    let (img, stats) = interruptible(py, threads, &cancel, || render_cancellable(&scene.scene, &built, &rs, &|_, _| {}, Some(&cancel)))?;
-    let stats = json!({
-        "integrator": settings.name(),
-        "settings": settings,
-        "build_s": build_s,
-        "render": stats,
-        "cache": report,
-        "warnings": warnings,
-    });
+    let out = interruptible(py, threads, &cancel, || -> job::Result<(Image, String)> {
+        let fe = Collect::default();
+        let mut warnings = scene.warnings.clone();
+        let cache = cache.as_deref().map(|p| job::read_cache(p, allow_stale_cache)).transpose()?;
+        let settings = job::resolve_settings(&req, &scene.hints, cache.as_ref(), &fe, &mut warnings)?;
+        let chosen = req.integrator.is_some() || req.settings_file.is_some() || cache.is_some();
+        job::scene_integrator_remark(&scene.hints, &scene.spec, settings.name(), chosen, &fe, &mut warnings);
+        let from_cache = cache.is_some();
+        let made = job::make_integrator(&settings, &scene.scene, &scene.scene, cache, &scene.spec, &fe, &mut warnings)?;
+        let rs = RenderSettings { spp, seed, time_budget_s: time_budget, ..Default::default() };
+        let (img, rstats) = job::render_image(&scene.scene, &made.integrator, &rs, &fe, &cancel);
+        let threads = rayon::current_num_threads();
+        let file = stats::StatsFile {
+            octolux_version: env!("CARGO_PKG_VERSION"),
+            command_line: vec![],
+            scene: &scene.spec,
+            integrator: made.integrator.name(),
+            integrator_settings: serde_json::to_value(&settings).map_err(|e| job::JobError(e.to_string()))?,
+            backend: scene.scene.backend_name(),
+            threads,
+            triangles: scene.scene.triangle_count(),
+            seed,
+            render_settings: rs,
+            timings: stats::Timings { build_s: made.build_s, render_s: rstats.render_s, ..Default::default() },
+            samples_per_second: rstats.samples_per_second,
+            rays_per_second: rstats.rays_per_second,
+            render: &rstats,
+            cache_query_share: stats::query_share(&rstats, threads),
+            build: job::build_report(&made.integrator, from_cache),
+            render_report: made.integrator.render_report(),
+            warnings: &warnings,
+            partial: rstats.interrupted.then(|| stats::Partial::interrupted(&rstats)),
+            cache: made.cache,
+            frame: None,
+            insert: None,
+        };
+        Ok((img, serde_json::to_string(&file).map_err(|e| job::JobError(e.to_string()))?))
+    })?;
+    let (img, stats) = out.map_err(error)?;
     let pixels: Vec<f32> = img.data.iter().flat_map(|c| [c.x, c.y, c.z]).collect();
-    Ok((PyArray1::from_vec(py, pixels), stats.to_string()))
+    Ok((PyArray1::from_vec(py, pixels), stats))
 }
 
-/// Bake the `octree` integrator's lighting of `scene` into the cache file `output`; returns a
-/// JSON summary (bytes on disk, valid leaves, timings).
+/// Bake the `octree` integrator's lighting of `scene` into the cache file `output` (its JSON
+/// report beside it); returns the report as JSON.
 #[pyfunction]
 #[pyo3(signature = (scene, output, seed = 0, max_depth = None, photons = None, sets = Vec::new(), settings_file = None, threads = None))]
 #[allow(clippy::too_many_arguments)]
@@ -273,25 +249,112 @@ fn bake(
     settings_file: Option<PathBuf>,
     threads: Option<usize>,
 ) -> PyResult<String> {
-    let layers = Layers { seed, photons, max_depth, sets: &sets, file: settings_file.as_deref() };
-    let (s, warnings) = resolve(scene, Some("octree"), None, &layers)?;
-    let IntegratorSettings::Octree(os) = s else {
-        return Err(error("bake builds the octree integrator's lighting; the settings name another integrator"));
-    };
+    let req = request(Some("octree"), seed, photons, max_depth, sets, settings_file)?;
+    octolux_io::files::check_output(&output).map_err(error)?;
+    let report_path = jbake::report_path(&output).map_err(error)?;
+    octolux_io::files::check_output(&report_path).map_err(error)?;
     let never = AtomicBool::new(false);
-    let t = Instant::now();
-    let o = interruptible(py, threads, &never, || octolux::integrators::octree::OctreeIntegrator::build(&scene.scene, os))?
-        .map_err(|e| error(format!("cannot build the octrees: {e}")))?;
-    let bake_s = t.elapsed().as_secs_f64();
-    let info =
-        CacheInfo { octolux_version: env!("CARGO_PKG_VERSION").into(), scene: scene.spec.clone(), backend: scene.scene.backend_name() };
-    let valid = o.stats.global.valid_leaves + o.stats.caustic.as_ref().map_or(0, |c| c.valid_leaves);
-    let memory = o.stats.bytes;
-    let bytes = cache::encode(&CacheFile { fingerprint: scene.scene.lighting_fingerprint(), info, parts: o.to_parts() });
-    octolux_io::image_io::write_bytes_atomically(&output, &bytes).map_err(error)?;
-    Ok(json!({ "file": output.display().to_string(), "file_bytes": bytes.len(), "valid_leaves": valid, "memory_bytes": memory,
-               "bake_s": bake_s, "warnings": warnings })
-    .to_string())
+    let t0 = Instant::now();
+    let report = interruptible(py, threads, &never, || -> job::Result<jbake::BakeReport> {
+        let fe = Collect::default();
+        let mut warnings = scene.warnings.clone();
+        let settings = jbake::bake_settings(&req, &scene.hints, &fe, &mut warnings)?;
+        let mut baked = jbake::bake(&scene.scene, &scene.spec, settings, &fe)?;
+        baked.add_front_end(&[], 0.0, 0.0, warnings);
+        jbake::write(&baked, &output, &report_path, t0, &fe)
+    })?
+    .map_err(error)?;
+    serde_json::to_string(&report).map_err(error)
+}
+
+/// `octolux render` with the CLI's defaults, as a job: one image or the frames of a camera
+/// path or of the scene's sensors, each written as EXR, PNG and JSON. Returns the EXR paths
+/// and the warnings.
+#[pyfunction]
+#[pyo3(signature = (scene, output, defines = Vec::new(), resolution = None, backend = "auto", integrator = None, spp = None,
+                    seed = 0, max_depth = None, photons = None, sets = Vec::new(), settings_file = None, cache = None,
+                    allow_stale_cache = false, camera_path = None, sensors = false, frames = None, threads = None, time_budget = None))]
+#[allow(clippy::too_many_arguments)]
+fn render_to_files(
+    py: Python<'_>,
+    scene: String,
+    output: PathBuf,
+    defines: Vec<(String, String)>,
+    resolution: Option<(u32, u32)>,
+    backend: &str,
+    integrator: Option<&str>,
+    spp: Option<u32>,
+    seed: u64,
+    max_depth: Option<i32>,
+    photons: Option<u64>,
+    sets: Vec<String>,
+    settings_file: Option<PathBuf>,
+    cache: Option<PathBuf>,
+    allow_stale_cache: bool,
+    camera_path: Option<PathBuf>,
+    sensors: bool,
+    frames: Option<(u64, u64)>,
+    threads: Option<usize>,
+    time_budget: Option<f64>,
+) -> PyResult<(Vec<PathBuf>, Vec<String>)> {
+    if let Some((a, b)) = frames.filter(|&(a, b)| a == 0 || b < a) {
+        return Err(error(format!("frame range {a}..{b}: frames count from 1 and B must not be below A")));
+    }
+    // max_depth is the job's own (checked and written as the CLI's --max-depth)
+    let integrator = request(integrator, seed, photons, None, sets, settings_file)?;
+    let render = job::RenderJob {
+        scene: job::SceneSpec { scene, defines, allow_outside_uris: false },
+        integrator,
+        spp,
+        resolution,
+        max_depth,
+        time_budget_s: time_budget,
+        backend: self::backend(backend)?,
+        reconstruction: Default::default(),
+        sampler: Default::default(),
+        cache,
+        allow_stale_cache,
+        cache_scene: None,
+        camera_path,
+        sensors,
+        frames,
+        insert: None,
+        output,
+        command_line: vec!["octolux.render_to_files".into()],
+        warnings: vec![],
+    };
+    let cancel = AtomicBool::new(false);
+    let fe = Collect::default();
+    let outcome = interruptible(py, threads, &cancel, || job::run_render(&render, &fe, &cancel))?.map_err(error)?;
+    let warnings = fe.warnings.into_inner().unwrap_or_else(|e| e.into_inner());
+    match outcome {
+        RenderOutcome::Done(written) => Ok((written, warnings)),
+        RenderOutcome::Interrupted(msg) => Err(error(msg)),
+    }
+}
+
+/// The frames of a camera path (or of the scene's sensors), as `render_to_files` counts them.
+#[pyfunction]
+#[pyo3(signature = (scene, defines = Vec::new(), camera_path = None, sensors = false))]
+fn frame_count(
+    py: Python<'_>,
+    scene: String,
+    defines: Vec<(String, String)>,
+    camera_path: Option<PathBuf>,
+    sensors: bool,
+) -> PyResult<u64> {
+    let never = AtomicBool::new(false);
+    let spec = job::SceneSpec { scene, defines, allow_outside_uris: false };
+    interruptible(py, None, &never, || job::frames::frame_count(&spec, camera_path.as_deref(), sensors, &Collect::default()))?
+        .map_err(error)
+}
+
+/// Check an output image path (`OUT.exr`, with `OUT.png` and `OUT.json` beside it) by the CLI's
+/// rule, before any work: its folder exists and takes a file, nothing but a regular file is
+/// under the names, it ends in `.exr`.
+#[pyfunction]
+fn check_output(path: PathBuf) -> PyResult<()> {
+    job::output::Outputs::check(&path).map(|_| ()).map_err(error)
 }
 
 fn to_image(a: &PyReadonlyArray3<'_, f32>, what: &str) -> PyResult<Image> {
@@ -350,11 +413,14 @@ fn builtin_scenes() -> Vec<&'static str> {
 fn _octolux(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("OctoluxError", m.py().get_type::<OctoluxError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-    m.add("INTEGRATORS", IntegratorSettings::NAMES.to_vec())?;
+    m.add("INTEGRATORS", octolux::integrators::IntegratorSettings::NAMES.to_vec())?;
     m.add_class::<Scene>()?;
     m.add_function(wrap_pyfunction!(load_scene, m)?)?;
     m.add_function(wrap_pyfunction!(render, m)?)?;
     m.add_function(wrap_pyfunction!(bake, m)?)?;
+    m.add_function(wrap_pyfunction!(render_to_files, m)?)?;
+    m.add_function(wrap_pyfunction!(frame_count, m)?)?;
+    m.add_function(wrap_pyfunction!(check_output, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(write_exr, m)?)?;

@@ -1,7 +1,9 @@
-"""octolux.dask on a LocalCluster of 2 worker processes (issue 15, item 2): the frames equal a
-single-machine render bit for bit, with a worker killed in the middle of the job.
+"""octolux.dask on a LocalCluster of 2 worker processes: the frames, rendered in the workers'
+processes by the Python module, equal a single-machine `octolux render` bit for bit, with a
+worker killed in the middle of the job; a missing output folder is refused as the CLI refuses it.
 
-Needs the `octolux` binary: `$OCTOLUX_BIN` (tests/pytest.rs sets it to the one cargo built).
+Needs the `octolux` binary for the single-machine side: `$OCTOLUX_BIN` (tests/pytest.rs sets it
+to the one cargo built).
 """
 import json
 import os
@@ -12,6 +14,7 @@ from pathlib import Path
 import pytest
 from distributed import Client, LocalCluster
 
+import octolux
 from octolux.dask import render_frames
 
 BIN = os.environ.get("OCTOLUX_BIN", "")
@@ -53,9 +56,13 @@ def test_farm_equals_one_machine_with_a_worker_killed(tmp_path):
                 os.kill(victim, signal.SIGKILL)
                 killed.append(victim)
 
+        # the output folder must exist, as for `octolux render`
+        with pytest.raises(octolux.OctoluxError, match="output folder '.*farm' does not exist"):
+            render_frames(client, "cornell-box", str(tmp_path / "farm" / "f.exr"), camera_path=str(path))
+        (tmp_path / "farm").mkdir()
         written = render_frames(
             client, "cornell-box", str(tmp_path / "farm" / "f.exr"), camera_path=str(path), bake={"photons": 20000},
-            seed=1, render_args=RENDER, octolux_bin=BIN, on_frame=kill_one,
+            seed=1, resolution=(64, 48), spp=32, on_frame=kill_one,
         )
     assert killed, "no worker was killed"
     assert [p.name for p in written] == [p.name for p in one]

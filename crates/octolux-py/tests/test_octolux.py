@@ -4,6 +4,8 @@ Run by `cargo test -p octolux-py` (tests/pytest.rs builds the module into a venv
 hand: `pip install ./crates/octolux-py && pytest crates/octolux-py/tests`.
 """
 import json
+import os
+import subprocess
 import threading
 import time
 import _thread
@@ -16,6 +18,8 @@ import octolux
 
 ROOT = Path(__file__).resolve().parents[3]
 REFS = ROOT / "tests" / "refs"
+BIN = os.environ.get("OCTOLUX_BIN", "")
+needs_cli = pytest.mark.skipif(not Path(BIN).is_file(), reason="OCTOLUX_BIN is not an octolux binary")
 
 
 def test_readme_one_liner_renders_the_default_scene():
@@ -56,7 +60,9 @@ def test_stats_and_settings_dict():
     )
     assert img.shape == (32, 32, 3)
     assert stats["integrator"] == "octree"
-    assert stats["settings"]["photons"]["photons"] == 20000 and stats["settings"]["mode"] == "paper"
+    settings = stats["integrator_settings"]
+    assert settings["type"] == "octree" and settings["photons"]["photons"] == 20000 and settings["mode"] == "paper"
+    assert stats["build"]["photons_emitted"] == 20000 and stats["timings"]["build_s"] > 0
     assert stats["render"]["spp"] == 2 and stats["render"]["samples"] == 32 * 32 * 2
 
 
@@ -96,6 +102,35 @@ def test_bake_then_render_from_the_cache_equals_the_uncached_render(tmp_path):
     (tmp_path / "cut.oxc").write_bytes(data[: len(data) // 2])
     with pytest.raises(octolux.OctoluxError, match="cut.oxc"):
         octolux.render(scene, spp=1, cache=tmp_path / "cut.oxc")
+
+
+@needs_cli
+def test_the_cli_and_python_give_the_same_cache_and_the_same_images(tmp_path):
+    """One layer (octolux_io::job) under both: a bake through the CLI and one through Python
+    give identical bytes, volumetric values included, and so do their renders."""
+    cli = lambda *a: subprocess.run([BIN, *a, "-q"], check=True, capture_output=True)  # noqa: E731
+    cli("bake", "cornell-spheres", "-o", str(tmp_path / "cli.oxc"), "--photons", "20000", "--seed", "3")
+    report = octolux.bake(octolux.load_scene("cornell-spheres"), tmp_path / "py.oxc", seed=3, photons=20000)
+    a, b = (tmp_path / "cli.oxc").read_bytes(), (tmp_path / "py.oxc").read_bytes()
+    assert a == b, "the CLI's bake and Python's differ"
+    # the times are in the reports beside the caches, not in the files
+    cli_report = json.loads((tmp_path / "cli.json").read_text())
+    assert report["file_bytes"] == cli_report["file_bytes"] == len(a)
+    assert report["atmosphere"]["filled_leaves"] == cli_report["atmosphere"]["filled_leaves"] > 0
+    assert cli_report["timings"]["build_s"] > 0 and cli_report["build"]["t_c_s"] > 0
+    # renders from the caches: the CLI's EXR, Python's array and Python's files
+    common = ["--resolution", "40x30", "--spp", "2", "--seed", "3"]
+    cli("render", "cornell-spheres", "--cache", str(tmp_path / "cli.oxc"), "-o", str(tmp_path / "cli.exr"), *common)
+    img = octolux.render(octolux.load_scene("cornell-spheres", resolution=(40, 30)), spp=2, seed=3, cache=tmp_path / "py.oxc")
+    assert np.array_equal(octolux.read_exr(tmp_path / "cli.exr"), img)
+    octolux.render_to_files("cornell-spheres", tmp_path / "py.exr", spp=2, seed=3, resolution=(40, 30), cache=tmp_path / "py.oxc")
+    for ext in ("exr", "png"):
+        assert (tmp_path / f"cli.{ext}").read_bytes() == (tmp_path / f"py.{ext}").read_bytes(), ext
+    # and the uncached octree render, whose photons are traced in the call
+    cli("render", "cornell-spheres", "--integrator", "octree", "--photons", "20000", "-o", str(tmp_path / "cli-built.exr"), *common)
+    built = octolux.render("cornell-spheres", "octree", spp=2, seed=3, photons=20000, resolution=(40, 30))
+    assert np.array_equal(octolux.read_exr(tmp_path / "cli-built.exr"), built)
+    assert np.array_equal(built, img), "the cached render differs from the uncached one"
 
 
 def test_compare_and_exr_round_trip(tmp_path):

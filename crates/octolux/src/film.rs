@@ -24,7 +24,9 @@ pub enum Reconstruction {
     /// Uniform positions in the pixel, splatted with the filter's weights (Mitsuba 3's way).
     #[default]
     Splat,
-    /// Positions drawn from the filter, each sample in its own pixel.
+    /// Positions drawn from the filter, each sample in its own pixel (`importance` is the
+    /// command line's former spelling).
+    #[serde(alias = "importance")]
     ImportanceSampled,
 }
 

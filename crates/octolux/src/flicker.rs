@@ -1,6 +1,6 @@
 //! Temporal stability ("flicker") of a rendered frame sequence against a reference sequence of
 //! the same frames (issue 13, item 3; the method's case for a view-independent solution, paper
-//! §1 and §3; measurements in docs/baking.md).
+//! §1 and §3; measurements in docs/guide/baking.md).
 //!
 //! Two measures, both relative like [`crate::metrics`]'s relMSE (`ε` = [`REL_EPS`]), sums in f64:
 //!

@@ -20,6 +20,7 @@ pub mod scene;
 /// feature, which this crate's own dev-dependency on itself enables (never a user build).
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
+pub mod type_docs;
 
 pub use glam;
 pub use math::Color;

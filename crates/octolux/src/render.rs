@@ -127,7 +127,7 @@ where
 const CANCEL_EVERY: u32 = 16;
 
 /// [`render_film`] that stops when `cancel` becomes true (checked before each tile and every
-/// [`CANCEL_EVERY`] samples of each pixel, so a signal stops even one long tile): the pass
+/// `CANCEL_EVERY` samples of each pixel, so a signal stops even one long tile): the pass
 /// under way is dropped, and the image and statistics are those of the whole passes done.
 pub fn render_film_cancellable<F>(
     w: u32,

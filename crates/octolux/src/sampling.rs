@@ -39,7 +39,7 @@ pub enum SamplerKind {
     /// Owen-scrambled Sobol' points, padded per 2D slot ([`sobol`]): stratified in every
     /// slot over each power-of-two run of samples of a pixel. 1.2–1.7x lower relMSE than
     /// independent numbers at equal spp for `path`, 1.4–2.5x for `octree`; the default
-    /// (docs/performance.md).
+    /// (docs/lab/2026-11-30-performance.md).
     #[default]
     Sobol,
 }

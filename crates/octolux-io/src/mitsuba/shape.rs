@@ -8,7 +8,7 @@
 //! triangles are removed in world space with one warning; a mesh left without any triangle is
 //! skipped with one warning (Mitsuba 3 loads such files and renders nothing of them).
 //!
-//! Nothing vanishes without a word (issue 12; docs/errors.md, "No silent drop"): a singular
+//! Nothing vanishes without a word (issue 12; docs/guide/errors.md, "No silent drop"): a singular
 //! `to_world` (determinant 0: a zero scale) warns once, saying whether the shape was flattened
 //! or, left with zero area, skipped; an area emitter on a shape of zero area (a zero scale, a
 //! sphere of radius 0, a mesh of degenerate triangles) warns once at the emitter, since it emits

@@ -34,6 +34,7 @@ __all__ = [
     "load_scene",
     "read_exr",
     "render",
+    "render_to_files",
     "write_exr",
 ]
 
@@ -115,7 +116,8 @@ def render(
     stats: bool = False,
 ) -> Union[np.ndarray, Tuple[np.ndarray, Dict[str, Any]]]:
     """Render ``scene`` (a :class:`Scene`, a built-in name or a file) and return the image as
-    an (H, W, 3) float32 array of linear RGB; with ``stats=True``, also a dict of statistics.
+    an (H, W, 3) float32 array of linear RGB; with ``stats=True``, also a dict of statistics
+    (the ``OUT.json`` of ``octolux render``: ``integrator_settings``, ``render``, ``build``, ...).
 
     ``integrator`` is one of :data:`INTEGRATORS` (default ``path``); ``settings`` is a nested
     dict of that integrator's settings (the keys of ``octolux render --set``), applied after
@@ -156,7 +158,9 @@ def bake(
     threads: Optional[int] = None,
 ) -> Dict[str, Any]:
     """Trace the photons and build the ``octree`` integrator's octrees of ``scene``, and write
-    them to the lighting cache ``output`` (``octolux bake``); returns a summary dict."""
+    them to the lighting cache ``output`` (``octolux bake``: the same bytes for the same scene,
+    settings and seed); returns the bake's report (also written beside the cache as
+    ``NAME.json``: statistics, times, warnings)."""
     sc = _scene(scene, None)
     info = json.loads(
         _octolux.bake(
@@ -172,6 +176,58 @@ def bake(
     )
     _warn(info["warnings"])
     return info
+
+
+def render_to_files(
+    scene: PathLike,
+    output: PathLike,
+    integrator: Optional[str] = None,
+    spp: Optional[int] = None,
+    seed: int = 0,
+    *,
+    defines: Optional[Mapping[str, Any]] = None,
+    resolution: Optional[Tuple[int, int]] = None,
+    backend: str = "auto",
+    max_depth: Optional[int] = None,
+    photons: Optional[int] = None,
+    settings: Optional[Mapping[str, Any]] = None,
+    settings_file: Optional[PathLike] = None,
+    cache: Optional[PathLike] = None,
+    allow_stale_cache: bool = False,
+    camera_path: Optional[PathLike] = None,
+    sensors: bool = False,
+    frames: Optional[Tuple[int, int]] = None,
+    threads: Optional[int] = None,
+    time_budget: Optional[float] = None,
+) -> List[str]:
+    """``octolux render`` itself: render ``scene`` (a built-in name or a file) to ``output``
+    (``OUT.exr``, with ``OUT.png`` and ``OUT.json`` beside it), or the frames of
+    ``camera_path`` / of the scene's ``sensors`` (``frames``: first and last, from 1) to
+    ``OUT_0001.exr``, ... The files are the CLI's, byte for byte but the JSON's times and command
+    line. Returns the EXR paths written."""
+    written, warns = _octolux.render_to_files(
+        os.fspath(scene),
+        os.fspath(output),
+        [(str(k), _define_value(v)) for k, v in (defines or {}).items()],
+        None if resolution is None else tuple(resolution),
+        backend,
+        integrator,
+        spp,
+        seed,
+        max_depth,
+        photons,
+        _sets(settings),
+        None if settings_file is None else os.fspath(settings_file),
+        None if cache is None else os.fspath(cache),
+        allow_stale_cache,
+        None if camera_path is None else os.fspath(camera_path),
+        sensors,
+        None if frames is None else tuple(frames),
+        threads,
+        time_budget,
+    )
+    _warn(warns)
+    return list(written)
 
 
 def _image(x: Union[np.ndarray, PathLike]) -> np.ndarray:

@@ -51,6 +51,29 @@ def bake(
     settings_file: Optional[str] = ...,
     threads: Optional[int] = ...,
 ) -> str: ...
+def render_to_files(
+    scene: str,
+    output: str,
+    defines: Sequence[Tuple[str, str]] = ...,
+    resolution: Optional[Tuple[int, int]] = ...,
+    backend: str = ...,
+    integrator: Optional[str] = ...,
+    spp: Optional[int] = ...,
+    seed: int = ...,
+    max_depth: Optional[int] = ...,
+    photons: Optional[int] = ...,
+    sets: Sequence[str] = ...,
+    settings_file: Optional[str] = ...,
+    cache: Optional[str] = ...,
+    allow_stale_cache: bool = ...,
+    camera_path: Optional[str] = ...,
+    sensors: bool = ...,
+    frames: Optional[Tuple[int, int]] = ...,
+    threads: Optional[int] = ...,
+    time_budget: Optional[float] = ...,
+) -> Tuple[List[str], List[str]]: ...
+def frame_count(scene: str, defines: Sequence[Tuple[str, str]] = ..., camera_path: Optional[str] = ..., sensors: bool = ...) -> int: ...
+def check_output(path: str) -> None: ...
 def compare(image: npt.NDArray[np.float32], reference: npt.NDArray[np.float32]) -> str: ...
 def read_exr(path: str) -> Tuple[npt.NDArray[np.float32], int, int]: ...
 def write_exr(path: str, image: npt.NDArray[np.float32]) -> None: ...

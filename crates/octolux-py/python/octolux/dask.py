@@ -1,4 +1,4 @@
-"""Render the frames of an animation on a Dask cluster (issue 15, item 2).
+"""Render the frames of an animation on a Dask cluster.
 
     from distributed import Client
     from octolux.dask import render_frames
@@ -10,58 +10,44 @@ or from a shell: ``python -m octolux.dask scene.xml -o frames/f.exr --camera-pat
 --scheduler tcp://scheduler:8786 --photons 2000000 --spp 64``.
 
 How a job runs:
-1. The lighting is baked once (``octolux bake``, as one task on a worker), unless ``cache``
+1. The lighting is baked once (:func:`octolux.bake`, as one task on a worker), unless ``cache``
    names a file baked already. Its bytes are broadcast to the workers and named by their
    SHA-256: a worker writes them once to ``<tmp>/octolux-caches/<sha256>.oxc`` and every later
    task (of this job or another) with the same hash reuses that file.
-2. Each frame is one task: ``octolux render SCENE --cache FILE --frames i..i --seed S ...`` in a
-   private folder on the worker, whose output files (``f_0001.exr``, ``.png``, ``.json``) return
-   to the client as bytes. The client writes them under the names one machine would write,
-   each staged and renamed.
-3. A frame's image depends only on the cache, its camera and the seed (docs/baking.md), so the
-   EXR and PNG files are bit-identical to a single-machine ``octolux render --cache ...
-   --camera-path ...`` with the same seed; the JSON's timings and command line differ.
+2. Each frame is one task: :func:`octolux.render_to_files` (``octolux render``'s own job, in the
+   worker's process) with the cache, the frame and the seed, in a private folder on the worker,
+   whose output files (``f_0001.exr``, ``.png``, ``.json``) return to the client as bytes. The
+   client writes them under the names one machine would write, each staged and renamed.
+3. A frame's image depends only on the cache, its camera and the seed (docs/guide/baking.md),
+   so the EXR and PNG files are bit-identical to a single-machine ``octolux render --cache ...
+   --camera-path ...`` with the same seed; the JSON's times and command line differ.
 4. A task whose worker dies is run again elsewhere (``retries``, and Dask's own rescheduling of
    lost tasks); progress is printed as frames complete.
 
-Workers need the ``octolux`` binary (``octolux_bin``, else ``$OCTOLUX_BIN``, else ``octolux``
-on their ``PATH``) and the scene files at the same path (shared storage). Frames are the unit:
-tiles of one image are not split (the CLI renders whole images).
+Workers need the ``octolux`` Python module and the scene files at the same path (shared
+storage). The output folder must exist, as for ``octolux render``. Frames are the unit: tiles
+of one image are not split.
 """
 from __future__ import annotations
 
 import argparse
 import hashlib
 import os
-import re
-import shutil
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple
 
 __all__ = ["render_frames"]
 
 
-def _bin(octolux_bin: Optional[str]) -> str:
-    b = octolux_bin or os.environ.get("OCTOLUX_BIN") or shutil.which("octolux")
-    if not b:
-        raise RuntimeError("no octolux binary: pass octolux_bin=, set OCTOLUX_BIN, or put `octolux` on the PATH")
-    return b
+def _bake_task(scene: str, defines: Mapping[str, Any], seed: int, bake: Mapping[str, Any]) -> bytes:
+    import octolux
 
-
-def _run(cmd: Sequence[str]) -> None:
-    p = subprocess.run(list(cmd), capture_output=True, text=True)
-    if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed ({p.returncode}):\n{p.stderr.strip()}")
-
-
-def _bake_task(bin_: str, scene: str, args: Sequence[str]) -> bytes:
     with tempfile.TemporaryDirectory(prefix="octolux-bake-") as d:
         out = Path(d) / "lighting.oxc"
-        _run([bin_, "bake", scene, "-o", str(out), "-q", *args])
+        octolux.bake(octolux.load_scene(scene, defines=defines), out, seed, **bake)
         return out.read_bytes()
 
 
@@ -79,10 +65,12 @@ def _cache_file(digest: str, data: bytes) -> Path:
     return path
 
 
-def _frame_task(bin_: str, scene: str, digest: str, data: bytes, index: int, name: str, args: Sequence[str]) -> Dict[str, bytes]:
+def _frame_task(scene: str, digest: str, data: bytes, index: int, name: str, kwargs: Mapping[str, Any]) -> Dict[str, bytes]:
+    import octolux
+
     cache = _cache_file(digest, data)
     with tempfile.TemporaryDirectory(prefix="octolux-frame-") as d:
-        _run([bin_, "render", scene, "--cache", str(cache), "--frames", f"{index}..{index}", "-o", str(Path(d) / name), "-q", *args])
+        octolux.render_to_files(scene, Path(d) / name, cache=cache, frames=(index, index), **kwargs)
         return {p.name: p.read_bytes() for p in sorted(Path(d).iterdir())}
 
 
@@ -104,8 +92,9 @@ def render_frames(
     bake: Optional[Mapping[str, Any]] = None,
     seed: int = 0,
     spp: Optional[int] = None,
-    render_args: Sequence[str] = (),
-    octolux_bin: Optional[str] = None,
+    resolution: Optional[Tuple[int, int]] = None,
+    defines: Optional[Mapping[str, Any]] = None,
+    render: Optional[Mapping[str, Any]] = None,
     retries: int = 3,
     progress: bool = True,
     on_frame: Optional[Callable[[int], None]] = None,
@@ -114,26 +103,32 @@ def render_frames(
     scene's ``<sensor>``s with ``sensors=True``) on the Dask ``client``; returns the EXR paths.
 
     The lighting comes from ``cache`` (a file ``octolux bake`` wrote), else it is baked once on
-    the cluster with ``bake`` (``{"photons": N, "settings": FILE, "set": ["KEY=VALUE", ...]}``).
-    ``render_args`` are further ``octolux render`` arguments (``--resolution``, ``-D``, ...).
+    the cluster with ``bake``: keyword arguments of :func:`octolux.bake` (``photons``,
+    ``settings``, ``settings_file``, ``max_depth``). ``render`` holds further keyword arguments
+    of :func:`octolux.render_to_files` (``settings``, ``max_depth``, ``time_budget``, ...).
     ``on_frame(i)`` is called on the client as each frame's files are written.
     """
+    import octolux
     from distributed import as_completed
 
     if (camera_path is None) == (not sensors):
         raise ValueError("give exactly one of camera_path= or sensors=True")
-    bin_ = _bin(octolux_bin)
     scene = os.path.abspath(scene) if os.path.exists(scene) else scene
     out = Path(output).resolve()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    common = ["--seed", str(seed), *render_args]
+    # the CLI's rule for the output set, before any work (the folder must exist)
+    octolux._octolux.check_output(str(out))
+    defines = dict(defines or {})
+    kwargs: Dict[str, Any] = {"seed": seed, "defines": defines, **dict(render or {})}
     if spp is not None:
-        common += ["--spp", str(spp)]
+        kwargs["spp"] = spp
+    if resolution is not None:
+        kwargs["resolution"] = tuple(resolution)
     if camera_path is not None:
-        common += ["--camera-path", os.path.abspath(camera_path)]
+        kwargs["camera_path"] = os.path.abspath(camera_path)
     else:
-        common += ["--sensors"]
-    count = _frame_count(bin_, scene, common)
+        kwargs["sensors"] = True
+    defs = [(str(k), octolux._define_value(v)) for k, v in defines.items()]
+    count = octolux._octolux.frame_count(scene, defs, kwargs.get("camera_path"), sensors)
     first, last = frames or (1, count)
     if not (1 <= first <= last <= count):
         raise ValueError(f"frames {first}..{last}: the animation has frames 1..{count}")
@@ -142,21 +137,14 @@ def render_frames(
     if cache is not None:
         data = Path(cache).read_bytes()
     else:
-        bake_args = ["--seed", str(seed)]
-        for k, v in (bake or {}).items():
-            if k == "set":
-                for s in v:
-                    bake_args += ["--set", s]
-            else:
-                bake_args += [f"--{k.replace('_', '-')}", str(v)]
-        data = client.submit(_bake_task, bin_, scene, bake_args, pure=False, retries=retries).result()
+        data = client.submit(_bake_task, scene, defines, seed, dict(bake or {}), pure=False, retries=retries).result()
         if progress:
             print(f"octolux.dask: baked {len(data)} bytes in {time.monotonic() - t0:.1f} s", file=sys.stderr)
     digest = hashlib.sha256(data).hexdigest()
     shipped = client.scatter(data, broadcast=True, hash=False)
     tasks = {
         client.submit(
-            _frame_task, bin_, scene, digest, shipped, i, out.name, common, key=f"octolux-frame-{digest[:12]}-{seed}-{i}-{out.name}", retries=retries
+            _frame_task, scene, digest, shipped, i, out.name, kwargs, key=f"octolux-frame-{digest[:12]}-{seed}-{i}-{out.name}", retries=retries
         ): i
         for i in range(first, last + 1)
     }
@@ -165,7 +153,7 @@ def render_frames(
     for fut in as_completed(tasks):
         i = tasks[fut]
         files = fut.result()
-        # the CLI named them as one machine does (OUT_0001.exr, .png, .json)
+        # named as one machine names them (OUT_0001.exr, .png, .json)
         exrs = [name for name in files if name.endswith(".exr")]
         if len(exrs) != 1:
             raise RuntimeError(f"frame {i}: the worker returned {sorted(files)}, not one EXR")
@@ -180,36 +168,26 @@ def render_frames(
     return sorted(written)
 
 
-def _frame_count(bin_: str, scene: str, common: Sequence[str]) -> int:
-    """The animation's frame count, as the CLI counts it: asked for more frames than any
-    animation has, it refuses, saying how many there are (after loading the scene)."""
-    with tempfile.TemporaryDirectory(prefix="octolux-count-") as d:
-        cmd = [bin_, "render", scene, *common, "--frames", f"1..{2**63}", "-q", "-o", str(Path(d) / "count.exr")]
-        p = subprocess.run(cmd, capture_output=True, text=True)
-    m = re.search(r"makes (\d+) frames", p.stderr)
-    if not m:
-        raise RuntimeError(f"cannot count the frames of {scene}: {p.stderr.strip()}")
-    return int(m.group(1))
-
-
-def main(argv: Optional[Sequence[str]] = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m octolux.dask", description=__doc__.split("\n\n")[0])
-    ap.add_argument("scene")
+def main(argv: Optional[List[str]] = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m octolux.dask", description=(__doc__ or "").split("\n\n")[0])
+    ap.add_argument("scene", help="a built-in scene name or a scene file (at the same path on every worker)")
     ap.add_argument("-o", "--output", required=True, help="frame file pattern, e.g. frames/f.exr -> frames/f_0001.exr")
-    ap.add_argument("--camera-path")
-    ap.add_argument("--sensors", action="store_true")
-    ap.add_argument("--frames", help="A..B (both included)")
-    ap.add_argument("--cache", help="a lighting cache baked already")
+    ap.add_argument("--camera-path", help="camera path file (JSON or TOML keyframes)")
+    ap.add_argument("--sensors", action="store_true", help="render every <sensor> of the scene file instead")
+    ap.add_argument("--frames", help="render frames A..B only (from 1, both included)")
+    ap.add_argument("--cache", help="a lighting cache baked already (default: bake one on the cluster)")
     ap.add_argument("--photons", type=int, help="photons of the bake (when no --cache)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--spp", type=int)
+    ap.add_argument("--seed", type=int, default=0, help="seed of the render and of the bake's photons")
+    ap.add_argument("--spp", type=int, help="samples per pixel (default: the scene's, else 64)")
+    ap.add_argument("--resolution", help="image size WxH (default: the scene's film)")
+    ap.add_argument("-D", dest="define", action="append", default=[], metavar="NAME=VALUE", help="a Mitsuba <default> parameter")
     ap.add_argument("--scheduler", help="address of a Dask scheduler (default: a LocalCluster on this machine)")
-    ap.add_argument("--octolux-bin")
-    a, rest = ap.parse_known_args(argv)
+    a = ap.parse_args(argv)
     from distributed import Client, LocalCluster
 
     client = Client(a.scheduler) if a.scheduler else Client(LocalCluster())
     frames = tuple(int(x) for x in a.frames.split("..")) if a.frames else None
+    resolution = tuple(int(x) for x in a.resolution.lower().split("x")) if a.resolution else None
     render_frames(
         client,
         a.scene,
@@ -221,8 +199,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         bake={"photons": a.photons} if a.photons else None,
         seed=a.seed,
         spp=a.spp,
-        render_args=rest,
-        octolux_bin=a.octolux_bin,
+        resolution=resolution,  # type: ignore[arg-type]
+        defines=dict(d.split("=", 1) for d in a.define),
     )
     return 0
 

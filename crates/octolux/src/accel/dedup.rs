@@ -1,4 +1,4 @@
-//! Identical triangles, dropped before any backend builds (issue 12, item 8; docs/errors.md,
+//! Identical triangles, dropped before any backend builds (issue 12, item 8; docs/guide/errors.md,
 //! "Geometry").
 //!
 //! Two triangles are identical when they have the same three corner positions, in any order,

@@ -17,7 +17,7 @@
 //! The C structs below replicate `rtcore_ray.h`/`rtcore_common.h` of Embree 3.13 built with the
 //! default `RTC_MAX_INSTANCE_LEVEL_COUNT = 1` and `RTC_MIN_WIDTH = 0` (what every distribution
 //! ships): `RTCRayHit` is 80 bytes aligned to 16, `RTCIntersectContext` is 24 bytes. The inline
-//! `rtcInitIntersectContext` is replicated by [`IntersectContext::new`].
+//! `rtcInitIntersectContext` is replicated by `IntersectContext::new`.
 //!
 //! Thread safety: Embree documents `rtcIntersect1`/`rtcOccluded1` as safe to call concurrently
 //! on a committed scene; the scene is never modified after [`EmbreeAccel::build`], hence the

@@ -88,7 +88,7 @@ impl ChristensenCache {
 /// distance 0 it is always gathered, so counting it measures `n_max` photons in the disk of the
 /// other `n_max − 1` and inflates the estimate by `n / (n − 2)` rather than the `n / (n − 1)`
 /// of an estimate at an arbitrary point (photons of a uniform density: +4.2% against +2.0% at
-/// `n_max` = 50; the test below, and the furnaces in docs/performance.md "The sampler"). So
+/// `n_max` = 50; the test below, and the furnaces in docs/guide/performance.md "The sampler"). So
 /// `n_max + 1` photons are gathered and one at distance 0 (the photon itself) is dropped; if
 /// there is none (the photon's own direction fails the normal test), the farthest is.
 pub fn estimate_at_photon(map: &PhotonTree, ph: &Photon, density: Density, scratch: &mut Vec<Neighbor>) -> (Color, f32, usize) {

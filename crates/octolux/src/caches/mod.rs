@@ -5,7 +5,7 @@
 //!   bytes, queried with an overlap-volume blend.
 //! - [`probes`]: adaptive grids of SH irradiance probes (Unreal's volumetric lightmap,
 //!   Unity's Adaptive Probe Volumes) from the same photons, for the bytes-against-error
-//!   comparison (`docs/baking.md`).
+//!   comparison (`docs/guide/baking.md`).
 //! - [`kdtree`], [`ward`], [`christensen`]: the k-nearest-neighbour photon search and the
 //!   paper's baselines (§9: Ward's irradiance cache, Christensen's irradiance photons).
 

@@ -62,6 +62,24 @@ impl IntegratorSettings {
         })
     }
 
+    /// The keys whose values a lighting cache fixes (the `octree` integrator's, docs/guide/
+    /// baking.md): the photon pass, both octrees, `max_depth`, and `mode` when `max_depth` is
+    /// bounded (the photons' bounces then depend on the vertex at which the mode reads the
+    /// cache). A render from a cache may change every other key. Empty for the integrators
+    /// that have no cache file.
+    pub fn baked_keys(&self) -> Vec<&'static str> {
+        match self {
+            IntegratorSettings::Octree(o) => {
+                let mut keys = vec!["photons", "global", "caustic", "max_depth"];
+                if o.max_depth >= 0 {
+                    keys.push("mode");
+                }
+                keys
+            }
+            _ => vec![],
+        }
+    }
+
     /// The integrator's name (the serde tag).
     pub fn name(&self) -> &'static str {
         match self {
@@ -108,7 +126,7 @@ pub fn build(settings: &IntegratorSettings, scene: &Scene) -> Result<Integrator,
     })
 }
 
-/// The `octree` integrator from prebuilt octrees (a cache file, docs/baking.md): no photon is
+/// The `octree` integrator from prebuilt octrees (a cache file, docs/guide/baking.md): no photon is
 /// traced; the parts are checked ([`OctreeIntegrator::from_parts`]). The CLI, tests (and
 /// later Python) share this one path, as they share [`build`].
 pub fn build_from_parts(parts: OctreeIntegratorParts) -> Result<Integrator, IntegratorError> {

@@ -50,7 +50,7 @@ pub fn li(
 /// index, k)`), the light reflected towards `p` by the surface each one meets (a ray meeting
 /// an emitter counts 0: only reflected light, as the photon maps' global octree holds it),
 /// times π. Returns the estimate and the standard error of its channel mean. The truth of the
-/// free-space comparisons (`docs/baking.md`, "Bytes against error").
+/// free-space comparisons (`docs/guide/baking.md`, "Bytes against error").
 pub fn indirect_irradiance(
     settings: &PathSettings,
     scene: &Scene,

@@ -45,6 +45,8 @@ const PILOT_STREAM: u64 = 0x0050_494c_4f54; // "PILOT"
 pub struct PhotonSettings {
     /// Photon paths emitted from the lights.
     pub photons: u64,
+    /// Seed of the photon pass; the front ends set it to the render's `--seed` unless it is
+    /// given (so a render and its bake with one seed agree).
     pub seed: u64,
     /// Longest photon path in bounces (safety net; Russian roulette ends most paths earlier).
     pub max_bounces: u32,

@@ -1,4 +1,4 @@
-//! Camera animation (issue 13, docs/baking.md): a path of keyframes, interpolated, sampled at
+//! Camera animation (issue 13, docs/guide/baking.md): a path of keyframes, interpolated, sampled at
 //! `fps` into numbered frames rendered from one baked lighting solution.
 //!
 //! Interpolation: position and target follow a Catmull-Rom spline through the keyframes

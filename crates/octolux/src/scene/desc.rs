@@ -76,7 +76,7 @@ impl TriMesh {
             .sum()
     }
 
-    /// Mitsuba's `rectangle`: the square [-1,1]² in the z = 0 plane, normal +z, uv in [0,1]².
+    /// Mitsuba's `rectangle`: the square \[-1,1\]² in the z = 0 plane, normal +z, uv in \[0,1\]².
     pub fn rectangle(to_world: &Mat4) -> TriMesh {
         let mut m = TriMesh {
             positions: vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)],

@@ -1,4 +1,4 @@
-//! What a baked lighting solution depends on (issue 13, docs/baking.md): three 64-bit
+//! What a baked lighting solution depends on (issue 13, docs/guide/baking.md): three 64-bit
 //! fingerprints of a prepared scene, kept apart so that a refused cache can say what changed.
 //!
 //! - `geometry`: every vertex position, normal and uv, every triangle and the shape it belongs

@@ -1,4 +1,4 @@
-//! The motion of an object inserted into baked lighting (issue 13, item 5; docs/baking.md
+//! The motion of an object inserted into baked lighting (issue 13, item 5; docs/guide/baking.md
 //! "Inserted objects"): keyframes of position, rotation about the vertical axis and scale,
 //! sampled at `fps` into numbered frames as a camera path is (`camera_path.rs`: frame `i` at
 //! `t_first + (i − 1) / fps`, the last one not after `t_last`).

@@ -1,7 +1,7 @@
 //! Values in the atmospheric cells: the volumetric solution the paper names as future work
 //! (§10: "diffusing radiance into [the atmospheric cells] would make the solution volumetric
 //! and allow inserting and moving objects in a lit scene"); issue 13, item 4; measured in
-//! docs/baking.md ("A volumetric solution").
+//! docs/guide/baking.md ("A volumetric solution").
 //!
 //! # What is diffused
 //! A valid leaf's matrix `k` (one of `+X, −X, +Y, −Y, +Z, −Z`) is the irradiance vector of the

@@ -315,7 +315,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         let cmin = self.view.cell_min(leaf.depth, leaf.ijk);
         let mean = super::Anchor::encode((p / k).as_vec3(), (n / k).as_vec3(), cmin, s);
         // the sampled photons keep their incident direction (the leak test looks from the
-        // query point where their light came from, docs/octree.md "Leak control")
+        // query point where their light came from, docs/guide/octree.md "Leak control")
         let samples = std::array::from_fn(|j| {
             let i = leaf.lo + ((count as u64 * (2 * j as u64 + 1)) / (2 * super::ANCHOR_SAMPLES as u64)) as u32;
             super::Anchor::encode(self.pos[i as usize], self.recs[i as usize].w().normalize_or_zero(), cmin, s)

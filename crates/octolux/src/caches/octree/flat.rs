@@ -1,5 +1,5 @@
 //! The query's leaves as flat lists (the §7 blend, without the tree walk; issue 14 item 4,
-//! `docs/performance.md` "The octree's query").
+//! `docs/lab/2026-11-30-performance.md` "The octree's query").
 //!
 //! A query at `P` blends the valid leaves that the box `V = P ± h` meets ([`Octree::irradiance`]).
 //! `V` is centred in the leaf `L` holding `P`, so every leaf it meets meets `L`'s cell grown by

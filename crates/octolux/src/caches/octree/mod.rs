@@ -57,7 +57,7 @@
 //!
 //! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices; plus
 //! 1 byte of facing bits and 30 bytes of [`LeafAnchors`] per valid leaf. As plain data for
-//! cache files: `parts.rs` ([`Octree::to_parts`], [`Octree::from_parts`], docs/baking.md).
+//! cache files: `parts.rs` ([`Octree::to_parts`], [`Octree::from_parts`], docs/guide/baking.md).
 //!
 //! # Depth from the scene's scale
 //! `h_max = auto` ([`Depth::Auto`], the `octree` integrator's default for its global tree)
@@ -71,7 +71,7 @@
 //! leaf keeps [`LeafAnchors`] (mean photon position and normal, four photons with their
 //! incident directions), and [`Octree::irradiance_where`] lets the caller drop the leaves it
 //! cannot see from the query point, or scale down the light it cannot receive (the `octree`
-//! integrator casts rays to and along the sampled photons, `docs/octree.md`). [`LeafPlanes`]
+//! integrator casts rays to and along the sampled photons, `docs/guide/octree.md`). [`LeafPlanes`]
 //! (`planes.rs`) keeps, per leaf, the few planes that hold every surface within reach of
 //! those rays, when there are such planes: most rays are then answered without casting them.
 
@@ -177,7 +177,7 @@ pub struct LeafInfo {
 }
 
 /// Where the photons of a valid leaf lie, for the leak test of the query
-/// ([`Octree::irradiance_where`]; `docs/octree.md`, "Leak control"). 6 bytes per valid leaf,
+/// ([`Octree::irradiance_where`]; `docs/guide/octree.md`, "Leak control"). 6 bytes per valid leaf,
 /// plain data (a cache file stores it as is).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(C)]

@@ -1,5 +1,5 @@
 //! The octree as plain data, for cache files (issue 13; the byte format is
-//! `octolux_io::cache`, docs/baking.md): [`Octree::to_parts`] and [`Octree::from_parts`].
+//! `octolux_io::cache`, docs/guide/baking.md): [`Octree::to_parts`] and [`Octree::from_parts`].
 //!
 //! [`OctreeParts`] is the one place to extend when a leaf gains data: whatever the query reads
 //! must be a field here (or derived from one, as the per-depth cell edges, the Morton scale

@@ -1,4 +1,4 @@
-//! Leaves around which the scene is a single plane (leak control, `docs/octree.md` "Leak
+//! Leaves around which the scene is a single plane (leak control, `docs/guide/octree.md` "Leak
 //! control"; the blend is the paper's §7).
 //!
 //! The leak test casts rays from a query point `P` towards and along a leaf's sampled photons.

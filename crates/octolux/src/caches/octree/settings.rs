@@ -117,7 +117,7 @@ impl<'de> Deserialize<'de> for Depth {
 /// Levels of headroom of the automatic depth below the depth of the *average* leaf: with the
 /// rounding up, leaves may still split to `n_max` where the photon density is 32 to 128 times
 /// the scene's average (see [`auto_depth`]). Measured (160x90 and 128², 250k and 1M photons,
-/// `docs/octree.md`): 1.5 levels left veach-lamp's bright lamp too coarse at 250k photons
+/// `docs/guide/octree.md`): 1.5 levels left veach-lamp's bright lamp too coarse at 250k photons
 /// (relMSE 0.96 against 0.48 one level deeper) and sponza at 1M (0.0117 against 0.0095);
 /// one more level changed nothing on the Cornell boxes, whose leaves stop splitting first.
 pub const AUTO_HEADROOM: f64 = 2.5;

@@ -47,7 +47,7 @@ pub struct Flights<'a> {
 impl<'a> Flights<'a> {
     /// Bucket the flights (`lengths[i]`: flight length of `photons[i]`, world units) over the
     /// cube at `origin` of edge `size`, in cells of about `cell` (grown to fit
-    /// [`MAX_ENTRIES`] and at most 256 cells per axis).
+    /// `MAX_ENTRIES` and at most 256 cells per axis).
     pub fn new(photons: &'a [Photon], lengths: &'a [f32], origin: Vec3, size: f32, cell: f32) -> Flights<'a> {
         assert_eq!(photons.len(), lengths.len());
         let total: f64 = lengths.iter().map(|&l| if l.is_finite() { l.min(2.0 * size) as f64 } else { 0.0 }).sum();

@@ -1,6 +1,6 @@
 //! Adaptive grids of SH irradiance probes, as the production engines bake them for dynamic
 //! objects, built from the same photons as the octree: the comparison of issue 13, item 6
-//! (`docs/baking.md`, "Bytes against error"). Not a renderer path: a measuring stick for the
+//! (`docs/guide/baking.md`, "Bytes against error"). Not a renderer path: a measuring stick for the
 //! paper's representation (its §1 and §10 claim a compact volumetric description of incident
 //! light; this is what the industry stores instead).
 //!

@@ -27,7 +27,7 @@
 //! caustic map.
 
 use super::priming::{Primer, SampleRecipe, WardCacheSettings, WardSampleMode, PRIME_SAMPLE_STREAM};
-use super::{check_max_depth, render_vertex, validate_common, BaselineError, CacheView, PhotonMapStats, Shading, Vertex};
+use super::{check_max_depth, render_vertex, validate_common, BaselineError, CacheView, PhotonMapStats, ShadeCtx, Shading, Vertex};
 use crate::caches::christensen::{ChristensenCache, ChristensenStats};
 use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SceneLength, SettingsError};
 use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache, WardCacheStats};
@@ -209,7 +209,14 @@ impl ChristensenIntegrator {
                         let (e, r) = christensen_irradiance(&cache, &shading, v, &mut counters, &mut scratch, None);
                         recipe.make(v, e, recipe.photon_radius(r, &shading))
                     }
-                    _ => recipe.compute(scene, &shading, v, &mut Sampler::new(seed, i, PRIME_SAMPLE_STREAM), &mut counters, &mut scratch),
+                    _ => {
+                        let mut sampler = Sampler::new(seed, i, PRIME_SAMPLE_STREAM);
+                        recipe.compute(
+                            &shading,
+                            &mut ShadeCtx { scene, sampler: &mut sampler, counters: &mut counters, scratch: &mut scratch },
+                            v,
+                        )
+                    }
                 }
             });
             t_prime_s = t0.elapsed().as_secs_f64();
@@ -252,9 +259,9 @@ impl ChristensenIntegrator {
 
     /// Radiance along a primary ray.
     pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<&RayDifferential>, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
-        render_vertex(&self.shading, self.settings.view, scene, ray, diff, sampler, counters, |v, _, c, scratch| {
-            self.irradiance(v, c, scratch)
-        })
+        let mut scratch = Vec::new();
+        let mut cx = ShadeCtx { scene, sampler, counters, scratch: &mut scratch };
+        render_vertex(&self.shading, self.settings.view, &mut cx, ray, diff, |v, cx| self.irradiance(v, cx.counters, cx.scratch))
     }
 }
 

@@ -9,6 +9,8 @@
 //! borrowed by another:
 //! - [`Shading`]: the global and caustic photon maps as kd-trees, the density and radiance
 //!   estimates, final gathering;
+//! - [`ShadeCtx`]: what a camera sample's shading carries from call to call (scene, sampler,
+//!   counters, scratch buffer), in place of four arguments to every call;
 //! - `render_vertex`: the camera path of the two irradiance caches;
 //! - [`priming`]: the deterministic priming pass and the Ward-cache settings that `ward` and
 //!   `christensen`'s configuration C share;
@@ -144,22 +146,13 @@ impl Shading {
 
     /// Radiance estimate `Σ f Φ / (π r²)` from `tree` at vertex `v` towards `v.wo`, one timed
     /// cache query.
-    #[allow(clippy::too_many_arguments)]
-    pub fn radiance_estimate(
-        &self,
-        scene: &Scene,
-        tree: &PhotonTree,
-        d: Density,
-        v: &Vertex,
-        material: &Material,
-        scratch: &mut Vec<Neighbor>,
-        counters: &mut RayCounters,
-    ) -> Color {
+    pub fn radiance_estimate(&self, cx: &mut ShadeCtx, tree: &PhotonTree, d: Density, v: &Vertex, material: &Material) -> Color {
         if tree.is_empty() {
             return Color::ZERO;
         }
         let hit = &v.hit;
-        let (r2, sum) = counters.time_query(|| {
+        let (scene, scratch) = (cx.scene, &mut *cx.scratch);
+        let (r2, sum) = cx.counters.time_query(|| {
             let r2 = gather_photons(tree, hit.p, v.n, d, scratch);
             let mut sum = Color::ZERO;
             for nb in scratch.iter() {
@@ -173,7 +166,7 @@ impl Shading {
             }
             (r2, sum)
         });
-        if scratch.is_empty() || !(r2 > 0.0) {
+        if cx.scratch.is_empty() || !(r2 > 0.0) {
             Color::ZERO
         } else {
             sum / (PI * r2)
@@ -196,43 +189,27 @@ impl Shading {
     /// Radiance leaving the first non-delta surface along `ray` towards its origin, emission
     /// excluded (see `photonmap`), and the distance to the first surface hit (`INFINITY` on a
     /// miss).
-    pub fn gather_radiance(
-        &self,
-        scene: &Scene,
-        ray: Ray,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-        scratch: &mut Vec<Neighbor>,
-    ) -> (Color, f32) {
-        let walk = walk_specular(scene, ray, None, self.max_depth, false, sampler, counters);
+    pub fn gather_radiance(&self, cx: &mut ShadeCtx, ray: Ray) -> (Color, f32) {
+        let scene = cx.scene;
+        let walk = walk_specular(scene, ray, None, self.max_depth, false, cx.sampler, cx.counters);
         let Some(v) = walk.vertex else { return (Color::ZERO, walk.first_t) };
         let material = &scene.materials[v.hit.material as usize];
-        let mut l = direct_light(scene, &v.hit, material, v.wo, sampler, counters);
-        l += self.radiance_estimate(scene, &self.global, self.global_density, &v, material, scratch, counters);
-        l += self.radiance_estimate(scene, &self.caustic, self.caustic_density, &v, material, scratch, counters);
+        let mut l = direct_light(scene, &v.hit, material, v.wo, cx.sampler, cx.counters);
+        l += self.radiance_estimate(cx, &self.global, self.global_density, &v, material);
+        l += self.radiance_estimate(cx, &self.caustic, self.caustic_density, &v, material);
         (v.throughput * l, walk.first_t)
     }
 
     /// Final-gather irradiance at `hit` on the side of `n`: `E = π/N Σ L_i` over `rays`
     /// cosine-distributed directions, and Ward's harmonic mean distance `N / Σ 1/t_i` of the
     /// gather hits (`INFINITY` when every ray escapes).
-    #[allow(clippy::too_many_arguments)]
-    pub fn gather_irradiance(
-        &self,
-        scene: &Scene,
-        hit: &SurfaceHit,
-        n: Vec3,
-        rays: u32,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-        scratch: &mut Vec<Neighbor>,
-    ) -> (Color, f32) {
+    pub fn gather_irradiance(&self, cx: &mut ShadeCtx, hit: &SurfaceHit, n: Vec3, rays: u32) -> (Color, f32) {
         let frame = Frame::from_normal(n);
         let mut sum = Color::ZERO;
         let mut inv_t = 0.0f64;
         for _ in 0..rays {
-            let d = frame.to_world(square_to_cosine_hemisphere(sampler.next_2d()));
-            let (l, t) = self.gather_radiance(scene, hit.spawn(d), sampler, counters, scratch);
+            let d = frame.to_world(square_to_cosine_hemisphere(cx.sampler.next_2d()));
+            let (l, t) = self.gather_radiance(cx, hit.spawn(d));
             sum += l;
             if t.is_finite() && t > 0.0 {
                 inv_t += 1.0 / t as f64;
@@ -245,15 +222,8 @@ impl Shading {
 
     /// Caustic radiance at a vertex.
     #[inline]
-    pub fn caustics(
-        &self,
-        scene: &Scene,
-        v: &Vertex,
-        material: &Material,
-        scratch: &mut Vec<Neighbor>,
-        counters: &mut RayCounters,
-    ) -> Color {
-        self.radiance_estimate(scene, &self.caustic, self.caustic_density, v, material, scratch, counters)
+    pub fn caustics(&self, cx: &mut ShadeCtx, v: &Vertex, material: &Material) -> Color {
+        self.radiance_estimate(cx, &self.caustic, self.caustic_density, v, material)
     }
 
     /// Caustic irradiance at a vertex (for [`CacheView::IrradianceAll`]).
@@ -264,6 +234,17 @@ impl Shading {
         }
         self.irradiance_estimate(&self.caustic, self.caustic_density, v.hit.p, v.n, scratch, counters).e
     }
+}
+
+/// What the shading of one camera sample (or one priming point) carries from call to call:
+/// the scene, the sample's numbers, its counters and the scratch buffer of photon neighbours
+/// the estimates reuse.
+pub struct ShadeCtx<'a> {
+    pub scene: &'a Scene,
+    pub sampler: &'a mut Sampler,
+    pub counters: &'a mut RayCounters,
+    /// Left empty until a vertex needs an estimate ([`Shading::scratch`] sizes it then).
+    pub scratch: &'a mut Vec<Neighbor>,
 }
 
 /// Outgoing radiance of an irradiance `e` arriving along the normal on the viewer's side:
@@ -280,34 +261,34 @@ pub fn shade_irradiance(scene: &Scene, hit: &SurfaceHit, material: &Material, wo
 
 /// The common camera path of the irradiance-cache baselines: emission on the way, then at the
 /// first non-delta vertex direct (NEE) + `f(wo, n) E` + caustics, or the irradiance views.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn render_vertex(
     sh: &Shading,
     view: CacheView,
-    scene: &Scene,
+    cx: &mut ShadeCtx,
     ray: Ray,
     diff: Option<&RayDifferential>,
-    sampler: &mut Sampler,
-    counters: &mut RayCounters,
-    irradiance: impl FnOnce(&Vertex, &mut Sampler, &mut RayCounters, &mut Vec<Neighbor>) -> Color,
+    irradiance: impl FnOnce(&Vertex, &mut ShadeCtx) -> Color,
 ) -> Color {
-    let walk = walk_specular(scene, ray, diff, sh.max_depth, view == CacheView::Render, sampler, counters);
+    let scene = cx.scene;
+    let walk = walk_specular(scene, ray, diff, sh.max_depth, view == CacheView::Render, cx.sampler, cx.counters);
     let mut result = walk.emitted;
     let Some(v) = walk.vertex else { return result };
-    let mut scratch = sh.scratch();
+    if cx.scratch.capacity() == 0 {
+        *cx.scratch = sh.scratch();
+    }
     let material = &scene.materials[v.hit.material as usize];
     match view {
         CacheView::Render => {
-            let mut l = direct_light(scene, &v.hit, material, v.wo, sampler, counters);
-            let e = irradiance(&v, sampler, counters, &mut scratch);
+            let mut l = direct_light(scene, &v.hit, material, v.wo, cx.sampler, cx.counters);
+            let e = irradiance(&v, cx);
             l += shade_irradiance(scene, &v.hit, material, v.wo, e);
-            l += sh.caustics(scene, &v, material, &mut scratch, counters);
+            l += sh.caustics(cx, &v, material);
             result += v.throughput * l;
         }
         CacheView::Irradiance | CacheView::IrradianceAll => {
-            let mut e = irradiance(&v, sampler, counters, &mut scratch);
+            let mut e = irradiance(&v, cx);
             if view == CacheView::IrradianceAll {
-                e += sh.caustic_irradiance(&v, &mut scratch, counters);
+                e += sh.caustic_irradiance(&v, cx.scratch, cx.counters);
             }
             result += v.throughput * e;
         }

@@ -26,7 +26,7 @@
 //! hit, here the final gather over cosine-distributed directions `E = π/N Σ L_i`;
 //! `irradiance_all` adds the caustic map's irradiance estimate.
 
-use super::{check_max_depth, validate_common, BaselineError, PhotonMapStats, Shading};
+use super::{check_max_depth, validate_common, BaselineError, PhotonMapStats, ShadeCtx, Shading};
 
 use super::CacheView;
 use crate::caches::kdtree::{DensitySettings, SettingsError};
@@ -115,30 +115,31 @@ impl PhotonMapIntegrator {
         let mut result = walk.emitted;
         let Some(v) = walk.vertex else { return result };
         let mut scratch = sh.scratch();
+        let cx = &mut ShadeCtx { scene, sampler, counters, scratch: &mut scratch };
         let material = &scene.materials[v.hit.material as usize];
         match view {
             CacheView::Render => {
-                let mut l = direct_light(scene, &v.hit, material, v.wo, sampler, counters);
-                l += sh.caustics(scene, &v, material, &mut scratch, counters);
+                let mut l = direct_light(scene, &v.hit, material, v.wo, cx.sampler, cx.counters);
+                l += sh.caustics(cx, &v, material);
                 let n = self.settings.gather_rays;
                 let mut ind = Color::ZERO;
                 for _ in 0..n {
-                    let u_lobe = sampler.next_1d();
-                    let u = sampler.next_2d();
+                    let u_lobe = cx.sampler.next_1d();
+                    let u = cx.sampler.next_2d();
                     let Some(bs) = material.sample(&scene.images, v.hit.uv, v.wo, u_lobe, u) else { continue };
                     if bs.lobe.is_delta() || !bs.weight.is_finite() || bs.weight == Color::ZERO {
                         continue;
                     }
                     let ray = v.hit.spawn(v.hit.frame.to_world(bs.wi));
-                    ind += bs.weight * sh.gather_radiance(scene, ray, sampler, counters, &mut scratch).0;
+                    ind += bs.weight * sh.gather_radiance(cx, ray).0;
                 }
                 l += ind / n as f32;
                 result += v.throughput * l;
             }
             CacheView::Irradiance | CacheView::IrradianceAll => {
-                let mut e = sh.gather_irradiance(scene, &v.hit, v.n, self.settings.gather_rays, sampler, counters, &mut scratch).0;
+                let mut e = sh.gather_irradiance(cx, &v.hit, v.n, self.settings.gather_rays).0;
                 if view == CacheView::IrradianceAll {
-                    e += sh.caustic_irradiance(&v, &mut scratch, counters);
+                    e += sh.caustic_irradiance(&v, cx.scratch, cx.counters);
                 }
                 result += v.throughput * e;
             }

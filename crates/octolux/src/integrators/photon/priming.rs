@@ -14,8 +14,8 @@
 //! count. `SampleRecipe` says how a sample is computed, for priming and for the render's
 //! temporary samples alike.
 
-use super::{Shading, Vertex};
-use crate::caches::kdtree::{Neighbor, SceneLength, SettingsError};
+use super::{ShadeCtx, Shading, Vertex};
+use crate::caches::kdtree::{SceneLength, SettingsError};
 use crate::caches::ward::{IrradianceSample, PrimeStats, WardCache};
 use crate::film::{camera_sample, Pixel, Reconstruction};
 use crate::integrators::common::{walk_specular, RayCounters};
@@ -289,21 +289,16 @@ impl SampleRecipe {
         }
     }
 
-    pub fn compute(
-        &self,
-        scene: &Scene,
-        sh: &Shading,
-        v: &Vertex,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-        scratch: &mut Vec<Neighbor>,
-    ) -> Option<IrradianceSample> {
+    pub fn compute(&self, sh: &Shading, cx: &mut ShadeCtx, v: &Vertex) -> Option<IrradianceSample> {
+        if cx.scratch.capacity() == 0 {
+            *cx.scratch = sh.scratch();
+        }
         let (e, r) = match self.mode {
             WardSampleMode::Photons => {
-                let d = sh.irradiance_estimate(&sh.global, sh.global_density, v.hit.p, v.n, scratch, counters);
+                let d = sh.irradiance_estimate(&sh.global, sh.global_density, v.hit.p, v.n, cx.scratch, cx.counters);
                 (d.e, self.photon_radius(d.r, sh))
             }
-            WardSampleMode::FinalGather => sh.gather_irradiance(scene, &v.hit, v.n, self.gather_rays, sampler, counters, scratch),
+            WardSampleMode::FinalGather => sh.gather_irradiance(cx, &v.hit, v.n, self.gather_rays),
         };
         self.make(v, e, r)
     }

@@ -10,7 +10,7 @@
 //!   the radius of the disk the estimate gathered (the distance to the `n_max`-th photon, or
 //!   `r_max`): the scale on which the estimate itself is smoothed, so samples are spaced in
 //!   proportion to the photon density's resolution (dense where photons are dense). Option
-//!   [`PhotonRadius::SearchRadius`] uses `r_max` for every sample instead (see its docs for
+//!   [`PhotonRadius::SearchRadius`](super::priming::PhotonRadius::SearchRadius) uses `r_max` for every sample instead (see its docs for
 //!   the measured difference).
 //! - `final_gather` (Ward 1988's own form): `E = π/N Σ L_i` over `gather_rays`
 //!   cosine-distributed rays, `L_i` the radiance leaving each gather hit (NEE there + global
@@ -23,7 +23,7 @@
 //! Caustic photons are not in the cache: caustics are rendered from the caustic map.
 //!
 //! # Filling the cache deterministically
-//! A priming pass before rendering ([`super::priming`], [`PrimePoints`]) fills the cache from
+//! A priming pass before rendering ([`super::priming`], [`PrimePoints`](super::priming::PrimePoints)) fills the cache from
 //! an ordered list of camera samples — a grid of pixel centres, or the render's own samples —
 //! batch by batch, the same for any thread count. The render then only reads the cache; a lookup that finds it insufficient (a
 //! point the priming did not see, e.g. jittered inside a pixel with the grid priming) computes
@@ -39,8 +39,8 @@ use super::priming::{Primer, SampleRecipe, PRIME_SAMPLE_STREAM};
 #[cfg(test)]
 use super::priming::PhotonRadius;
 use super::priming::{WardCacheSettings, WardSampleMode};
-use super::{check_max_depth, render_vertex, validate_common, BaselineError, CacheView, PhotonMapStats, Shading, Vertex};
-use crate::caches::kdtree::{scene_size, DensitySettings, Neighbor, SettingsError};
+use super::{check_max_depth, render_vertex, validate_common, BaselineError, CacheView, PhotonMapStats, ShadeCtx, Shading, Vertex};
+use crate::caches::kdtree::{scene_size, DensitySettings, SettingsError};
 use crate::caches::ward::{PrimeStats, WardCache, WardCacheStats};
 use crate::integrators::common::RayCounters;
 use crate::math::{Color, Ray, RayDifferential};
@@ -153,7 +153,8 @@ impl WardIntegrator {
         let prime = primer.prime(&mut cache, settings.cache.batch as usize, |i, v| {
             let mut sampler = Sampler::new(seed, i, PRIME_SAMPLE_STREAM);
             let mut scratch = shading.scratch();
-            recipe.compute(scene, &shading, v, &mut sampler, &mut RayCounters::default(), &mut scratch)
+            let mut counters = RayCounters::default();
+            recipe.compute(&shading, &mut ShadeCtx { scene, sampler: &mut sampler, counters: &mut counters, scratch: &mut scratch }, v)
         });
         drop(primer);
         let t_prime_s = t0.elapsed().as_secs_f64();
@@ -182,27 +183,20 @@ impl WardIntegrator {
     }
 
     /// Indirect irradiance at a vertex: the cache's interpolation, or a temporary sample.
-    fn irradiance(
-        &self,
-        scene: &Scene,
-        v: &Vertex,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-        scratch: &mut Vec<Neighbor>,
-    ) -> Color {
-        let (ok, l) = counters.time_query(|| self.cache.query(v.hit.p, v.n));
+    fn irradiance(&self, cx: &mut ShadeCtx, v: &Vertex) -> Color {
+        let (ok, l) = cx.counters.time_query(|| self.cache.query(v.hit.p, v.n));
         if ok {
             return l.irradiance();
         }
         self.temporaries.fetch_add(1, Ordering::Relaxed);
-        self.recipe.compute(scene, &self.shading, v, sampler, counters, scratch).map_or(Color::ZERO, |s| s.e)
+        self.recipe.compute(&self.shading, cx, v).map_or(Color::ZERO, |s| s.e)
     }
 
     /// Radiance along a primary ray.
     pub fn li(&self, scene: &Scene, ray: Ray, diff: Option<&RayDifferential>, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
-        render_vertex(&self.shading, self.settings.view, scene, ray, diff, sampler, counters, |v, s, c, scratch| {
-            self.irradiance(scene, v, s, c, scratch)
-        })
+        let mut scratch = Vec::new();
+        let mut cx = ShadeCtx { scene, sampler, counters, scratch: &mut scratch };
+        render_vertex(&self.shading, self.settings.view, &mut cx, ray, diff, |v, cx| self.irradiance(cx, v))
     }
 }
 

@@ -83,7 +83,7 @@ pub fn bump_normal(grad: Vec2, base: &Frame, ng: Vec3, dp_du: Vec3, dp_dv: Vec3)
 }
 
 /// The normal map's perturbed normal (not normalised) in the unperturbed shading frame: the
-/// map's value `rgb` in [0,1]³ decoded to `2 rgb - 1`.
+/// map's value `rgb` in \[0,1\]³ decoded to `2 rgb - 1`.
 #[inline]
 pub fn normal_map_normal(rgb: Vec3) -> Vec3 {
     rgb * 2.0 - Vec3::ONE

@@ -95,7 +95,7 @@ pub struct BsdfSample {
     pub eta: f32,
 }
 
-/// A material. Colours are linear RGB in [0,1] unless stated; `eta` of dielectric interfaces
+/// A material. Colours are linear RGB in \[0,1\] unless stated; `eta` of dielectric interfaces
 /// is `int_ior / ext_ior`.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
@@ -127,13 +127,13 @@ pub enum Material {
     TwoSided { front: Box<Material>, back: Box<Material> },
     /// Linear blend (Mitsuba `blendbsdf`): `(1 - weight) first + weight second`.
     Blend { weight: Texture, first: Box<Material>, second: Box<Material> },
-    /// Opacity mask (Mitsuba `mask`): `opacity` (luminance, clamped to [0,1]) of the nested
+    /// Opacity mask (Mitsuba `mask`): `opacity` (luminance, clamped to \[0,1\]) of the nested
     /// BSDF, the rest a null pass-through lobe ([`mask`]).
     Mask { opacity: Texture, nested: Box<Material> },
     /// Bump map (Mitsuba `bumpmap`): `height` (luminance, uv units) times `scale` perturbs the
     /// shading frame ([`bump`]; applied when the scene builds the hit).
     BumpMap { height: Texture, scale: f32, nested: Box<Material> },
-    /// Tangent-space normal map (Mitsuba `normalmap`): `normals` in [0,1]³ → `2 rgb - 1`
+    /// Tangent-space normal map (Mitsuba `normalmap`): `normals` in \[0,1\]³ → `2 rgb - 1`
     /// ([`bump`]; applied when the scene builds the hit).
     NormalMap { normals: Texture, nested: Box<Material> },
 }

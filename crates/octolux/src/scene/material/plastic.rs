@@ -11,7 +11,7 @@
 //! `kd / (1 - R_int) · T(θ_i) T(θ_o) cos θ_i / (π η²)` with `T` the tabulated directional
 //! transmittance of the rough interface and `R_int` its internal reflectance, tabulated like
 //! Mitsuba 3 (Gauss–Legendre over the visible-normal sample space, 64 entries in cos θ; the
-//! nodes' normals from `Microfacet::sample_visible_grid`, docs/performance.md "Time to first
+//! nodes' normals from `Microfacet::sample_visible_grid`, docs/lab/2026-11-30-performance.md "Time to first
 //! sample") and cached per `(distribution, alpha, eta)`. `R_int` is Mitsuba's estimate
 //! `mean_i 2 μ_i R(μ_i)` over 64 equally spaced `μ_i ∈ [0,1]`, about 1.5% below the exact
 //! hemispherical integral; we keep it for agreement. The specular lobe is sampled with

@@ -1,5 +1,5 @@
 //! A material's non-delta lobes split into *wide* and *narrow* ones, for integrators that end
-//! paths in a radiance cache (`integrators::octree`, docs/octree.md "Ending paths in the
+//! paths in a radiance cache (`integrators::octree`, docs/guide/octree.md "Ending paths in the
 //! cache"): a cache of incident light can stand in for the integral of a wide lobe, while a
 //! narrow lobe (a glossy highlight) must keep sampling directions.
 //!

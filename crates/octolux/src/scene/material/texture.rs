@@ -15,7 +15,7 @@
 //! Partials come only with camera rays (the render loop's ray differentials, scaled by
 //! `1/sqrt(spp)` as 0.6's `SamplingIntegrator` scales them); every later vertex has zero
 //! partials, i.e. a bilinear lookup on level 0, as in 0.6 where only camera rays carry
-//! differentials. See `docs/textures.md`.
+//! differentials. See `docs/guide/textures.md`.
 
 use super::check_color;
 use crate::image::Image;

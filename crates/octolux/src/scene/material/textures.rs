@@ -1,6 +1,6 @@
 //! The textures a material reads, for the path tracer's two questions about them before it
 //! evaluates anything: whether a camera hit's uv partials matter (only MIP-mapped lookups read
-//! them), and which texels to prefetch (docs/performance.md, "Path tracer throughput on the
+//! them), and which texels to prefetch (docs/lab/2026-11-30-performance.md, "Path tracer throughput on the
 //! collection (session 7)").
 
 use super::texture::{TexCoord, Texture};

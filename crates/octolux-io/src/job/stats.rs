@@ -55,7 +55,7 @@ pub struct StatsFile<'a> {
     /// where it was baked; null otherwise.
     pub cache: Option<serde_json::Value>,
     /// For the frames of `--camera-path` / `--sensors`: which frame this is; null otherwise.
-    pub frame: Option<crate::frames::FrameInfo>,
+    pub frame: Option<super::frames::FrameInfo>,
     /// With `--insert`: the object, its transform and the pixels it covers (`insert.rs`).
     pub insert: Option<serde_json::Value>,
 }
@@ -89,26 +89,74 @@ pub fn query_share(r: &RenderStats, threads: usize) -> f64 {
     }
 }
 
-/// Print the paper's table-1 / table-3 quantities.
-pub fn print_octree_stats(b: &OctreeBuildStats) {
-    eprintln!(
-        "photons: {} emitted, {} global, {} caustic, traced in {:.3} s; octrees built in {:.3} s ({:.1} M photons/s); t_c = {:.3} s",
-        b.photons_emitted,
-        b.global_photons,
-        b.caustic_photons,
-        b.t_photons_s,
-        b.t_octree_s,
-        b.build_photons_per_s * 1e-6,
-        b.t_c_s
-    );
+/// The build statistics of the `octree` integrator as log lines, in words with the paper's
+/// symbols in brackets (tables 1 and 3). From a cache the photons were traced by the bake:
+/// no time is given (the bake's report has them).
+pub fn octree_stats_lines(b: &OctreeBuildStats, from_cache: bool) -> Vec<String> {
+    let mut lines = vec![if from_cache {
+        format!(
+            "photons (baked): {} emitted, {} global, {} caustic; octrees of {} bytes [F_m]",
+            b.photons_emitted, b.global_photons, b.caustic_photons, b.bytes
+        )
+    } else {
+        format!(
+            "photons: {} emitted, {} global, {} caustic, traced in {:.3} s; octrees built in {:.3} s ({:.1} M photons/s), \
+             {} bytes [F_m]; photons and octrees {:.3} s [t_c]",
+            b.photons_emitted,
+            b.global_photons,
+            b.caustic_photons,
+            b.t_photons_s,
+            b.t_octree_s,
+            b.build_photons_per_s * 1e-6,
+            b.bytes,
+            b.t_c_s
+        )
+    }];
     let row = |name: &str, s: &octolux::caches::OctreeStats| {
-        eprintln!(
-            "  {name:8} m_v {:>7}  leaves {:>7}  n_p {:>7.1}  s {:>9.4}  F_m {:>10} B ({:.1} B/valid leaf)  depth hist {:?}",
+        format!(
+            "  {name} octree: {} valid leaves [m_v] of {}, {:.1} photons per leaf [n_p], mean cell edge {:.4} [s], {} bytes [F_m] \
+             ({:.1} B per valid leaf), valid leaves per depth {:?}",
             s.valid_leaves, s.leaves, s.mean_photons_per_leaf, s.mean_cell_size, s.bytes, s.bytes_per_valid_leaf, s.depth_histogram
-        );
+        )
     };
-    row("global", &b.global);
+    lines.push(row("global", &b.global));
     if let Some(c) = &b.caustic {
-        row("caustic", c);
+        lines.push(row("caustic", c));
     }
+    lines
+}
+
+/// A baseline's build report (`ward`, `christensen`, `photonmap`) as one line in words, the
+/// paper's symbols in brackets.
+pub fn summary(build: &serde_json::Value) -> String {
+    let n = |v: &serde_json::Value, k: &str| v.get(k).and_then(serde_json::Value::as_f64);
+    let mut parts = Vec::new();
+    if let Some(p) = build.get("photons") {
+        let count = |k| n(p, k).map_or("?".to_string(), |x| format!("{x:.0}"));
+        let mut s = format!(
+            "photons: {} emitted, {} global, {} caustic",
+            count("photons_emitted"),
+            count("global_photons"),
+            count("caustic_photons")
+        );
+        if let (Some(t), Some(k)) = (n(p, "t_photons_s"), n(p, "t_kdtree_s")) {
+            s += &format!(", traced in {t:.3} s, kd-trees built in {k:.3} s");
+        }
+        parts.push(s);
+    }
+    for (key, words) in [("m_e", "cache samples [m_e]"), ("m_a", "added Ward samples [m_a]"), ("prime_points", "priming points")] {
+        if let Some(v) = n(build, key).filter(|&v| v > 0.0) {
+            parts.push(format!("{v:.0} {words}"));
+        }
+    }
+    if let Some(t) = n(build, "t_prime_s").filter(|&t| t > 0.0) {
+        parts.push(format!("priming {t:.3} s"));
+    }
+    if let Some(b) = n(build, "bytes") {
+        parts.push(format!("{b:.0} bytes [F_m]"));
+    }
+    if let Some(t) = n(build, "t_c_s") {
+        parts.push(format!("built in {t:.3} s [t_c]"));
+    }
+    parts.join("; ")
 }

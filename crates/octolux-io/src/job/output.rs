@@ -1,5 +1,5 @@
 //! The output set of a render: `OUT.exr`, `OUT.png` and `OUT.json` (issue 12, item 4), and the
-//! single output files of `bake` and `report`, all by the one rule of [`octolux_io::files`]
+//! single output files of `bake` and `report`, all by the one rule of [`crate::files`]
 //! (issue 27: never over a device node, a FIFO, a socket or a folder, never over an input).
 //!
 //! - [`Outputs::check`] runs before any work: each of the three paths passes
@@ -17,9 +17,9 @@
 //!   process-wide registry so that a second interrupt, which exits at once, removes them
 //!   ([`remove_staged`]).
 
-use anyhow::{anyhow, bail, Context, Result};
+use super::{bail, Context, JobError, Result};
+use crate::files::{self, staging_name};
 use octolux::image::Image;
-use octolux_io::files::{self, staging_name};
 use std::path::{Path, PathBuf};
 
 /// The three final paths of one render.
@@ -36,7 +36,7 @@ impl Outputs {
     /// Validate `-o OUT.exr` before any work (module docs).
     pub fn check(exr: &Path) -> Result<Outputs> {
         // `sub.exr/` is refused by the rule before its extension is looked at
-        files::check_output(exr).map_err(|e| anyhow!(e))?;
+        files::check_output(exr).map_err(JobError)?;
         let ext = exr.extension().and_then(|e| e.to_str()).unwrap_or("");
         if !ext.eq_ignore_ascii_case("exr") {
             bail!("output '{}' must end in .exr (a .png and a .json are written beside it)", exr.display());
@@ -48,7 +48,7 @@ impl Outputs {
             dir: files::folder_of(exr),
         };
         for p in [&o.png, &o.json] {
-            files::check_output(p).map_err(|e| anyhow!(e))?;
+            files::check_output(p).map_err(JobError)?;
         }
         Ok(o)
     }
@@ -71,16 +71,16 @@ impl Outputs {
 
     fn write_staged(&self, image: &Image, json: impl FnOnce() -> Result<String>, staged: &[PathBuf; 3]) -> Result<()> {
         let [exr, png, js] = staged;
-        octolux_io::image_io::write_exr(exr, image).with_context(|| format!("cannot write {}", self.exr.display()))?;
-        octolux_io::image_io::write_png(png, image).with_context(|| format!("cannot write {}", self.png.display()))?;
+        crate::image_io::write_exr(exr, image).with_context(|| format!("cannot write {}", self.exr.display()))?;
+        crate::image_io::write_png(png, image).with_context(|| format!("cannot write {}", self.png.display()))?;
         files::write_synced(js, json()?.as_bytes()).with_context(|| format!("cannot write {}", self.json.display()))?;
         let _lock = lock_folder(&self.dir)?;
         // every target checked again before the first rename: a set is whole or not written
         for to in [&self.exr, &self.png, &self.json] {
-            files::recheck_output(to).map_err(|e| anyhow!(e))?;
+            files::recheck_output(to).map_err(JobError)?;
         }
         for (from, to) in [(exr, &self.exr), (png, &self.png), (js, &self.json)] {
-            files::commit(from, to).map_err(|e| anyhow!(e))?;
+            files::commit(from, to).map_err(JobError)?;
         }
         Ok(())
     }
@@ -89,13 +89,13 @@ impl Outputs {
 /// An output file other than the render set (`bake`'s cache, `report`'s page), checked as
 /// [`Outputs::check`] checks the set, before any work.
 pub fn check_file(path: &Path) -> Result<()> {
-    files::check_output(path).map_err(|e| anyhow!(e))
+    files::check_output(path).map_err(JobError)
 }
 
 /// Write one file as the output set is written: checked, staged beside it, synced, checked
 /// again, then renamed, so that the final name holds the previous file or the whole new one.
 pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    files::write_atomic(path, bytes).map_err(|e| anyhow!(e))
+    files::write_atomic(path, bytes).map_err(JobError)
 }
 
 /// The output of frame `i` of an animation: `out.exr` -> `out_0001.exr` (at least four
@@ -117,7 +117,7 @@ pub fn remove_staged() {
 fn lock_folder(dir: &Path) -> Result<nix::fcntl::Flock<std::fs::File>> {
     let f = std::fs::File::open(dir).with_context(|| format!("cannot open output folder '{}'", dir.display()))?;
     nix::fcntl::Flock::lock(f, nix::fcntl::FlockArg::LockExclusive)
-        .map_err(|(_, e)| anyhow::anyhow!("cannot lock output folder '{}': {e}", dir.display()))
+        .map_err(|(_, e)| JobError(format!("cannot lock output folder '{}': {e}", dir.display())))
 }
 
 #[cfg(not(unix))]

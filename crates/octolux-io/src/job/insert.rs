@@ -1,4 +1,4 @@
-//! `render --insert OBJECT --insert-path PATH.json` (issue 13, item 5; docs/baking.md
+//! `render --insert OBJECT --insert-path PATH.json` (issue 13, item 5; docs/guide/baking.md
 //! "Inserted objects"): an object absent from the bake (an OBJ or PLY mesh, or the shapes of a
 //! Mitsuba XML file) is added to the rendered scene, moved per frame by an object path
 //! (`octolux::scene::object_path`). The lighting is the bake's: the cache's fingerprint is
@@ -12,15 +12,14 @@
 //! emitting object (the bake holds no light from it) and textured materials (their images are
 //! not carried over).
 
-use crate::args::RenderArgs;
-use anyhow::{bail, Context, Result};
+use super::{bail, Context, Frontend, Result};
 use glam::{Mat4, Vec3};
 use octolux::integrators::octree::insert::{InsertAo, Inserted};
 use octolux::math::Ray;
 use octolux::scene::material::Material;
 use octolux::scene::object_path::ObjectPath;
 use octolux::scene::{Geometry, Scene, SceneDesc, ShapeDesc};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Most ambient-occlusion rays per shading point (`--insert-ao`): one shading point's rays run
 /// inside one sample, where an interrupt cannot stop them (4294967295 ran for minutes).
@@ -40,32 +39,40 @@ pub struct Insertion {
     ao_distance: Option<f32>,
 }
 
-/// Read an object path file (JSON), validated, every frame included (`octolux_io::paths`);
+/// Read an object path file (JSON), validated, every frame included (`crate::paths`);
 /// errors name the file.
 pub fn read_object_path(path: &Path) -> Result<ObjectPath> {
-    octolux_io::paths::read_object_path(path).map_err(|e| anyhow::anyhow!("object path {e}"))
+    crate::paths::read_object_path(path).map_err(|e| super::JobError(format!("object path {e}")))
+}
+
+/// An object to insert, as a front end names it.
+#[derive(Clone, Debug, Default)]
+pub struct InsertRequest {
+    /// OBJ, PLY, or a Mitsuba XML file whose shapes are inserted.
+    pub file: String,
+    /// Its motion: JSON keyframes (`--insert-path`).
+    pub path: Option<PathBuf>,
+    /// Ambient-occlusion rays per shading point (`--insert-ao`; none: 0).
+    pub ao: Option<u32>,
+    /// Their length (`--insert-ao-distance`; none: the object's bounding-box diagonal).
+    pub ao_distance: Option<f32>,
 }
 
 /// The insertion `args` ask for, read and checked before any long work.
-pub fn read(args: &RenderArgs) -> Result<Option<Insertion>> {
-    let Some(file) = &args.insert else {
-        if args.insert_path.is_some() || args.insert_ao.is_some() || args.insert_ao_distance.is_some() {
-            bail!("--insert-path and --insert-ao need --insert OBJECT");
-        }
-        return Ok(None);
-    };
-    let path = args.insert_path.as_deref().map(read_object_path).transpose()?;
-    if let Some(n) = args.insert_ao.filter(|&n| n > MAX_AO_RAYS) {
+pub fn read(args: &InsertRequest, fe: &dyn Frontend) -> Result<Insertion> {
+    let file = &args.file;
+    let path = args.path.as_deref().map(read_object_path).transpose()?;
+    if let Some(n) = args.ao.filter(|&n| n > MAX_AO_RAYS) {
         bail!("--insert-ao {n}: at most {MAX_AO_RAYS} rays per shading point");
     }
-    if let Some(d) = args.insert_ao_distance {
+    if let Some(d) = args.ao_distance {
         if !(d.is_finite() && d > 0.0) {
             bail!("--insert-ao-distance must be a positive length, got {d}");
         }
     }
-    let loaded = octolux_io::load_scene(file, &[]).with_context(|| format!("cannot load the object to insert '{file}'"))?;
+    let loaded = crate::load_scene(file, &[]).with_context(|| format!("cannot load the object to insert '{file}'"))?;
     for w in &loaded.warnings {
-        eprintln!("warning: {file}: {w}");
+        fe.warning(&format!("{file}: {w}"));
     }
     let d = loaded.desc;
     if d.shapes.is_empty() {
@@ -77,17 +84,24 @@ pub fn read(args: &RenderArgs) -> Result<Option<Insertion>> {
     if !d.images.is_empty() {
         bail!("--insert {file}: textured materials are not supported for inserted objects (the object has {} images)", d.images.len());
     }
-    if !d.lights.is_empty() {
-        eprintln!("note: --insert {file}: its {} lights are ignored (only its shapes are inserted)", d.lights.len());
+    // a bare mesh has no light of its own: the loader lights it with a sky (`mesh`), not the file
+    let mesh = Path::new(file)
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj") || e.eq_ignore_ascii_case("ply"));
+    match if mesh { 0 } else { d.lights.len() } {
+        0 => {}
+        1 => fe.note(&format!("--insert {file}: its light is ignored (only its shapes are inserted)")),
+        n => fe.note(&format!("--insert {file}: its {n} lights are ignored (only its shapes are inserted)")),
     }
-    Ok(Some(Insertion {
+    Ok(Insertion {
         file: file.clone(),
         shapes: d.shapes,
         materials: d.materials,
         path,
-        ao_rays: args.insert_ao.unwrap_or(0),
-        ao_distance: args.insert_ao_distance,
-    }))
+        ao_rays: args.ao.unwrap_or(0),
+        ao_distance: args.ao_distance,
+    })
 }
 
 impl Insertion {

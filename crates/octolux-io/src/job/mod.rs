@@ -1,0 +1,700 @@
+//! One render or one bake as a front end asks for it: load the scene, prepare it, build the
+//! integrator or load the lighting cache, render the frames, write the outputs. The command
+//! line (`octolux render`, `octolux bake`), the Python module and, through it, the Dask farm
+//! all call these functions, so that a check, a default or a message exists once and a bake
+//! or a render made through any of them gives the same bytes (docs/guide/python.md).
+//!
+//! - [`run_render`]: the whole of `octolux render` (one image, or the frames of a camera path,
+//!   the scene's sensors or an object path; `--insert`; `--cache`; the output set per image).
+//! - [`run_bake`]: the whole of `octolux bake` (the cache file and its JSON report).
+//! - The steps they are made of, for a front end that keeps a prepared scene between calls
+//!   (Python's `load_scene`, `render`, `bake`): [`load`], [`prepare`], [`read_cache`],
+//!   [`resolve_settings`], [`make_integrator`], [`render_image`], [`bake::bake`].
+//!
+//! Rooms: [`output`] (the output set: checked first, staged, renamed JSON last), [`frames`]
+//! (camera paths and sensors as numbered frames), [`insert`] (an object added to baked
+//! lighting), [`stats`] (`OUT.json` and the log's statistics), [`bake`] (the cache file and
+//! its report).
+//!
+//! A front end supplies a [`Frontend`] (where warnings, notes, log lines and progress go; when
+//! the render loop runs, for the CLI's signal handler) and a cancel flag that the render loop
+//! reads before each tile. Threads are the caller's rayon pool (the CLI's global one, a pool
+//! per Python call).
+
+pub mod bake;
+pub mod frames;
+pub mod insert;
+pub mod output;
+pub mod stats;
+
+use crate::cache::{self, LoadedCache};
+use crate::settings::{self, keys, FlagSetting, IntegratorRemark, SettingsInput};
+use crate::LoadedScene;
+use octolux::accel::BackendKind;
+use octolux::budget;
+use octolux::film::Reconstruction;
+use octolux::image::Image;
+use octolux::integrators::{build, Integrator, IntegratorSettings};
+use octolux::render::{render_cancellable, RenderSettings, RenderStats};
+use octolux::sampling::SamplerKind;
+use octolux::scene::camera::Camera;
+use octolux::scene::{Scene, SceneDesc, SceneHints};
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+/// An error of a job: one line naming the input and the problem (the CLI prints it after
+/// `error: `, Python raises it as `OctoluxError`).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct JobError(pub String);
+
+/// A job's result.
+pub type Result<T, E = JobError> = std::result::Result<T, E>;
+
+macro_rules! bail {
+    ($($t:tt)*) => { return Err($crate::job::JobError(format!($($t)*))) };
+}
+pub(crate) use bail;
+
+/// `anyhow`'s `context` for this module: the context, then the cause after a colon.
+pub(crate) trait Context<T> {
+    fn context(self, c: impl std::fmt::Display) -> Result<T>;
+    fn with_context<C: std::fmt::Display>(self, f: impl FnOnce() -> C) -> Result<T>;
+}
+
+impl<T, E: std::fmt::Display> Context<T> for std::result::Result<T, E> {
+    fn context(self, c: impl std::fmt::Display) -> Result<T> {
+        self.map_err(|e| JobError(format!("{c}: {e}")))
+    }
+    fn with_context<C: std::fmt::Display>(self, f: impl FnOnce() -> C) -> Result<T> {
+        self.map_err(|e| JobError(format!("{}: {e}", f())))
+    }
+}
+
+impl From<settings::SettingsError> for JobError {
+    fn from(e: settings::SettingsError) -> Self {
+        JobError(e.to_string())
+    }
+}
+
+impl From<crate::IoError> for JobError {
+    fn from(e: crate::IoError) -> Self {
+        JobError(e.to_string())
+    }
+}
+
+impl From<String> for JobError {
+    fn from(e: String) -> Self {
+        JobError(e)
+    }
+}
+
+/// Where a job's messages go. Every method may be called from the job's thread; `progress`
+/// from the render's threads.
+pub trait Frontend: Sync {
+    /// A line of the log: what is being done, statistics. A quiet front end drops it.
+    fn info(&self, line: &str);
+    /// A warning: the job renders something other than what the input says (it is also kept
+    /// in `OUT.json`).
+    fn warning(&self, w: &str);
+    /// A milder remark than a warning (what the scene file says that Mitsuba ignores too).
+    fn note(&self, n: &str);
+    /// The render loop of one image starts (`Some(pixels)`) or ends (`None`): the CLI's
+    /// signal handler then asks the loop to stop instead of exiting, and its progress shows.
+    fn rendering(&self, _pixels: Option<u64>) {}
+    /// Pixels done of the pass under way (called from the render's threads).
+    fn progress(&self, _done: u64, _total: u64) {}
+}
+
+/// A front end that keeps warnings and notes and drops the log (the Python module's).
+#[derive(Default)]
+pub struct Collect {
+    pub warnings: std::sync::Mutex<Vec<String>>,
+    pub notes: std::sync::Mutex<Vec<String>>,
+}
+
+impl Frontend for Collect {
+    fn info(&self, _line: &str) {}
+    fn warning(&self, w: &str) {
+        self.warnings.lock().unwrap_or_else(|e| e.into_inner()).push(w.to_string());
+    }
+    fn note(&self, n: &str) {
+        self.notes.lock().unwrap_or_else(|e| e.into_inner()).push(n.to_string());
+    }
+}
+
+/// The scene a job names.
+#[derive(Clone, Debug, Default)]
+pub struct SceneSpec {
+    /// A built-in name, or a Mitsuba XML, glTF, OBJ or PLY file.
+    pub scene: String,
+    /// Mitsuba's `-D name=value` overrides of `<default>` parameters.
+    pub defines: Vec<(String, String)>,
+    /// glTF: buffer and image URIs may name files outside the glTF file's folder.
+    pub allow_outside_uris: bool,
+}
+
+/// Load a scene; its notes and warnings go to `fe` (and stay in the result).
+pub fn load(spec: &SceneSpec, fe: &dyn Frontend) -> Result<LoadedScene> {
+    crate::gltf_scene::allow_outside_uris(spec.allow_outside_uris);
+    let loaded = crate::load_scene(&spec.scene, &spec.defines).with_context(|| format!("cannot load scene '{}'", spec.scene))?;
+    for n in &loaded.notes {
+        fe.note(n);
+    }
+    for w in &loaded.warnings {
+        fe.warning(w);
+    }
+    Ok(loaded)
+}
+
+/// The film of `desc` with `resolution` applied, checked against the memory budget (the
+/// loader checks a film it reads; a built-in scene's or one set here is checked now).
+pub fn set_film(desc: &mut SceneDesc, resolution: Option<(u32, u32)>, scene: &str) -> Result<()> {
+    if let Some((w, h)) = resolution {
+        budget::check_film(w as u64, h as u64).context("resolution")?;
+        desc.film.width = w;
+        desc.film.height = h;
+    }
+    budget::check_film(desc.film.width as u64, desc.film.height as u64).with_context(|| format!("scene '{scene}'"))
+}
+
+/// Prepare a scene (acceleration structure, lights); the warning of a scene that will render
+/// black goes to `fe` and into `warnings`.
+pub fn prepare(desc: SceneDesc, backend: BackendKind, scene: &str, fe: &dyn Frontend, warnings: &mut Vec<String>) -> Result<Scene> {
+    let s = Scene::prepare(desc, backend).with_context(|| format!("cannot prepare scene '{scene}'"))?;
+    if let Some(w) = s.light_warning() {
+        fe.warning(w);
+        warnings.push(w.to_string());
+    }
+    Ok(s)
+}
+
+/// `max_depth` as a front end gives it: -1 (unbounded) or at least 0.
+pub fn check_max_depth(d: Option<i32>, what: &str) -> Result<()> {
+    if let Some(d) = d {
+        settings::check_max_depth(d as i64).map_err(|e| JobError(format!("{what} {e}")))?;
+    }
+    Ok(())
+}
+
+/// A lighting cache read and checked (every check of [`crate::cache`]), with its read time.
+pub struct CacheIn {
+    pub path: PathBuf,
+    pub cache: LoadedCache,
+    /// Seconds to read and check it.
+    pub load_s: f64,
+    /// Render even when the scene's lighting fingerprint differs from the bake's (a warning).
+    pub allow_stale: bool,
+}
+
+/// Read a lighting cache before the scene (which may take long to load).
+pub fn read_cache(path: &Path, allow_stale: bool) -> Result<CacheIn> {
+    let t = Instant::now();
+    let cache = cache::read(path)?;
+    Ok(CacheIn { path: path.to_path_buf(), cache, load_s: t.elapsed().as_secs_f64(), allow_stale })
+}
+
+/// What chooses a render's integrator and its settings.
+#[derive(Clone, Debug, Default)]
+pub struct IntegratorRequest {
+    /// `--integrator` / `integrator=`; none: the settings file's `type`, else `path`.
+    pub integrator: Option<String>,
+    /// `--settings FILE` / `settings_file=`.
+    pub settings_file: Option<PathBuf>,
+    /// Shortcuts for settings keys (the CLI's flags, Python's `photons=`, `max_depth`).
+    pub flags: Vec<FlagSetting>,
+    /// `KEY=VALUE` writes (`--set`, or Python's settings dict flattened).
+    pub sets: Vec<String>,
+    /// The render's seed, also the photon pass's (`photons.seed`) unless the settings set it.
+    pub seed: u64,
+}
+
+/// The integrator settings of a render or a bake: the library's defaults, or the cache's, then
+/// the scene's `max_depth` and the seed, the file, the flags, `--set` (later wins;
+/// [`crate::settings`]). Warnings go to `fe` and into `warnings`; the photon count is checked
+/// against the memory budget (not with a cache: nothing is traced).
+pub fn resolve_settings(
+    req: &IntegratorRequest,
+    hints: &SceneHints,
+    cache: Option<&CacheIn>,
+    fe: &dyn Frontend,
+    warnings: &mut Vec<String>,
+) -> Result<IntegratorSettings> {
+    let (name, base, derived) = match cache {
+        Some(c) => {
+            if let Some(n) = req.integrator.as_deref().filter(|&n| n != "octree") {
+                bail!("--cache holds the octree integrator's lighting; --integrator {n} cannot render from it");
+            }
+            // the cache's settings are the defaults; nothing is derived from the scene or the seed
+            (Some("octree"), Some(settings::cache_base(&c.cache)?), vec![])
+        }
+        None => (
+            req.integrator.as_deref(),
+            None,
+            vec![(keys::MAX_DEPTH, json!(hints.max_depth.unwrap_or(-1))), (keys::PHOTON_SEED, json!(req.seed))],
+        ),
+    };
+    let resolved = settings::resolve(&SettingsInput {
+        integrator: name,
+        base,
+        derived,
+        file: req.settings_file.as_deref(),
+        flags: req.flags.clone(),
+        sets: &req.sets,
+    })?;
+    for w in resolved.warnings {
+        fe.warning(&w);
+        warnings.push(w);
+    }
+    if let Some(c) = cache {
+        settings::check_cache_settings(&c.path, &c.cache, &resolved.settings)?;
+    }
+    if let (Some(n), None) = (settings::get(&resolved.settings, keys::PHOTON_COUNT).and_then(|v| v.as_u64()), cache) {
+        budget::check_photons(n).context("the photon count (--photons or photons.photons)")?;
+    }
+    Ok(resolved.settings)
+}
+
+/// The remark due when the scene file names an integrator that is not the one rendering and
+/// nothing chose it (`chosen`: an integrator, a settings file or a cache was given).
+pub fn scene_integrator_remark(hints: &SceneHints, scene: &str, used: &str, chosen: bool, fe: &dyn Frontend, warnings: &mut Vec<String>) {
+    match settings::scene_integrator_remark(hints.integrator.as_deref(), scene, used, chosen) {
+        Some(IntegratorRemark::Note(n)) => fe.note(&n),
+        Some(IntegratorRemark::Warning(w)) => {
+            fe.warning(&w);
+            warnings.push(w);
+        }
+        None => {}
+    }
+}
+
+/// A ready integrator and what `OUT.json` says of how it was made.
+pub struct Made {
+    pub integrator: Integrator,
+    /// With a cache: the file, its size, its load time, where it was baked ([`cache_report`]).
+    pub cache: Option<Value>,
+    /// Seconds to build it (or to take it from the cache).
+    pub build_s: f64,
+}
+
+/// The integrator of `settings` for `scene`: taken from the cache (its fingerprint checked
+/// against `scene`'s, refused when they differ unless the cache allows it; its render-time
+/// settings replaced; its leak planes derived from `scene`),
+/// or built, tracing the photons in `photon_scene` (`scene` unless `--cache-scene` says
+/// otherwise).
+pub fn make_integrator(
+    settings: &IntegratorSettings,
+    scene: &Scene,
+    photon_scene: &Scene,
+    cache: Option<CacheIn>,
+    scene_name: &str,
+    fe: &dyn Frontend,
+    warnings: &mut Vec<String>,
+) -> Result<Made> {
+    let t = Instant::now();
+    let (integrator, report) = match cache {
+        Some(CacheIn { path, cache: c, load_s, allow_stale }) => {
+            let stale = cache::check_fingerprint(&path, &c, &scene.lighting_fingerprint(), scene_name, allow_stale)?;
+            if let Some(w) = &stale {
+                fe.warning(w);
+                warnings.push(w.clone());
+            }
+            let report = cache_report(&path, &c, load_s, &stale);
+            let mut integrator = c.integrator;
+            // only the render-time keys may differ: check_cache_settings
+            if let (Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&mut integrator, settings) {
+                o.settings = s.clone();
+            }
+            integrator.prepare(scene);
+            fe.info(&format!("octree: lighting from {} (read and checked in {load_s:.3} s; no photon traced)", path.display()));
+            (integrator, Some(report))
+        }
+        None => {
+            if let Some(n) = settings::get(settings, keys::PHOTON_COUNT).and_then(|v| v.as_u64()) {
+                fe.info(&format!("{}: tracing {n} photons and building the cache ...", settings.name()));
+            }
+            (build(settings, photon_scene).context("cannot build the integrator")?, None)
+        }
+    };
+    Ok(Made { integrator, cache: report, build_s: t.elapsed().as_secs_f64() })
+}
+
+/// What `OUT.json` says of the cache a render read.
+pub fn cache_report(path: &Path, c: &LoadedCache, load_s: f64, stale: &Option<String>) -> Value {
+    json!({
+        "file": path.display().to_string(),
+        "file_bytes": c.file_bytes,
+        "load_s": load_s,
+        "baked_from": c.info,
+        "stale": stale,
+    })
+}
+
+/// The integrator's build report for `OUT.json`; taken from a cache, the build's times are
+/// `null` (a cache file holds none: [`crate::cache::TIMING_KEYS`]; the bake's report has them).
+pub fn build_report(integrator: &Integrator, from_cache: bool) -> Value {
+    let mut r = integrator.build_report();
+    if from_cache {
+        if let Value::Object(m) = &mut r {
+            for k in cache::TIMING_KEYS {
+                m.insert(k.into(), Value::Null);
+            }
+            for tree in ["global", "caustic"] {
+                if let Some(Value::Object(t)) = m.get_mut(tree) {
+                    for k in cache::TREE_TIMING_KEYS {
+                        t.insert(k.into(), Value::Null);
+                    }
+                }
+            }
+        }
+    }
+    r
+}
+
+/// Render one image of a prepared scene, its progress going to `fe`.
+pub fn render_image(
+    scene: &Scene,
+    integrator: &Integrator,
+    rs: &RenderSettings,
+    fe: &dyn Frontend,
+    cancel: &AtomicBool,
+) -> (Image, RenderStats) {
+    fe.rendering(Some(scene.film.width as u64 * scene.film.height as u64));
+    let progress = |done: u64, total: u64| fe.progress(done, total);
+    let out = render_cancellable(scene, integrator, rs, &progress, Some(cancel));
+    fe.rendering(None);
+    out
+}
+
+/// Everything `octolux render` takes (the CLI's flags; Python's `render_to_files`).
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    pub scene: SceneSpec,
+    pub integrator: IntegratorRequest,
+    /// Samples per pixel (default: the scene's sampler, else 64); per pass with a time budget.
+    pub spp: Option<u32>,
+    /// Image size (default: the scene's film).
+    pub resolution: Option<(u32, u32)>,
+    /// Mitsuba's `max_depth` (default: the scene's, else -1).
+    pub max_depth: Option<i32>,
+    pub time_budget_s: Option<f64>,
+    pub backend: BackendKind,
+    pub reconstruction: Reconstruction,
+    pub sampler: SamplerKind,
+    /// A lighting cache written by a bake.
+    pub cache: Option<PathBuf>,
+    pub allow_stale_cache: bool,
+    /// Trace the photons and build the cache in this scene instead (same defines).
+    pub cache_scene: Option<String>,
+    pub camera_path: Option<PathBuf>,
+    pub sensors: bool,
+    /// Frames A to B (from 1, both included).
+    pub frames: Option<(u64, u64)>,
+    pub insert: Option<insert::InsertRequest>,
+    /// `OUT.exr` (`.png` and `.json` beside it; `OUT_0001.exr`, ... for frames).
+    pub output: PathBuf,
+    /// As `OUT.json` records it.
+    pub command_line: Vec<String>,
+    /// Warnings the front end met before the job (its flags), kept in `OUT.json`.
+    pub warnings: Vec<String>,
+}
+
+/// How a render job ended.
+#[derive(Debug)]
+pub enum RenderOutcome {
+    /// Every image written: the EXR paths.
+    Done(Vec<PathBuf>),
+    /// Stopped by the cancel flag; the message says what was written.
+    Interrupted(String),
+}
+
+/// The whole of `octolux render`: every input and output checked before any long work, then
+/// the integrator, then one image or each frame written as its output set.
+pub fn run_render(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result<RenderOutcome> {
+    let t0 = Instant::now();
+    check_max_depth(job.max_depth, "--max-depth")?;
+    if let Some(b) = job.time_budget_s {
+        if !(b.is_finite() && b > 0.0) {
+            bail!("--time-budget must be a positive number of seconds, got {b}");
+        }
+    }
+    if job.spp == Some(0) {
+        bail!("--spp must be at least 1");
+    }
+    // the film the flags ask for, before reading the scene
+    if let Some((w, h)) = job.resolution {
+        budget::check_film(w as u64, h as u64).context("--resolution")?;
+    }
+    if job.cache.is_some() {
+        if let Some(n) = job.integrator.integrator.as_deref().filter(|&n| n != "octree") {
+            bail!("--cache holds the octree integrator's lighting; --integrator {n} cannot render from it");
+        }
+        if job.cache_scene.is_some() {
+            bail!("--cache and --cache-scene exclude each other: the cache's lighting was baked in its own scene");
+        }
+    }
+    let ins = job.insert.as_ref();
+    let inputs =
+        [Some(Path::new(&job.scene.scene)), job.integrator.settings_file.as_deref(), job.cache.as_deref(), job.camera_path.as_deref()]
+            .into_iter()
+            .chain([ins.map(|i| Path::new(&i.file)), ins.and_then(|i| i.path.as_deref())]);
+    for p in inputs.flatten() {
+        crate::files::note_input(p);
+    }
+    let outputs = output::Outputs::check(&job.output)?;
+    // a lighting cache is read and checked before the scene (which may take long to load)
+    let cache = job.cache.as_deref().map(|p| read_cache(p, job.allow_stale_cache)).transpose()?;
+    let loaded = load(&job.scene, fe)?;
+    let load_s = t0.elapsed().as_secs_f64();
+    let insertion = job.insert.as_ref().map(|r| insert::read(r, fe)).transpose()?;
+    let plan = frames::plan(
+        &frames::PlanRequest {
+            scene: &job.scene.scene,
+            camera_path: job.camera_path.as_deref(),
+            sensors: job.sensors,
+            insert_path: ins.and_then(|i| i.path.as_deref()),
+            frames: job.frames,
+        },
+        &loaded.sensors,
+        &loaded.desc.camera,
+        insertion.as_ref().and_then(|i| i.path.as_ref()),
+    )?;
+    // one job per image: the single one, or each frame of the plan (every output checked now)
+    let images: Vec<(output::Outputs, Option<(frames::Frame, frames::FrameInfo)>)> = match &plan {
+        None => vec![(outputs, None)],
+        Some(p) => {
+            let mut v = Vec::with_capacity(p.frames.len());
+            for f in &p.frames {
+                let out = output::Outputs::check(&output::frame_path(&job.output, f.index, p.count))?;
+                let info = frames::FrameInfo { index: f.index, count: p.count, time_s: f.time_s, source: p.source.clone() };
+                v.push((out, Some((f.clone(), info))));
+            }
+            v
+        }
+    };
+    let mut warnings = job.warnings.clone();
+    warnings.extend(loaded.warnings.iter().cloned());
+    let mut desc = loaded.desc;
+    set_film(&mut desc, job.resolution, &job.scene.scene)?;
+    // values that are valid but leave nothing to see
+    let bounds = desc.bounds();
+    let cams = images.iter().filter_map(|(_, f)| f.as_ref().map(|(f, _)| &f.camera)).chain(plan.is_none().then_some(&desc.camera));
+    let mut camera_warnings: Vec<String> = Vec::new();
+    for c in cams {
+        if let Some(w) = c.near_clip_warning(&bounds).filter(|w| !camera_warnings.contains(w)) {
+            fe.warning(&w);
+            camera_warnings.push(w);
+        }
+    }
+    warnings.extend(camera_warnings);
+    // the scene without the inserted object: the lighting's (its fingerprint, its photons)
+    let base_desc = insertion.as_ref().map(|_| desc.clone());
+    let spp = job.spp.or(desc.hints.spp).unwrap_or(64);
+
+    // the integrator's settings, checked before any long work
+    let mut req = job.integrator.clone();
+    req.flags.extend(job.max_depth.map(settings::max_depth_flag));
+    let integrator_settings = resolve_settings(&req, &desc.hints, cache.as_ref(), fe, &mut warnings)?;
+    let name = integrator_settings.name();
+    let chosen = job.integrator.integrator.is_some() || job.integrator.settings_file.is_some() || cache.is_some();
+    scene_integrator_remark(&desc.hints, &job.scene.scene, name, chosen, fe, &mut warnings);
+    let traces = settings::get(&integrator_settings, keys::PHOTON_COUNT).is_some();
+
+    let t1 = Instant::now();
+    let mut scene = prepare(desc, job.backend, &job.scene.scene, fe, &mut warnings)?;
+    // the scene the photons are traced in (the rendered one unless --cache-scene says otherwise)
+    let cache_scene = match &job.cache_scene {
+        Some(spec) if traces => {
+            let other = load(&SceneSpec { scene: spec.clone(), ..job.scene.clone() }, fe)?;
+            Some(Scene::prepare(other.desc, job.backend).with_context(|| format!("cannot prepare cache scene '{spec}'"))?)
+        }
+        Some(_) => bail!("--cache-scene needs a cache integrator (octree, ward, christensen, photonmap), not {name}"),
+        None => None,
+    };
+    let prepare_s = t1.elapsed().as_secs_f64();
+    let threads = rayon::current_num_threads();
+    let from_cache = cache.is_some();
+    let made =
+        make_integrator(&integrator_settings, &scene, cache_scene.as_ref().unwrap_or(&scene), cache, &job.scene.scene, fe, &mut warnings)?;
+    let mut integrator = made.integrator;
+    if cache_scene.is_some() {
+        // the photons were traced in the cache scene, the rays of the leak test run here
+        integrator.prepare(&scene);
+    }
+    let t_fill = Instant::now();
+    if let (Some(ins), Integrator::Octree(o)) = (&insertion, &mut integrator) {
+        if !o.global.has_atmosphere() {
+            let st = o.fill_atmosphere(&scene);
+            fe.info(&format!(
+                "octree: volumetric values for --insert {}: {} leaves filled, {} unreached, {} edges ({} blocked) in {:.3} s",
+                ins.file, st.filled_leaves, st.unreached_leaves, st.edges, st.blocked_edges, st.t_s
+            ));
+        }
+    }
+    let build_s = made.build_s + t_fill.elapsed().as_secs_f64();
+    let build = build_report(&integrator, from_cache);
+    match &integrator {
+        Integrator::Octree(o) => stats::octree_stats_lines(&o.stats, from_cache).iter().for_each(|l| fe.info(l)),
+        _ if !build.is_null() => fe.info(&format!("{name}: {}", stats::summary(&build))),
+        _ => {}
+    }
+    fe.info(&format!(
+        "octolux: {} ({} triangles), {}x{}, {} spp, integrator {}, backend {}, {} threads",
+        job.scene.scene,
+        scene.triangle_count(),
+        scene.film.width,
+        scene.film.height,
+        spp,
+        integrator.name(),
+        scene.backend_name(),
+        threads
+    ));
+    if let Some(view) = settings::get(&integrator_settings, "view").filter(|v| v != "render") {
+        fe.info(&format!("{name}: view {view}"));
+    }
+    if let Some(p) = &plan {
+        fe.info(&format!("{}: rendering frames {}..{} of {}", p.source, p.frames[0].index, p.frames[p.frames.len() - 1].index, p.count));
+    }
+    let render_settings = RenderSettings {
+        spp,
+        seed: job.integrator.seed,
+        time_budget_s: job.time_budget_s,
+        reconstruction: job.reconstruction,
+        sampler: job.sampler,
+        ..Default::default()
+    };
+
+    // the frames written so far (for the message of an interrupt)
+    let mut written: Vec<PathBuf> = Vec::new();
+    for (outputs, frame) in images {
+        let t_frame = Instant::now();
+        let mut placed = None;
+        if let (Some(ins), Some(base)) = (&insertion, &base_desc) {
+            let m = ins.transform_at(frame.as_ref().and_then(|(f, _)| f.time_s));
+            scene = Scene::prepare(ins.scene_desc(base, &m), job.backend)
+                .with_context(|| format!("cannot prepare scene '{}' with the inserted object {}", job.scene.scene, ins.file))?;
+            let inserted = ins.inserted(base.shapes.len(), &m);
+            placed = Some((m, inserted.shapes.clone()));
+            if let Integrator::Octree(o) = &mut integrator {
+                o.inserted = inserted;
+            }
+        }
+        if let Some((f, _)) = &frame {
+            scene.camera = Camera::new(&f.camera, scene.film.width, scene.film.height);
+        }
+        let insert_report = match (&insertion, &placed) {
+            (Some(ins), Some((m, shapes))) => Some(insert::report(ins, &scene, m, shapes)),
+            _ => None,
+        };
+        let (image, rstats) = render_image(&scene, &integrator, &render_settings, fe, cancel);
+        if rstats.interrupted && rstats.passes == 0 {
+            let msg = match (&frame, written.first(), written.last()) {
+                (Some((_, info)), Some(first), Some(last)) => format!(
+                    "octolux: interrupted during frame {} before its first pass was complete: nothing written for it; \
+                     the {} frames before it are complete ({} to {})",
+                    info.index,
+                    written.len(),
+                    first.display(),
+                    last.display()
+                ),
+                _ => "octolux: interrupted before the first pass was complete; nothing written".to_string(),
+            };
+            return Ok(RenderOutcome::Interrupted(msg));
+        }
+        let t2 = Instant::now();
+        let mut file = stats::StatsFile {
+            octolux_version: env!("CARGO_PKG_VERSION"),
+            command_line: job.command_line.clone(),
+            scene: &job.scene.scene,
+            integrator: integrator.name(),
+            integrator_settings: serde_json::to_value(&integrator_settings).context("the settings")?,
+            backend: scene.backend_name(),
+            threads,
+            triangles: scene.triangle_count(),
+            seed: job.integrator.seed,
+            render_settings,
+            timings: stats::Timings { load_s, prepare_s, build_s, render_s: rstats.render_s, write_s: 0.0, total_s: 0.0 },
+            samples_per_second: rstats.samples_per_second,
+            rays_per_second: rstats.rays_per_second,
+            render: &rstats,
+            cache_query_share: stats::query_share(&rstats, threads),
+            build: build.clone(),
+            render_report: integrator.render_report(),
+            warnings: &warnings,
+            partial: rstats.interrupted.then(|| stats::Partial::interrupted(&rstats)),
+            cache: made.cache.clone(),
+            frame: frame.as_ref().map(|(_, info)| info.clone()),
+            insert: insert_report,
+        };
+        // the JSON's own write time is not in it; the images' is
+        outputs.write(&image, || {
+            file.timings.write_s = t2.elapsed().as_secs_f64();
+            file.timings.total_s = if frame.is_some() { t_frame.elapsed().as_secs_f64() } else { t0.elapsed().as_secs_f64() };
+            serde_json::to_string_pretty(&file).map_err(|e| JobError(e.to_string()))
+        })?;
+        written.push(outputs.exr.clone());
+        let (png, json) = (&outputs.png, &outputs.json);
+        if rstats.interrupted {
+            return Ok(RenderOutcome::Interrupted(format!(
+                "octolux: interrupted after {} passes ({} spp); wrote the partial image to {}, {}, {}",
+                rstats.passes,
+                rstats.spp,
+                outputs.exr.display(),
+                png.display(),
+                json.display()
+            )));
+        }
+        fe.info(&format!(
+            "rendered {} spp in {:.2} s: {:.3} M samples/s, {:.2} M rays/s -> {}, {}, {}",
+            rstats.spp,
+            rstats.render_s,
+            rstats.samples_per_second * 1e-6,
+            rstats.rays_per_second * 1e-6,
+            outputs.exr.display(),
+            png.display(),
+            json.display()
+        ));
+    }
+    Ok(RenderOutcome::Done(written))
+}
+
+/// Everything `octolux bake` takes (the CLI's flags; Python's `bake` with a scene name).
+#[derive(Clone, Debug)]
+pub struct BakeJob {
+    pub scene: SceneSpec,
+    /// The `octree` settings: `integrator` must be none or `octree`; `seed` is the photons'.
+    pub settings: IntegratorRequest,
+    pub max_depth: Option<i32>,
+    pub backend: BackendKind,
+    /// The cache file (its JSON report is written beside it, [`bake::report_path`]).
+    pub output: PathBuf,
+    pub command_line: Vec<String>,
+}
+
+/// The whole of `octolux bake`: the output checked first, the scene loaded and prepared, the
+/// octrees built and their volumetric values filled, the cache and its report written.
+pub fn run_bake(job: &BakeJob, fe: &dyn Frontend) -> Result<bake::BakeReport> {
+    let t0 = Instant::now();
+    check_max_depth(job.max_depth, "--max-depth")?;
+    let inputs = [Some(Path::new(&job.scene.scene)), job.settings.settings_file.as_deref()];
+    for p in inputs.into_iter().flatten() {
+        crate::files::note_input(p);
+    }
+    crate::files::check_output(&job.output)?;
+    let report_path = bake::report_path(&job.output)?;
+    crate::files::check_output(&report_path)?;
+    let loaded = load(&job.scene, fe)?;
+    let mut warnings = loaded.warnings.clone();
+    let mut req = job.settings.clone();
+    req.flags.extend(job.max_depth.map(settings::max_depth_flag));
+    let settings = bake::bake_settings(&req, &loaded.desc.hints, fe, &mut warnings)?;
+    let load_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let scene = prepare(loaded.desc, job.backend, &job.scene.scene, fe, &mut warnings)?;
+    let prepare_s = t1.elapsed().as_secs_f64();
+    let mut baked = bake::bake(&scene, &job.scene.scene, settings, fe)?;
+    baked.add_front_end(&job.command_line, load_s, prepare_s, warnings);
+    bake::write(&baked, &job.output, &report_path, t0, fe)
+}
