@@ -2,7 +2,7 @@
 //! next-event estimation and multiple importance sampling (power heuristic), Russian roulette
 //! and Mitsuba 3's `max_depth`, plus a policy ([`Ending`]) that may end a path in a radiance
 //! cache at a vertex. The path tracer ([`super::path`]) runs it with [`Never`]; the octree
-//! integrator ([`super::octree`]) with its termination rule (docs/octree.md, "Ending paths in
+//! integrator ([`super::octree`]) with its termination rule (docs/guide/octree.md, "Ending paths in
 //! the cache").
 //!
 //! `max_depth` counts path vertices as Mitsuba 3 does: 1 = only emitters seen directly,

@@ -1,5 +1,5 @@
 //! The prepared [`LightSet`]: the scene's lights (the description enum
-//! [`Light`](super::desc::Light)) plus what sampling them needs.
+//! [`super::desc::Light`]) plus what sampling them needs.
 //!
 //! Conventions: `LightSample::wi` points from the shading point towards the light;
 //! `LightSample::pdf` is a solid-angle density that already includes the probability of

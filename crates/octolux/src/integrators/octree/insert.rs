@@ -1,4 +1,4 @@
-//! Objects inserted into baked lighting (issue 13, item 5; docs/baking.md "Inserted objects"):
+//! Objects inserted into baked lighting (issue 13, item 5; docs/guide/baking.md "Inserted objects"):
 //! the paper's abstract asks the representation "to allow an object to be embedded in a
 //! lighting solution", and its future work (§10) names the volumetric values that make it
 //! possible (`caches::octree` `atmosphere.rs`).
@@ -6,9 +6,9 @@
 //! The scene rendered is the baked one plus the object (its shapes appended last, so that the
 //! baked scene's shape indices are unchanged); [`Inserted::shapes`] names them. At a point of
 //! the object, direct light is computed as everywhere (shadow rays see the whole scene); the
-//! indirect light is the global octree's **volume query** ([`Octree::incident_matrix_volume`]:
+//! indirect light is the global octree's **volume query** ([`crate::caches::Octree::incident_matrix_volume`]:
 //! the leaves' own and diffused values, whatever the object's position) with a leak control
-//! that looks through the object ([`leaf_seen_past_inserted`]: each leaf met must be visible
+//! that looks through the object (`leaf_seen_past_inserted`: each leaf met must be visible
 //! from the point in the baked scene; an atmospheric leaf through its point nearest to it;
 //! `leak = "none"` turns it off). The caustic octree is not read on the object (caustic light
 //! is not diffused).

@@ -1,4 +1,4 @@
-//! The leak test of the octree queries ([`LeakTest::VisibleSample`]; `docs/octree.md`, "Leak
+//! The leak test of the octree queries ([`LeakTest::VisibleSample`]; `docs/guide/octree.md`, "Leak
 //! control"; paper §7's blend is what leaks): a leaf met by a query at a shading point keeps its
 //! light when the point sees one of the leaf's sampled photons. Most of the test's segments are
 //! answered by the planes around each leaf ([`LeafPlanes`]) without casting a ray.

@@ -1,4 +1,4 @@
-//! The thin-wall test of the octree's leak control (`docs/octree.md`, "Leak control"; paper
+//! The thin-wall test of the octree's leak control (`docs/guide/octree.md`, "Leak control"; paper
 //! §7's blend is what leaks). Two closed rooms share a wall; a light hangs in the left one.
 //! No light path reaches the right room, so the path tracer's irradiance there is exactly 0.
 //! The octree's is measured on the dark side near the wall (floor, ceiling and the wall's

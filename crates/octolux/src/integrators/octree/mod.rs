@@ -1,9 +1,9 @@
 //! The `octree` integrator: the path tracer's loop ([`super::pathloop`]) ending paths in the
 //! paper's incident-radiance octrees (Pacanowski, Granier & Schlick 2005): a global octree for
 //! the indirect light and a caustic octree for the light that reached a surface through
-//! specular bounces only (§8; `docs/octree.md`).
+//! specular bounces only (§8; `docs/guide/octree.md`).
 //!
-//! **Where a path ends** ([`Mode`], docs/octree.md "Ending paths in the cache"). With
+//! **Where a path ends** ([`Mode`], docs/guide/octree.md "Ending paths in the cache"). With
 //! `mode = terminate` (the default) a path ends at a vertex when its ray cone is at least
 //! `footprint` times as wide as the global octree's leaf there and the vertex has a lobe at
 //! least `min_alpha` rough (`shade.rs`): a glossy camera vertex, or a vertex close to the one
@@ -19,7 +19,7 @@
 //! evaluates the lobe in the mean incident direction, which is why only lobes at least
 //! `min_alpha` rough are shaded from the cache.
 //!
-//! **Leak control** ([`LeakTest`], `leak.rs`, `docs/octree.md` "Leak control"): every octree
+//! **Leak control** ([`LeakTest`], `leak.rs`, `docs/guide/octree.md` "Leak control"): every octree
 //! read drops the leaves whose photons the shading point cannot see, so light does not pass
 //! through walls thinner than the query box. The global tree's depth limit is automatic by
 //! default (`caches::octree::auto_depth`).
@@ -120,7 +120,7 @@ pub struct OctreeIntegrator {
     pub inserted: insert::Inserted,
 }
 
-/// A built `octree` integrator as plain data: what a cache file holds (docs/baking.md).
+/// A built `octree` integrator as plain data: what a cache file holds (docs/guide/baking.md).
 /// Extend [`OctreeParts`] for per-leaf data, this struct for per-integrator data.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OctreeIntegratorParts {
@@ -243,7 +243,7 @@ impl OctreeIntegrator {
         let t0 = Instant::now();
         let needs_geometry = |s: &OctreeSettings| s.estimator == crate::caches::Estimator::GeometryArea;
         // Meshes as triangles, spheres analytic: a tessellated sphere would leave its photons
-        // off the triangles, its lit side undetected (docs/octree.md, "Analytic shapes").
+        // off the triangles, its lit side undetected (docs/lab/2026-11-30-octree.md, "Analytic shapes").
         let (tris, spheres) = if needs_geometry(&settings.global) || needs_geometry(&settings.caustic) {
             estimator_surfaces(scene)
         } else {

@@ -23,7 +23,7 @@ pub enum OctreeView {
 }
 
 /// How a query keeps the light of a leaf from leaking through a wall to a point that cannot
-/// see the leaf's photons (`leak.rs`; `docs/octree.md`, "Leak control").
+/// see the leaf's photons (`leak.rs`; `docs/guide/octree.md`, "Leak control").
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum LeakTest {
@@ -71,7 +71,7 @@ pub struct OctreeIntegratorSettings {
     /// Where paths end in the cache ([`Mode`]).
     pub mode: Mode,
     /// With `mode = terminate`: a path ends in the cache at a vertex whose ray cone is at least
-    /// this many times as wide as the global octree's leaf there (docs/octree.md, "Ending
+    /// this many times as wide as the global octree's leaf there (docs/guide/octree.md, "Ending
     /// paths in the cache"). A huge value ends no path: the image is the path tracer's.
     pub footprint: f32,
     /// With `mode = terminate`: the roughness (microfacet alpha) from which a lobe's light may
@@ -83,7 +83,7 @@ pub struct OctreeIntegratorSettings {
     /// 1.8e-2 never (path-traced caustics); cbox 9.3e-4, 9.3e-4, 4.0e-3, 1.8e-2.
     pub caustic_photons: u32,
     /// With `mode = unbiased`: how readily a path ending in the cache is traced on to correct
-    /// the cache's value (the residual estimator, docs/octree.md "Without bias"). A path goes
+    /// the cache's value (the residual estimator, docs/guide/octree.md "Without bias"). A path goes
     /// on with probability `min(1, 2 q s)`, at least [`Q_MIN`], where `s` is the share of the
     /// path's estimated light that the cache puts beyond the vertex: `q` where the cache
     /// holds half of it. 1 (the default) measured best of 0.5, 1 and 2 on three scenes; 20 traces
@@ -113,7 +113,7 @@ pub enum Mode {
     /// `terminate`'s rule without its bias: where a path ends, the cache's value `C` is
     /// corrected by a path-traced continuation taken with probability `q`,
     /// `C + [u < q] (L − Ĉ) / q` (`Ĉ`: the cache's value for the sampled direction, of mean
-    /// `C`), so that the image converges to the path tracer's (docs/octree.md "Without bias").
+    /// `C`), so that the image converges to the path tracer's (docs/guide/octree.md "Without bias").
     Unbiased,
     /// The paper's renderer (§8): the cache is read at the first vertex with a non-delta lobe
     /// after a specular chain from the camera, every lobe shaded from it.

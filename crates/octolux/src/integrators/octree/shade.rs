@@ -1,5 +1,5 @@
 //! Where the `octree` integrator's paths end, and what the octrees give there: the policy of
-//! the path loop ([`Ending`], `integrators::pathloop`; docs/octree.md "Ending paths in the
+//! the path loop ([`Ending`], `integrators::pathloop`; docs/guide/octree.md "Ending paths in the
 //! cache").
 //!
 //! **The termination rule** (`mode = terminate`). A path ends at a vertex `x` when
@@ -103,7 +103,7 @@ impl OctreeIntegrator {
 
     /// An ending under `mode = unbiased`: the cache's value `C` at `v` and, with probability
     /// `q` (drawn here), the residual continuation that corrects it (`integrators::pathloop`,
-    /// "The residual"; docs/octree.md "Without bias"). Where the wide lobes are Lambertian (of
+    /// "The residual"; docs/guide/octree.md "Without bias"). Where the wide lobes are Lambertian (of
     /// albedo `ρ`) and no inserted object changes the value, the control variate is the linear
     /// incident field `L̃_c(ω) = 3/(2π) m_c · ω` of the blended matrix's columns `m_c`: over the
     /// hemisphere of `N` it has the irradiance vector `m_c` (`∫ ω ωᵀ dω = 2π/3 I` there), so its
@@ -133,7 +133,7 @@ impl OctreeIntegrator {
             _ => (self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters)?, None),
         };
         // Survival in proportion to the share of the path's light the cache puts beyond the
-        // vertex (docs/octree.md "Choosing q"): the cache drives the roulette.
+        // vertex (docs/guide/octree.md "Choosing q"): the cache drives the roulette.
         let bc = crate::math::max_component(v.throughput * c);
         let share = bc / (crate::math::max_component(v.gathered) + bc);
         let q = if share.is_finite() { (2.0 * s.q * share).clamp(Q_MIN, 1.0) } else { 1.0 };

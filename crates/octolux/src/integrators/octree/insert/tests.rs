@@ -289,7 +289,7 @@ fn the_inserted_objects_leak_test_looks_through_the_object() {
 
 /// Diagnostic (not a check, `--ignored`): on the faces of a cube inserted into the baked box
 /// at three heights, the volume query (with the scene's leak test, none, the object's) against
-/// the path tracer with the cube present and with it absent (docs/baking.md).
+/// the path tracer with the cube present and with it absent (docs/guide/baking.md).
 #[test]
 #[ignore]
 fn inserted_cube_faces_diagnostic() {
