@@ -14,7 +14,7 @@ time-to-error references (tests/refs/tte/manifest.json, 160 wide, each with its 
 tests/refs/manifest.json (cornell-box, cornell-spheres, cbox, bitterli; 128x128).
 Methods, each a ladder of runs, one process per run, all threads of the machine:
   octree, octree-unbiased (--set mode=unbiased): the octree modes that trace paths on
-      (photons, spp) = (1e5, 1), (2e5, 4), (4e5, 16), (8e5, 64), (1.6e6, 256), (3.2e6, 1024), ...
+      (photons, spp) = (12.5e3, 1), (5e4, 4), (2e5, 16), (8e5, 64), (1.6e6, 256), (3.2e6, 1024), ...
   octree-paper (--set mode=paper), ward, christensen, photonmap
       (photons, spp) = (1e5, 1), (3e5, 4), (1e6, 16), (2e6, 64), (4e6, 256), (8e6, 1024)
   path (octolux), mitsuba (Mitsuba 3 path, llvm_ad_rgb, tools/mitsuba/render.py, independent sampler)
@@ -71,22 +71,18 @@ DEFAULT_METHODS = ["octree", "octree-paper", "octree-unbiased", "path", "mitsuba
 UNBIASED = ("path", "mitsuba", "octree-unbiased")
 VARIANTS = {"octree-paper": ["--set", "mode=paper"], "octree-unbiased": ["--set", "mode=unbiased"]}
 CACHE_RUNGS = [(100_000, 1), (300_000, 4), (1_000_000, 16), (2_000_000, 64), (4_000_000, 256), (8_000_000, 1024)]
-# The octree modes that trace paths on past the cache (terminate, unbiased) spend most of a rung
-# on its samples, and the cache's error is a small part of theirs: photons double per rung while
-# spp grow 4x, so the photon pass does not dominate the high rungs.
-TRACED_RUNGS = [(100_000, 1), (200_000, 4), (400_000, 16), (800_000, 64), (1_600_000, 256), (3_200_000, 1024),
+# The octree modes that trace paths on past the cache (terminate, unbiased): photons 4x per rung,
+# as the spp, up to 800k (the cache's noise, 1/photons, and the samples', 1/spp, keep their ratio:
+# the optimum of error = A/photons + B/spp at a cost linear in both), then 2x: past about 1M
+# photons the cache's error is below the samples' and more photons only cost (docs/lab,
+# 2026-12-04-time-to-error.md: the all-doubling and all-4x ladders measured).
+TRACED_RUNGS = [(12_500, 1), (50_000, 4), (200_000, 16), (800_000, 64), (1_600_000, 256), (3_200_000, 1024),
                 (6_400_000, 4096)]
-# Photons 4x per rung, as the spp: the cache's noise (1/photons) and the samples' (1/spp) then keep
-# their ratio, which is the optimum of error = A/photons + B/spp at cost = a photons + b spp.
-TRACED_RUNGS_X4 = [(12_500, 1), (50_000, 4), (200_000, 16), (800_000, 64), (3_200_000, 256), (12_800_000, 1024)]
 TRACED = ["octree", "octree-unbiased"]
 SPP_RUNGS = [1, 4, 16, 64, 256, 1024, 4096, 16384]
 TARGETS = [1.0, 0.3, 0.1, 0.03, 0.01, 0.003, 0.001]
 SEED = 7
 BEGIN, END = "<!-- tte:begin (bench/time_to_error.py --write-docs) -->", "<!-- tte:end -->"
-
-
-LADDER = {"traced": "doubling"}
 
 
 def add_variant(spec: str) -> str:
@@ -205,7 +201,7 @@ def run_rung(name: str, sc: dict, method: str, rung, setup: float) -> dict:
 
 
 def ladder(name: str, sc: dict, method: str, budget: float, setup: float) -> list[dict]:
-    rungs = (TRACED_RUNGS_X4 if LADDER["traced"] == "x4" else TRACED_RUNGS) if method in TRACED else CACHE_RUNGS if method in CACHES else SPP_RUNGS
+    rungs = TRACED_RUNGS if method in TRACED else CACHE_RUNGS if method in CACHES else SPP_RUNGS
     growth = 3.8 if method in CACHES else 4.0
     pts, spent = [], 0.0
     for i, rung in enumerate(rungs):
@@ -264,8 +260,8 @@ def summarise(results: dict) -> str:
     METHODS = methods_in(results)
     label = {"mitsuba": "Mitsuba 3"}
     lines.append("| scene | res | ref noise | target | " + " | ".join(label.get(m, m) for m in METHODS)
-                 + " | octree vs Mitsuba |")
-    lines.append("|---" * (5 + len(METHODS)) + "|")
+                 + " | octree vs Mitsuba | octree vs path |")
+    lines.append("|---" * (6 + len(METHODS)) + "|")
     heads = []
     for name, r in results["scenes"].items():
         sc = r["scene"]
@@ -282,18 +278,20 @@ def summarise(results: dict) -> str:
                     cells.append("—" if how == "none" else f"floor {floor[m]:.2g}" if floor[m] is not None else "—")
                 else:
                     cells.append({"extrapolated": "~", "first rung": "≤"}.get(how, "") + f"{t:.3g}")
-            (to, ho), (tm, hm) = times["octree"], times["mitsuba"]
+            none = (None, "none")
+            (to, ho), (tm, hm), (tp, _) = times.get("octree", none), times.get("mitsuba", none), times.get("path", none)
             if ho == "first rung" and hm == "first rung":
                 continue  # above both curves: says nothing
             sp = f"{tm / to:.2g}x" if to and tm else "—"
+            spp = f"{tp / to:.2g}x" if to and tp else "—"
             if to and tm and ho != "first rung":
                 best = (target, tm / to)
             lines.append(f"| {name} | {sc['res'][0]}x{sc['res'][1]} | {sc['ref_noise']:.2g} | {target:g} | "
-                         + " | ".join(cells) + f" | {sp} |")
+                         + " | ".join(cells) + f" | {sp} | {spp} |")
         oc = sorted(r["curves"].get("octree", []), key=lambda p: p["cost_cpu_s"])
         trend = oc[-1]["error"] / oc[-2]["error"] if len(oc) >= 2 and oc[-2]["error"] > 0 else None
         share = max((p.get("query_share") or run_share(name, p) for p in oc), default=None)
-        heads.append((name, best, floor["octree"], trend, share))
+        heads.append((name, best, floor.get("octree"), trend, share))
     lines.append("")
     lines.append("CPU seconds (user + system, both cores) to reach each error (relMSE minus the reference's own "
                  "noise); ~ = extrapolated as 1/cost past the last rung (unbiased path tracers only); "
@@ -366,11 +364,8 @@ def main() -> int:
     ap.add_argument("--plot-only", type=Path, help="re-plot and re-tabulate a results.json")
     ap.add_argument("--variant", action="append", default=[],
                     help="NAME=KEY=VALUE[,KEY=VALUE...]: an extra octree method with these --set keys")
-    ap.add_argument("--traced-ladder", choices=["doubling", "x4"], default="doubling",
-                    help="photons of the traced octree modes: doubling per rung, or 4x per rung as the spp")
     ap.add_argument("--reuse", action="store_true", help="keep the scenes already in target/tte/results.json")
     args = ap.parse_args()
-    LADDER["traced"] = args.traced_ladder
     extra = [add_variant(v) for v in args.variant]
     args.methods = list(dict.fromkeys(args.methods + extra))
     if args.plot_only:
