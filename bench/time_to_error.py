@@ -37,7 +37,8 @@ path tracers are extrapolated past their last rung as error ~ 1/cost (marked ~);
 never reaches a target is biased there and its floor (lowest error seen) is reported.
 
 Writes target/tte/results.json, target/tte/results.md, and with --plot docs/img/time_to_error.png;
---write-docs replaces the block between the tte markers of docs/guide/benchmarks.md with results.md.
+--write-docs writes results.md between the tte markers of the run's dated lab record,
+docs/lab/<date of the run>-time-to-error.md (created when absent; text around the markers kept).
 """
 from __future__ import annotations
 
@@ -59,7 +60,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 import scenes as aliases  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
 MI_PYTHON = Path(os.environ.get("OCTOLUX_MI_PYTHON", ROOT / ".venv-mitsuba" / "bin" / "python"))
 RENDER_PY = ROOT / "tools" / "mitsuba" / "render.py"
-DOCS = ROOT / "docs" / "guide" / "benchmarks.md"
+LAB = ROOT / "docs" / "lab"
 IMG = ROOT / "docs" / "img" / "time_to_error.png"
 COLLECTION = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"]
 CLASSIC = ["cornell-box", "cornell-spheres", "cbox", "bitterli"]
@@ -344,23 +345,25 @@ def plot(results: dict, path: Path) -> None:
 
 
 def write_docs(md: str, results: dict) -> None:
-    text = DOCS.read_text()
+    date = results.get("date") or time.strftime("%Y-%m-%d")
+    doc = LAB / f"{date}-time-to-error.md"
+    text = doc.read_text() if doc.exists() else f"# {date}: time to error on the reference scenes\n\n"
     block = f"{BEGIN}\n{results['about']}\n\n{md}{END}"
     if BEGIN in text and END in text:
         text = re.sub(re.escape(BEGIN) + ".*?" + re.escape(END), lambda _: block, text, flags=re.S)
     else:
         text += "\n" + block + "\n"
-    DOCS.write_text(text)
-    log(f"updated {DOCS}")
+    doc.write_text(text)
+    log(f"updated {doc}")
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scenes", nargs="+", default=COLLECTION + CLASSIC)
-    ap.add_argument("--methods", nargs="+", default=DEFAULT_METHODS)
+    ap.add_argument("--methods", nargs="*", default=DEFAULT_METHODS, help="methods to run (none: only the --variant ones)")
     ap.add_argument("--budget", type=float, default=60.0, help="CPU seconds per method and scene (default 60)")
     ap.add_argument("--plot", action="store_true", help=f"write {IMG.relative_to(ROOT)}")
-    ap.add_argument("--write-docs", action="store_true", help="replace the results block of docs/guide/benchmarks.md")
+    ap.add_argument("--write-docs", action="store_true", help="write the tables into docs/lab/<date>-time-to-error.md")
     ap.add_argument("--plot-only", type=Path, help="re-plot and re-tabulate a results.json")
     ap.add_argument("--variant", action="append", default=[],
                     help="NAME=KEY=VALUE[,KEY=VALUE...]: an extra octree method with these --set keys")
@@ -378,7 +381,8 @@ def main() -> int:
         all_scenes = scenes()
         t0 = time.time()
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-        results = {"about": f"`bench/time_to_error.py --budget {args.budget:g}` at {head}, "
+        results = {"date": time.strftime("%Y-%m-%d"),
+                   "about": f"`bench/time_to_error.py --budget {args.budget:g}` at {head}, "
                             f"{time.strftime('%Y-%m-%d')}, {os.cpu_count()} CPUs",
                    "scenes": {}}
         if args.reuse and (OUT / "results.json").exists():
