@@ -18,6 +18,7 @@ use octolux::render::{render, RenderSettings};
 use octolux::sampling::Sampler;
 use octolux::scene::camera::{look_at, CameraDesc, FovAxis};
 use octolux::scene::envmap::EnvMap;
+use octolux::scene::lights::LightSelection;
 use octolux::scene::material::{Material, Texture};
 use octolux::scene::sunsky::{SunSky, SunSkyDesc};
 use octolux::scene::Light;
@@ -180,11 +181,13 @@ fn photons_from_environments_carry_the_total_power() {
     let total = set.total_power().as_dvec3();
     assert!((mean - total).abs().max_element() < 0.02 * total.max_element(), "{mean} vs {total}");
     // next-event samples agree with the environment radiance and mixture pdf
-    for _ in 0..2000 {
-        if let Some(ls) = set.sample_li(Vec3::ZERO, s.next_1d(), s.next_2d()) {
-            assert!(ls.dist.is_infinite());
-            assert!((ls.li - set.env_le(ls.wi)).abs().max_element() <= 1e-6 * ls.li.max_element().max(1.0));
-            assert!((ls.pdf - set.pdf_li_env(ls.wi)).abs() <= 1e-5 * ls.pdf);
+    for sel in [LightSelection::Tree, LightSelection::Power] {
+        for _ in 0..2000 {
+            if let Some(ls) = set.sample_li(sel, Vec3::ZERO, Vec3::Y, s.next_1d(), s.next_2d()) {
+                assert!(ls.dist.is_infinite());
+                assert!((ls.li - set.env_le(ls.wi)).abs().max_element() <= 1e-6 * ls.li.max_element().max(1.0));
+                assert!((ls.pdf - set.pdf_li_env(sel, ls.wi)).abs() <= 1e-5 * ls.pdf);
+            }
         }
     }
 }
