@@ -51,13 +51,14 @@ use super::envmap::EnvMap;
 use super::sunsky::SunSky;
 use crate::image::Image;
 use crate::math::{Bounds3, Color, Frame};
+use crate::sampling::ONE_MINUS_EPSILON;
 use crate::sampling::{
     square_to_cosine_hemisphere, square_to_uniform_cone, square_to_uniform_disk_concentric, square_to_uniform_sphere,
     square_to_uniform_triangle, uniform_cone_pdf, Distribution1D, UNIFORM_SPHERE_PDF,
 };
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
-use tree::{LightBounds, LightTree, ONE_MINUS_EPSILON};
+use tree::{LightBounds, LightTree};
 
 pub mod tree;
 

@@ -21,6 +21,7 @@
 //! is deterministic: ties are broken by light index.
 
 use crate::math::Color;
+use crate::sampling::ONE_MINUS_EPSILON;
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -292,9 +293,6 @@ impl LightTree {
         self.nodes.len()
     }
 }
-
-/// The largest `f32` below 1 (a remapped sample stays in [0, 1)).
-pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// Partition `items` for a node with `bounds` by the lowest SAOH cost; returns the size of the
 /// first part (1..len).
