@@ -83,7 +83,7 @@ fn uniform_envmap_is_a_white_furnace() {
         images: vec![img],
         lights: vec![Light::Envmap { image: 0, scale: 1.0, to_world: Mat3::from_rotation_z(0.4) }],
         camera: camera(Vec3::new(0.0, 0.0, 4.0)),
-        film: FilmDesc { width: 24, height: 24, filter: PixelFilter::Box },
+        film: FilmDesc { width: 24, height: 24, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     };
     let out = render_desc(desc, 256, -1);
@@ -105,7 +105,7 @@ fn plane_scene(light: Light, images: Vec<Image>) -> SceneDesc {
         images,
         lights: vec![light],
         camera: camera(Vec3::new(0.0, 0.0, 5.0)),
-        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box },
+        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     }
 }
