@@ -18,8 +18,9 @@ power) and scenes lit only by it:
              of real geometry lit through windows.
 Renders each with octolux `path` (2 threads, --sampler sobol) and reports samples per CPU
 second; with --perf, `perf record` runs the render and the report gives the share of samples
-in the environment map's sampling (`LatLong::sample_direction`, the table's `sample_cell`,
-`Distribution1D::sample`/`Hierarchy2D` frames) and in `LatLong::pdf`. Needs `target/release/octolux`.
+in the environment map's sampling (`Distribution1D::sample`, `LatLong::sample_direction`) and in
+`LatLong::pdf` among the top symbols. --reference DIR adds each render's relMSE against
+DIR/<scene>.exr (e.g. a 256-spp render of the same scene). Needs `target/release/octolux`.
 """
 from __future__ import annotations
 
