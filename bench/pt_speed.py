@@ -15,6 +15,9 @@ Cases are SCENE[:MAX_DEPTH] with SCENE one of
                ../shared/scenes/bitterli-collection/SCENE/scene.xml at the resolution and
                max_depth of its reference (tests/refs/collection/manifest.json: 320 wide, the
                file's maxDepth);
+  envmap, mirrored, wrappers, manylights
+               the generated test scenes tests/scenes/SCENE/scene.xml (tools/make_testdata.py),
+               likewise at their reference's resolution and max_depth;
   mesh1m       a generated height field of 1 002 528 triangles (binary PLY written to a temporary
                folder, never committed) under an area light and a constant sky, at --resolution.
 Without MAX_DEPTH a case takes its default (the reference's, or -1 for the built-in boxes).
@@ -32,6 +35,12 @@ Each (case, thread count) runs octolux then each Mitsuba variant, alternately. R
               build) from render.py; both at the largest thread count. Wall seconds, and CPU
               seconds (user+sys): octolux's from a separate 4x4-pixel, 1-spp run of the same
               scene (nearly all of it loading), Mitsuba's from process_time() around load_file.
+  per-sample efficiency (the cases with a reference in tests/refs/collection, at the largest
+              thread count): relMSE of each renderer's image at this spp against the reference
+              (`octolux compare`), less the reference's own noise σ²_ref (its manifest's
+              self_noise.ref_rel_mse), times the render's CPU seconds: the error a CPU-second of
+              that renderer buys at equal spp (lower is better; relMSE falls as 1/spp, so the
+              product does not depend on spp). `eff ratio` = octolux / Mitsuba.
 Needs tools/mitsuba/setup.sh for the Mitsuba half and `cargo build --release -p octolux-cli` for
 octolux (or --build).
 """
@@ -62,7 +71,8 @@ import scenes  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
 BUILTIN = {"cornell-box": -1, "cornell-spheres": 8}
 FILES = {"bitterli": (scenes.get("bitterli")["scene"], -1), "cbox": (scenes.get("cbox")["scene"], 6)}
 COLLECTION = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"]
-DEFAULT_CASES = ["cornell-box", "cornell-spheres", "bitterli", "bitterli:65", "cbox"] + COLLECTION + ["mesh1m"]
+TEST_SCENES = ["envmap", "mirrored", "wrappers", "manylights"]
+DEFAULT_CASES = ["cornell-box", "cornell-spheres", "bitterli", "bitterli:65", "cbox"] + COLLECTION + TEST_SCENES + ["mesh1m"]
 VARIANTS = ["llvm_ad_rgb"]
 MESH_N = 709  # vertices per side: 2 * 708^2 = 1 002 528 triangles
 
@@ -130,11 +140,11 @@ def write_mesh_scene(folder: str) -> str:
 
 
 def octolux_speed(binary: str, scene: str, spp: int, res: str, depth: int, threads: int, tmp: str,
-                  verbose: bool, sampler: str) -> dict:
+                  verbose: bool, sampler: str, extra: list[str]) -> dict:
     out = os.path.join(tmp, "x.exr")
     c0 = children_cpu()
     p = run([binary, "render", scene, "--integrator", "path", "--spp", str(spp), "--resolution", res,
-             "--max-depth", str(depth), "--threads", str(threads), "--sampler", sampler, "--quiet", "-o", out],
+             "--max-depth", str(depth), "--threads", str(threads), "--sampler", sampler, "--quiet", "-o", out] + extra,
             stderr=None if verbose else subprocess.DEVNULL)
     cpu = children_cpu() - c0
     if p.returncode != 0:
@@ -148,7 +158,7 @@ def octolux_speed(binary: str, scene: str, spp: int, res: str, depth: int, threa
     samples = sps * t["render_s"] if t.get("render_s") else None
     ttfs = sum(t.get(k) or 0.0 for k in ("load_s", "prepare_s", "build_s"))
     return {"samples_per_second": sps, "samples_per_cpu_second": samples / cpu_render if samples and cpu_render > 0 else None,
-            "ttfs_s": ttfs, "timings": t}
+            "ttfs_s": ttfs, "timings": t, "render_cpu_s": cpu_render, "image": out}
 
 
 def octolux_ttfs_cpu(binary: str, scene: str, depth: int, threads: int, tmp: str) -> float | None:
@@ -160,10 +170,11 @@ def octolux_ttfs_cpu(binary: str, scene: str, depth: int, threads: int, tmp: str
     return children_cpu() - c0 if p.returncode == 0 else None
 
 
-def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, threads: int, verbose: bool) -> dict:
+def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, threads: int, verbose: bool,
+                  out: str | None = None) -> dict:
     cmd = [MI_PY, MI_RENDER, xml, "--variant", variant, "--spp", str(spp), "--resolution", res,
            "--max-depth", str(depth), "--threads", str(threads), "--sampler", "independent", "--quiet",
-           "--passes", "1"]
+           "--passes", "1"] + (["-o", out] if out else [])
     if not variant.startswith("scalar"):
         cmd += ["--warmup", "--warmup-spp", "1"]
     p = run(cmd, stderr=None if verbose else subprocess.DEVNULL)
@@ -172,7 +183,19 @@ def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, thread
     r = json.loads(p.stdout.strip().splitlines()[-1])
     r["ttfs_s"] = r.get("load_s")
     r["ttfs_cpu_s"] = r.get("load_cpu_s")
+    r["image"] = out
     return r
+
+
+def rel_mse(binary: str, image: str | None, ref: str) -> float | None:
+    """relMSE of `image` against `ref` by `octolux compare` (the tests' definition)."""
+    if not image or not os.path.exists(image):
+        return None
+    p = subprocess.run([binary, "compare", image, ref], cwd=REPO, text=True, capture_output=True)
+    try:
+        return float(json.loads(p.stdout)["rel_mse"])
+    except (ValueError, KeyError):
+        return None
 
 
 def med(values):
@@ -180,18 +203,23 @@ def med(values):
     return statistics.median(v) if v else None
 
 
-def collection_setup() -> dict:
+def collection_setup() -> tuple[dict, dict]:
+    """Per collection and test scene: (resolution, max_depth) of its reference; and per scene
+    with a reference: (reference EXR, its own noise σ²_ref)."""
     try:
         with open(COLLECTION_MANIFEST) as f:
             refs = json.load(f)["references"]
     except (OSError, KeyError, ValueError):
         refs = {}
-    out = {}
-    for name in COLLECTION:
+    out, ref_files = {}, {}
+    for name in COLLECTION + TEST_SCENES:
         r = refs.get(name, {})
         res = r.get("resolution") or [320, 240]
         out[name] = (f"{res[0]}x{res[1]}", int(r.get("max_depth", -1)))
-    return out
+        if r.get("file"):
+            ref_files[name] = (os.path.join(os.path.dirname(COLLECTION_MANIFEST), r["file"]),
+                               float(r.get("self_noise", {}).get("ref_rel_mse") or 0.0))
+    return out, ref_files
 
 
 def main(argv=None) -> int:
@@ -203,6 +231,8 @@ def main(argv=None) -> int:
     ap.add_argument("--sampler", default="independent", choices=["independent", "sobol"],
                     help="octolux's sampler (default independent, as Mitsuba's here)")
     ap.add_argument("--repeat", type=int, default=1, help="runs per measurement; the median is reported")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="passed to octolux render as --set (e.g. light_selection=power)")
     ap.add_argument("--variants", default=",".join(VARIANTS), help="Mitsuba variants (default llvm_ad_rgb)")
     ap.add_argument("--octolux", default=os.path.join(REPO, "target", "release", "octolux"))
     ap.add_argument("--build", action="store_true", help="cargo build --release -p octolux-cli first")
@@ -212,7 +242,7 @@ def main(argv=None) -> int:
     ap.add_argument("--verbose", action="store_true", help="show the renderers' stderr")
     args = ap.parse_args(argv)
 
-    coll = collection_setup()
+    coll, ref_files = collection_setup()
     cases = []
     for c in args.case or DEFAULT_CASES:
         scene, _, depth = c.partition(":")
@@ -279,16 +309,21 @@ def main(argv=None) -> int:
             if not os.path.exists(ours) and scene not in BUILTIN:
                 print(f"skip: {ours} missing", file=sys.stderr)
                 continue
+            ref = ref_files.get(scene)
             for t in threads:
                 if not args.skip_octolux:
                     try:
-                        runs = [octolux_speed(args.octolux, ours, args.spp, res, depth, t, tmp, args.verbose, args.sampler)
+                        extra = [a for kv in args.set for a in ("--set", kv)]
+                        runs = [octolux_speed(args.octolux, ours, args.spp, res, depth, t, tmp, args.verbose, args.sampler, extra)
                                 for _ in range(args.repeat)]
                         row[f"octolux@{t}"] = {"samples_per_second": med(r["samples_per_second"] for r in runs),
                                                "samples_per_cpu_second": med(r["samples_per_cpu_second"] for r in runs),
                                                "ttfs_s": med(r["ttfs_s"] for r in runs),
                                                "all": runs}
                         if t == max(threads):
+                            if ref:
+                                row[f"octolux@{t}"]["rel_mse"] = rel_mse(args.octolux, runs[-1]["image"], ref[0])
+                                row[f"octolux@{t}"]["render_cpu_s"] = med(r["render_cpu_s"] for r in runs)
                             row[f"octolux@{t}"]["ttfs_cpu_s"] = med(octolux_ttfs_cpu(args.octolux, ours, depth, t, tmp)
                                                                     for _ in range(args.repeat))
                     except Exception as e:  # keep going: report what worked
@@ -296,16 +331,22 @@ def main(argv=None) -> int:
                         row[f"octolux@{t}"] = {"error": str(e)}
                 for v in variants:
                     try:
-                        runs = [mitsuba_speed(theirs, v, args.spp, res, depth, t, args.verbose) for _ in range(args.repeat)]
+                        out = os.path.join(tmp, f"mi-{v}.exr") if (ref and t == max(threads)) else None
+                        runs = [mitsuba_speed(theirs, v, args.spp, res, depth, t, args.verbose, out) for _ in range(args.repeat)]
                         row[f"{v}@{t}"] = {"samples_per_second": med(r["samples_per_second"] for r in runs),
                                            "samples_per_cpu_second": med(r.get("samples_per_cpu_second") for r in runs),
                                            "ttfs_s": med(r["ttfs_s"] for r in runs),
                                            "ttfs_cpu_s": med(r["ttfs_cpu_s"] for r in runs),
                                            "mean_rgb": runs[0]["mean_rgb"], "mitsuba_version": runs[0]["mitsuba_version"],
                                            "all": runs}
+                        if out and os.path.exists(args.octolux):
+                            row[f"{v}@{t}"]["rel_mse"] = rel_mse(args.octolux, out, ref[0])
+                            row[f"{v}@{t}"]["render_cpu_s"] = med(r.get("render_cpu_s") for r in runs)
                     except Exception as e:
                         log(f"mitsuba {v} {scene}:{depth} failed: {e}")
                         row[f"{v}@{t}"] = {"error": str(e)}
+            if ref:
+                row["ref_rel_mse"] = ref[1]
             results.append(row)
 
     def get(row, key, t, field="samples_per_second"):
@@ -328,7 +369,8 @@ def main(argv=None) -> int:
         if len(threads) > 1:
             cols += [f"oct x{threads[0]}->{tmax}", f"{short} x{threads[0]}->{tmax}"]
         cols += [f"cpu ratio@{tmax}", "TTFS oct s", f"TTFS {short} s", "TTFS ratio", "TTFS oct cpu s",
-                 f"TTFS {short} cpu s", "TTFS cpu ratio"]
+                 f"TTFS {short} cpu s", "TTFS cpu ratio", "relMSE oct", f"relMSE {short}", "ref σ²",
+                 "eff oct", f"eff {short}", "eff ratio"]
         lines = [cols]
         for row in results:
             line = [row["scene"], str(row["max_depth"]), row["resolution"]]
@@ -343,6 +385,12 @@ def main(argv=None) -> int:
             line += [ratio(oc, mc), fmt(to, ".3f"), fmt(tm, ".3f"), ratio(tm, to)]
             to, tm = get(row, "octolux", tmax, "ttfs_cpu_s"), get(row, v, tmax, "ttfs_cpu_s")
             line += [fmt(to, ".3f"), fmt(tm, ".3f"), ratio(tm, to)]
+            # per-sample efficiency: (relMSE - σ²_ref) x render CPU seconds
+            ro, rm, sref = get(row, "octolux", tmax, "rel_mse"), get(row, v, tmax, "rel_mse"), row.get("ref_rel_mse")
+            co, cm = get(row, "octolux", tmax, "render_cpu_s"), get(row, v, tmax, "render_cpu_s")
+            eo = max(ro - sref, 0.0) * co if (ro is not None and sref is not None and co) else None
+            em = max(rm - sref, 0.0) * cm if (rm is not None and sref is not None and cm) else None
+            line += [fmt(ro, ".2e"), fmt(rm, ".2e"), fmt(sref, ".1e"), fmt(eo, ".2e"), fmt(em, ".2e"), ratio(eo, em)]
             lines.append(line)
         widths = [max(len(r[i]) for r in lines) for i in range(len(cols))]
         print(f"# octolux vs Mitsuba 3 {v} (ratio = octolux / Mitsuba speed; TTFS ratio = Mitsuba / octolux time)")

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Write the generated test scenes of tests/scenes/ (plain Python 3, no dependencies).
 
-    python3 tools/make_testdata.py            # (re)writes tests/scenes/{envmap,mirrored,wrappers}/
+    python3 tools/make_testdata.py            # (re)writes tests/scenes/{envmap,mirrored,wrappers,manylights}/
     python3 tools/make_testdata.py --check    # exits 1 if the committed files differ
 
 * tests/scenes/envmap/sky.hdr: a 64x32 lat-long Radiance RGBE map (flat scanlines): a sky
@@ -19,9 +19,13 @@
   crossed sines in [0,1], `scale` 0.2) over a rough plastic, and a `normalmap` plane
   (normals.hdr: 32x32 map of 4x4 domes, `2 rgb - 1` in the tangent frame) over a diffuse.
   The data maps are float (.hdr) files, which no renderer sRGB-decodes.
+* tests/scenes/manylights/scene.xml: lights of very different size and distance (issue 23): a
+  large bright sphere overhead with 200 times the power of each of four small spheres hung
+  15 cm in front of a wall, over a floor with a glossy (rough plastic) ball. Selection by power
+  starves the small spheres where they dominate (the wall around them); the light tree does not.
 
 The Mitsuba 3 references are made by
-    .venv-mitsuba/bin/python tools/mitsuba/make_refs.py --collection --only envmap --only mirrored --only wrappers
+    .venv-mitsuba/bin/python tools/mitsuba/make_refs.py --collection --only envmap --only mirrored --only wrappers --only manylights
 and checked by crates/octolux-cli/tests/agreement_collection.rs.
 """
 from __future__ import annotations
@@ -358,6 +362,76 @@ WRAPPERS_XML = scene_head(comment="Mitsuba 3's mask, bumpmap and normalmap (see 
 """
 
 
+# The big sphere: radius 0.5, radiance 30; each small one radius 0.04 and the radiance that
+# gives it 1/200 of the big one's power (power = L 4 pi^2 r^2): L = 30 * 0.5^2 / (200 * 0.04^2).
+SMALL_L = 30.0 * 0.5 ** 2 / (200 * 0.04 ** 2)
+SMALL_TINTS = [(1.0, 0.75, 0.5), (0.6, 0.8, 1.0), (1.0, 0.95, 0.8), (0.8, 1.0, 0.7)]
+SMALL_CENTRES = [(-0.9, 0.9), (-0.3, 1.3), (0.3, 0.8), (0.9, 1.2)]
+
+
+def small_spheres() -> str:
+    out = []
+    for (x, y), tint in zip(SMALL_CENTRES, SMALL_TINTS):
+        # each tint is scaled to mean 1, so that every small sphere has the same power
+        m = sum(tint) / 3
+        rgb = ", ".join(f"{SMALL_L * c / m:.4f}" for c in tint)
+        out.append(f"""    <shape type="sphere">
+        <point name="center" x="{x}" y="{y}" z="-1.35"/>
+        <float name="radius" value="0.04"/>
+        <emitter type="area">
+            <rgb name="radiance" value="{rgb}"/>
+        </emitter>
+    </shape>""")
+    return "\n".join(out)
+
+
+MANYLIGHTS_XML = scene_head(comment='one large bright light and four small ones near a wall\n     (see its docstring).', max_depth=6, fov=50, origin='0, 1.2, 3.5', target='0, 0.9, -1.5', width=320, height=240) + """
+    <bsdf type="diffuse" id="white">
+        <rgb name="reflectance" value="0.6, 0.6, 0.6"/>
+    </bsdf>
+
+    <!-- Floor (y = 0, facing +y) and back wall (z = -1.5, facing +z). -->
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale value="3"/>
+            <rotate x="1" angle="-90"/>
+        </transform>
+        <ref id="white"/>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale x="3" y="2" z="1"/>
+            <translate x="0" y="2" z="-1.5"/>
+        </transform>
+        <ref id="white"/>
+    </shape>
+
+    <!-- The large light overhead: 200 times the power of each small one. -->
+    <shape type="sphere">
+        <point name="center" x="0" y="3.2" z="0.8"/>
+        <float name="radius" value="0.5"/>
+        <emitter type="area">
+            <rgb name="radiance" value="30, 29, 27"/>
+        </emitter>
+    </shape>
+
+    <!-- Four small lights, 15 cm in front of the wall. -->
+""" + small_spheres() + """
+
+    <!-- A glossy ball on the floor: MIS between the light and BSDF samples. -->
+    <shape type="sphere">
+        <point name="center" x="0.8" y="0.35" z="-0.3"/>
+        <float name="radius" value="0.35"/>
+        <bsdf type="roughplastic">
+            <string name="distribution" value="ggx"/>
+            <float name="alpha" value="0.1"/>
+            <rgb name="diffuse_reflectance" value="0.2, 0.3, 0.6"/>
+        </bsdf>
+    </shape>
+</scene>
+"""
+
+
 def files() -> dict[str, bytes]:
     return {
         os.path.join(OUT, "envmap", "sky.hdr"): hdr_bytes(),
@@ -367,6 +441,7 @@ def files() -> dict[str, bytes]:
         os.path.join(OUT, "wrappers", "height.hdr"): hdr_map_bytes(MAP_N, MAP_N, height_pixel),
         os.path.join(OUT, "wrappers", "normals.hdr"): hdr_map_bytes(MAP_N, MAP_N, normal_pixel),
         os.path.join(OUT, "wrappers", "scene.xml"): WRAPPERS_XML.encode(),
+        os.path.join(OUT, "manylights", "scene.xml"): MANYLIGHTS_XML.encode(),
     }
 
 

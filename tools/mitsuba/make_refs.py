@@ -237,6 +237,7 @@ COLLECTION = {
     "envmap": "repo:tests/scenes/envmap/scene.xml",
     "mirrored": "repo:tests/scenes/mirrored/scene.xml",
     "wrappers": "repo:tests/scenes/wrappers/scene.xml",
+    "manylights": "repo:tests/scenes/manylights/scene.xml",
 }
 # Widths other than COLLECTION_WIDTH (small generated scenes, to keep their tests fast).
 COLLECTION_WIDTHS = {"wrappers": 160}

@@ -1,6 +1,6 @@
 //! Agreement of the `path` integrator with Mitsuba 3 on the research-scene collection
 //! (`../shared/scenes/bitterli-collection`, Mitsuba 0.6 files) and on the generated test scenes
-//! (`tests/scenes/{envmap,mirrored,wrappers}`, written by `tools/make_testdata.py`).
+//! (`tests/scenes/{envmap,mirrored,wrappers,manylights}`, written by `tools/make_testdata.py`).
 //!
 //! The references are `tests/refs/collection/*.exr`, made by
 //! `tools/mitsuba/make_refs.py --collection` (320 pixels wide, the file's aspect ratio and max
@@ -30,6 +30,7 @@ use octolux::accel::BackendKind;
 use octolux::integrators::{path::PathSettings, Integrator};
 use octolux::metrics::{channel_means, rel_mse_with};
 use octolux::render::{render, RenderSettings};
+use octolux::scene::lights::LightSelection;
 use octolux::scene::Scene;
 use std::time::Instant;
 
@@ -44,6 +45,11 @@ fn sci3(v: [f64; 3]) -> String {
 }
 
 fn check(name: &str) {
+    check_with(name, LightSelection::Tree);
+}
+
+/// [`check`] with next-event lights chosen by `selection`.
+fn check_with(name: &str, selection: LightSelection) {
     let Some(common::Reference { entry, scene_file, image: reference, max_depth }) = common::reference(name) else { return };
     let ref_noise = entry["self_noise"]["ref_rel_mse"].as_f64().expect("self_noise.ref_rel_mse");
     let approximations: Vec<&str> =
@@ -61,7 +67,7 @@ fn check(name: &str) {
     let scene = Scene::prepare(desc, BackendKind::Auto).unwrap_or_else(|e| panic!("{name}: scene does not prepare: {e}"));
     let load_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let integrator = Integrator::Path(PathSettings { max_depth, ..Default::default() });
+    let integrator = Integrator::Path(PathSettings { max_depth, light_selection: selection, ..Default::default() });
     let run = |seed| render(&scene, &integrator, &RenderSettings { spp: SPP, seed, ..Default::default() }, &|_, _| {}).0;
     let (a, b) = (run(1), run(2));
     let render_s = t1.elapsed().as_secs_f64();
@@ -90,7 +96,7 @@ fn check(name: &str) {
         (m(&halves[0]) - m(&halves[1])).abs() / 2.0
     });
     println!(
-        "{name}: {}x{} spp 2x{SPP} load {load_s:.1}s render {render_s:.1}s; relMSE {err:.3e} (bound {bound:.3e} = 1.25 x ({ours_noise:.3e} ours + {ref_noise:.3e} ref), ratio {:.2}); \
+        "{name} ({selection:?}): {}x{} spp 2x{SPP} load {load_s:.1}s render {render_s:.1}s; relMSE {err:.3e} (bound {bound:.3e} = 1.25 x ({ours_noise:.3e} ours + {ref_noise:.3e} ref), ratio {:.2}); \
          means ours {mo:.5?} ref {mr:.5?} (rel. diff {:.4?}; mean SE ours {} ref {})",
         reference.width,
         reference.height,
@@ -257,4 +263,12 @@ fn path_agrees_with_mitsuba_on_generated_mirrored_scene() {
 #[test]
 fn path_agrees_with_mitsuba_on_generated_wrappers_scene() {
     check("wrappers");
+}
+
+/// One large bright light and four small ones near a wall (issue 23): with the light tree (the
+/// default) and with selection by power, both unbiased, both within the noise bound.
+#[test]
+fn path_agrees_with_mitsuba_on_generated_manylights_scene() {
+    check("manylights");
+    check_with("manylights", LightSelection::Power);
 }

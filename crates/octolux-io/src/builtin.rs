@@ -142,7 +142,7 @@ fn cornell_box(with_blocks: bool) -> SceneDesc {
         images: Vec::new(),
         lights: Vec::new(),
         camera,
-        film: FilmDesc { width: 512, height: 512, filter: PixelFilter::Tent },
+        film: FilmDesc { width: 512, height: 512, filter: PixelFilter::Tent, sample_border: false },
         hints: SceneHints { spp: Some(64), max_depth: Some(-1), integrator: None },
     }
 }

@@ -327,6 +327,9 @@ pub fn to_mitsuba_xml(desc: &SceneDesc, spp: u32, max_depth: i32, mesh_dir: &Pat
     w.line(2, "<film type=\"hdrfilm\">");
     w.line(3, &format!("<integer name=\"width\" value=\"{}\"/>", desc.film.width));
     w.line(3, &format!("<integer name=\"height\" value=\"{}\"/>", desc.film.height));
+    if desc.film.sample_border {
+        w.line(3, "<boolean name=\"sample_border\" value=\"true\"/>");
+    }
     w.line(3, "<string name=\"pixel_format\" value=\"rgb\"/>");
     match desc.film.filter {
         PixelFilter::Box => w.line(3, "<rfilter type=\"box\"/>"),

@@ -23,7 +23,7 @@
 pub mod reference;
 
 use crate::cache::LoadedCache;
-use crate::mitsuba::PATH_TRACERS;
+use crate::mitsuba::{PATH_TRACERS, SAME_IMAGE};
 use octolux::integrators::IntegratorSettings;
 use serde_json::{Map, Value};
 use std::collections::HashSet;
@@ -285,15 +285,10 @@ fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Res
     Ok(Resolved { settings, warnings })
 }
 
-/// Mitsuba integrators of other methods that converge to the image a path tracer converges to
-/// (unbiased or consistent light transport on surface scenes): octolux's `path` renders that
-/// image, so choosing it is a note, not a warning.
-const SAME_IMAGE: &[&str] = &["bdpt", "ptracer", "photonmapper", "ppm", "sppm", "pssmlt", "mlt", "erpt"];
-
 /// What to say when the scene's `<integrator type>` is not what is rendered.
 #[derive(Debug, PartialEq)]
 pub enum IntegratorRemark {
-    /// Another method converging to the same image (`SAME_IMAGE`).
+    /// Another method converging to the same image ([`SAME_IMAGE`]).
     Note(String),
     /// An unknown type, or one whose image differs: it would otherwise render `used` silently.
     Warning(String),

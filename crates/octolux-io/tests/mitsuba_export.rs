@@ -140,7 +140,7 @@ fn scene() -> SceneDesc {
         fov_axis: FovAxis::Y,
         near_clip: 0.05,
     };
-    let film = FilmDesc { width: 300, height: 200, filter: PixelFilter::Gaussian { stddev: 0.7 } };
+    let film = FilmDesc { width: 300, height: 200, filter: PixelFilter::Gaussian { stddev: 0.7 }, sample_border: false };
     SceneDesc { shapes, materials, images, lights, camera, film, hints: Default::default() }
 }
 

@@ -367,3 +367,66 @@ fn another_methods_integrator_parameters_are_one_line() {
     assert_eq!(s.warnings.len(), 1, "{:#?}", s.warnings);
     assert!(s.warnings[0].ends_with("photon_count, dual_buffer"), "{}", s.warnings[0]);
 }
+
+/// Mitsuba 0.6's path guiding (`guided_path`) converges to a path tracer's image, like `sppm`:
+/// its parameters are one note, its integrator a note from the settings (not a warning), and
+/// its `maxDepth` a path tracer's.
+#[test]
+fn path_guiding_gets_the_note_of_the_methods_that_converge_to_a_path_tracer() {
+    let xml = r#"<scene version="0.6.0">
+    <integrator type="guided_path">
+        <integer name="maxDepth" value="12"/>
+        <integer name="budget" value="60"/>
+        <string name="budgetType" value="seconds"/>
+    </integrator>
+    <sensor type="perspective"/>
+</scene>"#;
+    let s = load_str(xml, Path::new("/virtual/guided.xml"), &[]).unwrap();
+    assert_eq!(s.desc.hints.max_depth, Some(12));
+    assert!(s.warnings.is_empty(), "{:#?}", s.warnings);
+    assert_eq!(s.notes.len(), 1, "{:#?}", s.notes);
+    assert!(s.notes[0].starts_with("/virtual/guided.xml:2:") && s.notes[0].ends_with("budget, budget_type"), "{}", s.notes[0]);
+    use octolux_io::settings::{scene_integrator_remark, IntegratorRemark};
+    for ty in octolux_io::mitsuba::SAME_IMAGE {
+        let remark = scene_integrator_remark(Some(ty), "s.xml", "path", false);
+        assert!(matches!(&remark, Some(IntegratorRemark::Note(n)) if n.contains(&format!("\"{ty}\""))), "{ty}: {remark:?}");
+    }
+    // without maxDepth: Mitsuba's unbounded default
+    let s = load_str(&xml.replace(r#"<integer name="maxDepth" value="12"/>"#, ""), Path::new("/virtual/guided.xml"), &[]).unwrap();
+    assert_eq!(s.desc.hints.max_depth, Some(-1));
+}
+
+/// Mitsuba 3's `sampling_weight` only changes how often an emitter is sampled, not the image:
+/// octolux's light tree chooses instead, and a weight other than 1 is said to be ignored, on
+/// area emitters and on the others alike.
+#[test]
+fn an_emitters_sampling_weight_is_said_to_be_ignored() {
+    let xml = r#"<scene version="3.0.0">
+    <sensor type="perspective"/>
+    <shape type="sphere">
+        <emitter type="area">
+            <rgb name="radiance" value="1, 1, 1"/>
+            <float name="sampling_weight" value="200"/>
+        </emitter>
+    </shape>
+    <emitter type="point">
+        <float name="sampling_weight" value="0.5"/>
+    </emitter>
+    <emitter type="constant">
+        <float name="sampling_weight" value="1"/>
+    </emitter>
+</scene>"#;
+    let s = load_str(xml, Path::new("/virtual/weights.xml"), &[]).unwrap();
+    assert_eq!(s.warnings.len(), 2, "{:#?}", s.warnings);
+    assert!(
+        s.warnings[0].starts_with("/virtual/weights.xml:4:") && s.warnings[0].contains("sampling_weight 200 is ignored"),
+        "{}",
+        s.warnings[0]
+    );
+    assert!(
+        s.warnings[1].starts_with("/virtual/weights.xml:9:") && s.warnings[1].contains("sampling_weight 0.5 is ignored"),
+        "{}",
+        s.warnings[1]
+    );
+    assert!(s.warnings.iter().all(|w| w.contains("light tree")));
+}

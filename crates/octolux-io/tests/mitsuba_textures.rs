@@ -112,7 +112,7 @@ fn what_mitsuba_ignores_too_is_a_note_and_what_octolux_lacks_a_warning() {
     );
 
     // hdrfilm: gamma is a note (0.6's hdrfilm has none), highQualityEdges false is what octolux
-    // does (silent), true is a warning.
+    // does by default (silent).
     let film = |extra: &str| {
         format!(
             r#"<sensor type="perspective"><film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>{extra}</film></sensor>"#
@@ -128,10 +128,15 @@ fn what_mitsuba_ignores_too_is_a_note_and_what_octolux_lacks_a_warning() {
         s.notes,
         [format!("{}:2: `gamma` is not a parameter of Mitsuba's hdrfilm (Mitsuba ignores it too); ignored", file.display())]
     );
-    let xml = format!("<scene version=\"0.6.0\">\n{}\n</scene>", film(r#"<boolean name="highQualityEdges" value="true"/>"#));
-    let s = load_str(&xml, &file, &[]).unwrap();
-    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(s.warnings[0].contains("high_quality_edges = true") && s.warnings[0].contains("not supported"), "{}", s.warnings[0]);
+    assert!(!s.desc.film.sample_border);
+    // highQualityEdges true (Mitsuba 3's sample_border) is honoured: the band outside the film
+    // is sampled too (octolux::render).
+    for (version, param) in [("0.6.0", "highQualityEdges"), ("3.0.0", "sample_border")] {
+        let xml = format!("<scene version=\"{version}\">\n{}\n</scene>", film(&format!(r#"<boolean name="{param}" value="true"/>"#)));
+        let s = load_str(&xml, &file, &[]).unwrap();
+        assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+        assert!(s.desc.film.sample_border, "{param}");
+    }
     // An ldrfilm's gamma is not claimed to be ignored by Mitsuba.
     let xml = "<scene version=\"0.6.0\">\n<sensor type=\"perspective\"><film type=\"ldrfilm\"><float name=\"gamma\" value=\"2.2\"/></film></sensor>\n</scene>";
     let s = load_str(xml, &file, &[]).unwrap();
@@ -215,4 +220,67 @@ fn an_unused_bitmap_with_a_missing_file_is_refused_like_mitsuba() {
     let s = load(&dir, "<texture type=\"bitmap\" id=\"unused\">\n  <string name=\"filename\" value=\"checker.exr\"/>\n</texture>\n<shape type=\"sphere\"/>", "3.0.0");
     assert!(s.desc.images.is_empty(), "an unused texture's image is not loaded");
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}
+
+/// Mitsuba 0.6's bitmap `gamma` overrides the file's encoding: 1 is linear (bump maps and other
+/// data use it), -1 sRGB, another value a power law. A height map stored linearly with gamma 1
+/// and the same heights stored sRGB-encoded (gamma -1, or the 8-bit default) decode to the same
+/// heights, to within 8-bit quantization, and so give the same bump map.
+#[test]
+fn bitmap_gamma_decodes_a_linear_bump_map_like_an_srgb_one() {
+    use octolux_io::image_io::{linear_to_srgb, srgb_to_linear, write_png};
+    let dir = tmp_dir("gamma");
+    let (w, h) = (16u32, 8u32);
+    let height = |x: u32, y: u32| 0.5 + 0.3 * ((x as f32 * 0.7).sin() * (y as f32 * 0.9).cos());
+    // `write_png` encodes linear values to sRGB bytes: give it what makes the wanted bytes
+    let png = |name: &str, byte: &dyn Fn(f32) -> f32| {
+        let data =
+            (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| Color::splat(srgb_to_linear(byte(height(x, y))))).collect();
+        write_png(&dir.join(name), &Image { width: w, height: h, data }).unwrap();
+    };
+    png("linear.png", &|v| (v * 255.0).round() / 255.0); // the heights themselves as bytes
+    png("srgb.png", &|v| (linear_to_srgb(v) * 255.0).round() / 255.0); // sRGB-encoded heights
+    let bump = |file: &str, gamma: &str| {
+        format!(
+            r#"<bsdf type="bumpmap"><texture type="bitmap"><string name="filename" value="{file}"/>{gamma}</texture><float name="scale" value="0.1"/><bsdf type="diffuse"/></bsdf>"#
+        )
+    };
+    let body = [
+        bump("linear.png", r#"<float name="gamma" value="1"/>"#),
+        bump("srgb.png", r#"<float name="gamma" value="-1"/>"#),
+        bump("srgb.png", ""),
+        bump("linear.png", ""),
+        bump("linear.png", r#"<float name="gamma" value="2.2"/>"#),
+    ]
+    .join("\n");
+    let s = load(&dir, &body, "0.6.0");
+    assert!(s.warnings.is_empty() && s.notes.is_empty(), "{:?} {:?}", s.warnings, s.notes);
+    let image = |i: usize| match &s.desc.materials[i] {
+        Material::BumpMap { height: Texture::Bitmap { image, .. }, .. } => &s.desc.images[*image as usize],
+        other => panic!("{other:?}"),
+    };
+    let (linear, srgb, default, misread, power) = (image(0), image(1), image(2), image(3), image(4));
+    assert_eq!(srgb.data, default.data, "gamma -1 is what an 8-bit file gets by default");
+    for (i, (a, b)) in linear.data.iter().zip(&srgb.data).enumerate() {
+        let want = height(i as u32 % w, i as u32 / w);
+        assert!((a.x - want).abs() <= 0.5 / 255.0 + 1e-6, "texel {i}: linear map {} vs height {want}", a.x);
+        // sRGB codes are at most about 1/255 x 1.6 apart in linear terms above 0.2
+        assert!((b.x - want).abs() <= 1.0 / 255.0, "texel {i}: sRGB map {} vs height {want}", b.x);
+    }
+    // read as sRGB (no gamma), the linear file's heights come out darker and wrong
+    let worst = linear.data.iter().zip(&misread.data).map(|(a, b)| (a.x - b.x).abs()).fold(0.0f32, f32::max);
+    assert!(worst > 0.15, "a linear map misread as sRGB differs by {worst}");
+    for (a, p) in linear.data.iter().zip(&power.data) {
+        assert!((p.x - a.x.powf(2.2)).abs() < 1e-5, "power law: {} vs {}", p.x, a.x.powf(2.2));
+    }
+    // a gamma that is no encoding, and raw contradicting gamma, are refused naming the line
+    for (extra, what) in [
+        (r#"<float name="gamma" value="-2"/>"#, "gamma -2 must be 1 (linear), -1 (sRGB) or another positive exponent"),
+        (r#"<float name="gamma" value="0"/>"#, "gamma 0 must be"),
+        (r#"<float name="gamma" value="-1"/><boolean name="raw" value="true"/>"#, "raw and gamma -1 disagree"),
+    ] {
+        let xml = format!("<scene version=\"0.6.0\">\n<sensor type=\"perspective\"/>\n{}\n</scene>", bump("linear.png", extra));
+        let e = load_str(&xml, &dir.join("bad.xml"), &[]).err().unwrap_or_else(|| panic!("accepted {extra}")).to_string();
+        assert!(e.contains("bad.xml:3") && e.contains(what), "{e}");
+    }
 }

@@ -15,8 +15,15 @@
 //! Positions and samplers come from [`crate::film::camera_sample`], the rule the priming
 //! passes of the irradiance-cache baselines replay.
 //!
+//! Mitsuba 3's `sample_border` ([`crate::scene::FilmDesc::sample_border`]): with a splatting
+//! filter, the band of pixels outside the film that the filter reaches from the edge pixels
+//! (`margin` pixels: 1 for a tent) is sampled too, as if the film were that much larger, and
+//! those samples splat into the edge pixels; the edge pixels then weigh as many samples as
+//! the others. Without it (the default) the edge pixels' filter support is cut at the edge.
+//!
 //! Determinism: pixel `(x, y)` sample `s` uses `Sampler::with_kind(kind, seed, y·width + x, s)`
-//! (`kind` from [`RenderSettings::sampler`]); each tile splats into its own buffer (the tile
+//! (`kind` from [`RenderSettings::sampler`]; with `sample_border`, `x`, `y` and `width` are
+//! those of the enlarged grid); each tile splats into its own buffer (the tile
 //! plus a margin of the filter's radius) and the buffers are added to the image in tile order,
 //! so the image is bit-identical for any thread count.
 //! With a time budget, whole passes of `spp` samples are added until the budget is spent (the
@@ -120,7 +127,7 @@ pub fn render_film<F>(
 where
     F: Fn(Vec2, &mut Sampler, &mut RayCounters) -> Color + Sync,
 {
-    render_film_cancellable(w, h, filter, settings, progress, None, li)
+    render_film_cancellable(w, h, filter, false, settings, progress, None, li)
 }
 
 /// Samples between two looks at the cancel flag inside a pixel (and at every pixel's first).
@@ -129,10 +136,13 @@ const CANCEL_EVERY: u32 = 16;
 /// [`render_film`] that stops when `cancel` becomes true (checked before each tile and every
 /// `CANCEL_EVERY` samples of each pixel, so a signal stops even one long tile): the pass
 /// under way is dropped, and the image and statistics are those of the whole passes done.
+/// `sample_border`: sample the pixels outside the film that the filter reaches (module docs).
+#[allow(clippy::too_many_arguments)]
 pub fn render_film_cancellable<F>(
     w: u32,
     h: u32,
     filter: PixelFilter,
+    sample_border: bool,
     settings: &RenderSettings,
     progress: &(dyn Fn(u64, u64) + Sync),
     cancel: Option<&AtomicBool>,
@@ -142,10 +152,6 @@ where
     F: Fn(Vec2, &mut Sampler, &mut RayCounters) -> Color + Sync,
 {
     let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
-    let tile = settings.tile.max(1);
-    let tiles_x = w.div_ceil(tile);
-    let tiles_y = h.div_ceil(tile);
-    let n_tiles = (tiles_x * tiles_y) as usize;
     let spp = settings.spp.max(1);
     // A box filter splats each sample into its own pixel with weight 1: the importance-sampled
     // path does that without the margin (its positions are the same, see `camera_sample`).
@@ -154,11 +160,18 @@ where
     let radius = filter_radius(filter);
     let weights = FilterWeights::new(filter);
     let margin = if splat { ((radius + 0.5).ceil() as i32 - 1).clamp(0, MAX_MARGIN) } else { 0 };
+    // The sampled grid: the film, plus `border` pixels on each side with `sample_border`.
+    let border = if sample_border { margin } else { 0 };
+    let (gw, gh) = (w + 2 * border as u32, h + 2 * border as u32);
+    let tile = settings.tile.max(1);
+    let tiles_x = gw.div_ceil(tile);
+    let tiles_y = gh.div_ceil(tile);
+    let n_tiles = (tiles_x * tiles_y) as usize;
     let mut accum = vec![[0.0f64; 4]; (w * h) as usize];
     let mut counters = RayCounters::default();
     let start = Instant::now();
     let mut passes = 0u32;
-    let total_pixels = (w as u64) * (h as u64);
+    let total_pixels = (gw as u64) * (gh as u64);
     let mut interrupted = false;
     loop {
         let done = std::sync::atomic::AtomicU64::new(0);
@@ -170,11 +183,12 @@ where
                     return None;
                 }
                 let (tx, ty) = (ti % tiles_x, ti / tiles_x);
+                // grid coordinates (film coordinates plus `border`)
                 let (x0, y0) = (tx * tile, ty * tile);
-                let (x1, y1) = ((x0 + tile).min(w), (y0 + tile).min(h));
+                let (x1, y1) = ((x0 + tile).min(gw), (y0 + tile).min(gh));
                 let mut buf = TileBuffer {
-                    x0: x0 as i32 - margin,
-                    y0: y0 as i32 - margin,
+                    x0: x0 as i32 - border - margin,
+                    y0: y0 as i32 - border - margin,
                     w: (x1 - x0) as i32 + 2 * margin,
                     h: (y1 - y0) as i32 + 2 * margin,
                     acc: Vec::new(),
@@ -185,7 +199,7 @@ where
                 let (mut wx, mut wy) = (vec![0.0f32; taps], vec![0.0f32; taps]);
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        let pixel = Pixel { x, y, width: w };
+                        let pixel = Pixel { x, y, width: gw };
                         for s in 0..spp {
                             // inside the tile too: one tile of 10^8 samples must stop at once
                             if s % CANCEL_EVERY == 0 && cancelled() {
@@ -194,6 +208,7 @@ where
                             let sample_index = pass as u64 * spp as u64 + s as u64;
                             let (mut sampler, pos) =
                                 camera_sample(settings.sampler, settings.seed, pixel, sample_index, filter, reconstruction);
+                            let pos = pos - Vec2::splat(border as f32);
                             let l = li(pos, &mut sampler, &mut buf.counters);
                             // A non-finite sample is a bug; drop it rather than poison pixels.
                             if !l.is_finite() {
@@ -209,7 +224,7 @@ where
                                 continue;
                             }
                             // Pixels i with |i + 0.5 - pos| < radius, within the margin and image.
-                            let (px, py) = (x as i32, y as i32);
+                            let (px, py) = (x as i32 - border, y as i32 - border);
                             let lo_x = (px - margin).max(0);
                             let hi_x = (px + margin).min(w as i32 - 1);
                             let lo_y = (py - margin).max(0);
@@ -331,7 +346,7 @@ pub fn render_cancellable(
     // Mitsuba 0.6 (`SamplingIntegrator::renderBlock`) scales the camera ray's differentials by
     // 1/sqrt(samples per pixel): a texture footprint of about one sample's share of the pixel.
     let diff_scale = 1.0 / (settings.spp.max(1) as f32).sqrt();
-    render_film_cancellable(f.width, f.height, f.filter, settings, progress, cancel, |film, sampler, c| {
+    render_film_cancellable(f.width, f.height, f.filter, f.sample_border, settings, progress, cancel, |film, sampler, c| {
         let (o, d, tmin) = scene.camera.generate_ray(film);
         let ray = Ray { o, d, tmin, tmax: f32::INFINITY };
         let diff = scene.camera.ray_differential(film, diff_scale);
@@ -379,6 +394,39 @@ mod tests {
         }
     }
 
+    /// Without `sample_border` an edge pixel's filter support is cut at the film's edge: a ramp
+    /// splatted there averages to more than its value at the pixel centre (the missing samples
+    /// are those from outside). With it, the edge pixels reproduce the ramp like the others,
+    /// every sample position stays within the filter's reach of the film, and one more ring of
+    /// pixels is sampled (Mitsuba 3's `sample_border`).
+    #[test]
+    fn sample_border_gives_edge_pixels_their_whole_filter_support() {
+        let n = 6u32;
+        let settings = RenderSettings { spp: 16384, seed: 2, tile: 4, sampler: SamplerKind::Independent, ..Default::default() };
+        let min_x = std::sync::Mutex::new(f32::INFINITY);
+        let ramp = |p: Vec2, _: &mut Sampler, _: &mut RayCounters| {
+            let mut m = min_x.lock().unwrap();
+            *m = m.min(p.x);
+            Color::splat(p.x)
+        };
+        let (cut, _) = render_film_cancellable(n, n, PixelFilter::Tent, false, &settings, &|_, _| {}, None, ramp);
+        assert!(*min_x.lock().unwrap() >= 0.0);
+        let (whole, stats) = render_film_cancellable(n, n, PixelFilter::Tent, true, &settings, &|_, _| {}, None, ramp);
+        assert!(*min_x.lock().unwrap() < -0.9 && *min_x.lock().unwrap() >= -1.0, "{}", min_x.lock().unwrap());
+        assert_eq!(stats.samples, ((n + 2) * (n + 2)) as u64 * 16384, "the ring of border pixels is sampled");
+        assert_eq!((whole.width, whole.height), (n, n));
+        // noise per pixel about 0.3 / sqrt(2.25 x 16384) = 1.6e-3
+        let (c0, w0) = (cut.data[(2 * n) as usize].x, whole.data[(2 * n) as usize].x);
+        assert!(c0 > 0.5 + 0.05, "cut support: the edge pixel sees only samples right of its centre: {c0}");
+        assert!((w0 - 0.5).abs() < 8e-3, "whole support: {w0} vs 0.5");
+        for y in 0..n {
+            for x in 0..n {
+                let got = whole.data[(y * n + x) as usize].x;
+                assert!((got - (x as f32 + 0.5)).abs() < 8e-3, "pixel ({x}, {y}): {got}");
+            }
+        }
+    }
+
     #[test]
     fn tent_splatting_cuts_pixel_variance_by_about_2_25_against_importance_sampling() {
         // Pure noise of variance 1/12 per sample; interior pixels only.
@@ -418,7 +466,7 @@ mod tests {
         let cancel = AtomicBool::new(false);
         let calls = std::sync::atomic::AtomicU64::new(0);
         // The flag goes up at the first sample of the fourth pass.
-        let (img, stats) = render_film_cancellable(n, n, PixelFilter::Box, &settings, &|_, _| {}, Some(&cancel), |_, _, _| {
+        let (img, stats) = render_film_cancellable(n, n, PixelFilter::Box, false, &settings, &|_, _| {}, Some(&cancel), |_, _, _| {
             if calls.fetch_add(1, Ordering::Relaxed) == 3 * per_pass {
                 cancel.store(true, Ordering::Relaxed);
             }
@@ -429,12 +477,12 @@ mod tests {
         assert!(img.data.iter().all(|c| *c == Color::splat(0.5)), "every pixel holds whole passes only");
 
         // Raised before the first pass: nothing rendered, said so.
-        let (_, stats) = render_film_cancellable(n, n, PixelFilter::Box, &settings, &|_, _| {}, Some(&cancel), |_, _, _| Color::ONE);
+        let (_, stats) = render_film_cancellable(n, n, PixelFilter::Box, false, &settings, &|_, _| {}, Some(&cancel), |_, _, _| Color::ONE);
         assert!(stats.interrupted);
         assert_eq!((stats.passes, stats.samples), (0, 0));
         // Without a flag (or never raised) nothing changes.
         let once = RenderSettings { time_budget_s: None, ..settings };
-        let (_, stats) = render_film_cancellable(n, n, PixelFilter::Box, &once, &|_, _| {}, None, |_, _, _| Color::ONE);
+        let (_, stats) = render_film_cancellable(n, n, PixelFilter::Box, false, &once, &|_, _| {}, None, |_, _, _| Color::ONE);
         assert!(!stats.interrupted);
         assert_eq!(stats.passes, 1);
     }

@@ -18,6 +18,9 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 pub mod sobol;
 
+/// The largest `f32` below 1 (a remapped sample stays in [0, 1)).
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
 /// 64-bit finaliser (SplitMix64 / Murmur3 style); a good avalanche hash.
 #[inline]
 pub fn mix64(mut x: u64) -> u64 {
@@ -228,13 +231,24 @@ pub fn around(n: Vec3, local: Vec3) -> Vec3 {
 /// A piecewise-constant discrete distribution over `n` items, sampled by CDF inversion.
 #[derive(Clone, Debug, Default)]
 pub struct Distribution1D {
-    /// Normalised CDF, `cdf[0] = 0`, `cdf[n] = 1`; length `n + 1`.
-    cdf: Vec<f32>,
-    /// Normalised probabilities, length `n`.
-    pmf: Vec<f32>,
+    /// Per index `i` in `0..=n`: the normalised CDF below it, `[i].0` (`cdf[0] = 0`,
+    /// `cdf[n] = 1`), and its probability, `[i].1` (0 for `i = n`): side by side, so that the
+    /// probability of the index a search finds is on the cache line the search read.
+    cells: Vec<(f32, f32)>,
+    /// `n`.
+    n: usize,
+    /// A guide table (empty below [`GUIDE_MIN`] entries): `guide[k]` is the number of CDF
+    /// values `<= k / G` for `k = 0..=G`, `G = guide.len() - 1` a power of two, about `n / 8`.
+    /// A sample `u` in `[k/G, (k+1)/G)` then searches only `cells[guide[k]..guide[k + 1]]`, a few
+    /// entries on one or two cache lines instead of `log2 n` of them far apart: the same index
+    /// as the search of the whole CDF, with one cache miss where that had a chain of them.
+    guide: Vec<u32>,
     /// Sum of the (unnormalised) weights, accumulated in f64.
     total: f64,
 }
+
+/// Distributions with fewer values than this search their CDF without a guide table.
+pub const GUIDE_MIN: usize = 64;
 
 impl Distribution1D {
     /// Build from non-negative finite weights. Returns `None` when the sum is not positive.
@@ -250,43 +264,60 @@ impl Distribution1D {
         if !(acc > 0.0) {
             return None;
         }
-        let pmf = weights.iter().map(|&w| if w.is_finite() && w > 0.0 { (w as f64 / acc) as f32 } else { 0.0 }).collect();
+        let pmf = weights.iter().map(|&w| if w.is_finite() && w > 0.0 { (w as f64 / acc) as f32 } else { 0.0 });
         let cdf = cdf.into_iter().map(|c| (c / acc) as f32).collect::<Vec<_>>();
-        Some(Distribution1D { cdf, pmf, total: acc })
+        let guide = if weights.len() < GUIDE_MIN || weights.len() > u32::MAX as usize / 2 {
+            Vec::new()
+        } else {
+            // k / g is exact in f32 (g a power of two below 2^24)
+            let g = (weights.len() / 8).next_power_of_two().min(1 << 22);
+            (0..=g).map(|k| cdf.partition_point(|&c| c <= k as f32 / g as f32) as u32).collect()
+        };
+        let cells = cdf.iter().copied().zip(pmf.chain([0.0])).collect();
+        Some(Distribution1D { cells, n: weights.len(), guide, total: acc })
     }
 
     pub fn len(&self) -> usize {
-        self.pmf.len()
+        self.n
     }
     pub fn is_empty(&self) -> bool {
-        self.pmf.is_empty()
+        self.n == 0
     }
     pub fn total(&self) -> f64 {
         self.total
     }
     #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
-        self.pmf[i]
+        self.cells[i].1
     }
 
     /// Sample an index with `u` in [0,1); returns the index, its probability and `u` rescaled
     /// to [0,1) within the chosen bucket (for reuse as a fresh uniform number).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
-        let n = self.pmf.len();
+        let n = self.n;
+        // the number of CDF values <= u, through the guide table when there is one
+        let below = if self.guide.len() < 2 {
+            self.cells.partition_point(|c| c.0 <= u)
+        } else {
+            let g = self.guide.len() - 1;
+            let k = ((u * g as f32) as usize).min(g - 1);
+            let (lo, hi) = (self.guide[k] as usize, self.guide[k + 1] as usize);
+            lo + self.cells[lo..hi].partition_point(|c| c.0 <= u)
+        };
         // first index i with cdf[i+1] > u
-        let mut i = self.cdf.partition_point(|&c| c <= u).saturating_sub(1).min(n - 1);
+        let mut i = below.saturating_sub(1).min(n - 1);
         // skip zero-probability buckets that floating point may land on
-        while self.pmf[i] == 0.0 && i + 1 < n {
+        while self.cells[i].1 == 0.0 && i + 1 < n {
             i += 1;
         }
-        while self.pmf[i] == 0.0 && i > 0 {
+        while self.cells[i].1 == 0.0 && i > 0 {
             i -= 1;
         }
-        let lo = self.cdf[i];
-        let w = self.cdf[i + 1] - lo;
+        let lo = self.cells[i].0;
+        let w = self.cells[i + 1].0 - lo;
         let ur = if w > 0.0 { ((u - lo) / w).clamp(0.0, 1.0 - f32::EPSILON) } else { 0.5 };
-        (i, self.pmf[i], ur)
+        (i, self.cells[i].1, ur)
     }
 }
 
@@ -512,6 +543,43 @@ mod tests {
         assert!((counts[3] as f32 / n as f32 - 0.5).abs() < 1e-3);
         assert!(Distribution1D::new(&[0.0, 0.0]).is_none());
         assert!(Distribution1D::new(&[f32::NAN]).is_none());
+    }
+
+    /// The guide table changes where the search looks, not what it finds: the same index as a
+    /// search of the whole CDF for every `u`, the guide's own boundaries `k / G` included, over
+    /// weights with runs of zeros and a few large values.
+    #[test]
+    fn the_guide_table_finds_what_the_whole_search_finds() {
+        let mut s = Sampler::new(9, 0, 0);
+        let w: Vec<f32> = (0..5000)
+            .map(|i| {
+                if (i / 97) % 3 == 1 {
+                    0.0
+                } else if i % 1013 == 0 {
+                    5000.0
+                } else {
+                    s.next_1d()
+                }
+            })
+            .collect();
+        let d = Distribution1D::new(&w).unwrap();
+        assert_eq!(d.guide.len(), 1024 + 1);
+        let whole = |u: f32| {
+            let mut i = d.cells.partition_point(|c| c.0 <= u).saturating_sub(1).min(w.len() - 1);
+            while d.pmf(i) == 0.0 && i + 1 < w.len() {
+                i += 1;
+            }
+            while d.pmf(i) == 0.0 && i > 0 {
+                i -= 1;
+            }
+            i
+        };
+        let us = (0..200_000).map(|_| s.next_1d()).chain((0..1024).map(|k| k as f32 / 1024.0)).chain([0.0, 1.0 - f32::EPSILON / 2.0]);
+        for u in us {
+            assert_eq!(d.sample(u).0, whole(u), "u = {u}");
+        }
+        // small distributions search without a guide
+        assert!(Distribution1D::new(&w[..GUIDE_MIN - 1]).unwrap().guide.is_empty());
     }
 
     #[test]

@@ -43,7 +43,7 @@ fn scene(copies: usize, shared: bool) -> SceneDesc {
             fov_axis: FovAxis::X,
             near_clip: 1e-3,
         },
-        film: FilmDesc { width: 32, height: 32, filter: PixelFilter::Box },
+        film: FilmDesc { width: 32, height: 32, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     }
 }

@@ -50,7 +50,7 @@ fn scene(mask: Option<Material>) -> Scene {
             fov_axis: FovAxis::X,
             near_clip: 1e-3,
         },
-        film: FilmDesc { width: RES, height: RES, filter: PixelFilter::Box },
+        film: FilmDesc { width: RES, height: RES, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     };
     Scene::prepare(desc, BackendKind::Auto).expect("valid scene")

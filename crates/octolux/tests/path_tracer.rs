@@ -35,7 +35,7 @@ fn furnace_scene(albedo: f32) -> SceneDesc {
             fov_axis: FovAxis::X,
             near_clip: 1e-3,
         },
-        film: FilmDesc { width: 24, height: 24, filter: PixelFilter::Box },
+        film: FilmDesc { width: 24, height: 24, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     }
 }
@@ -113,7 +113,7 @@ fn disk_light_over_a_plane_matches_the_form_factor() {
             fov_axis: FovAxis::X,
             near_clip: 1e-3,
         },
-        film: FilmDesc { width: 8, height: 8, filter: PixelFilter::Box },
+        film: FilmDesc { width: 8, height: 8, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     };
     let expect = (rho * le * r * r / (r * r + h * h)) as f64;

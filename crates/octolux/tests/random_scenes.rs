@@ -381,7 +381,7 @@ impl Spec {
                 fov_axis: FovAxis::X,
                 near_clip: 1e-4 * w,
             },
-            film: FilmDesc { width: RES, height: RES, filter: PixelFilter::Box },
+            film: FilmDesc { width: RES, height: RES, filter: PixelFilter::Box, sample_border: false },
             ..Default::default()
         }
     }

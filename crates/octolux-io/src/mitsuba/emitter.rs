@@ -21,10 +21,28 @@ impl<'t> Builder<'t> {
         Ok((v, m))
     }
 
+    /// Mitsuba 3's `sampling_weight` (how often next-event estimation picks this emitter;
+    /// the image it converges to does not change): octolux chooses lights with its light tree
+    /// instead, so a weight other than 1 is said to be ignored.
+    pub(super) fn sampling_weight(&mut self, e: &Elem, p: &Props<'t>) -> Result<(), IoError> {
+        if let Some(w) = p.float("sampling_weight")? {
+            if w != 1.0 {
+                self.warn(
+                    e,
+                    format!(
+                        "sampling_weight {w} is ignored: octolux picks the light of each next-event sample with its \
+                         light tree (by power, distance and orientation; `--set light_selection=power`: by power)"
+                    ),
+                );
+            }
+        }
+        Ok(())
+    }
+
     pub(super) fn emitter(&mut self, e: &'t Elem) -> Result<(), IoError> {
         let ty = e.req_attr("type")?;
         let p = self.props(e)?;
-        p.accept(&["sampling_weight"]);
+        self.sampling_weight(e, &p)?;
         let light = match ty {
             "point" => {
                 let intensity = self.color_param(&p, "intensity", ColorKind::Emission, 1.0)?;

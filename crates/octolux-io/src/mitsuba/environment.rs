@@ -4,8 +4,8 @@
 //!
 //! `envmap`: `filename` (EXR, HDR linear; PNG/JPEG decoded from sRGB unless `raw`), `scale`,
 //! `to_world`; 0.5/0.6 and Mitsuba 3 share the latitude-longitude convention. 0.6's `gamma`
-//! (an override of the file's transfer curve) is honoured for 8-bit images when it is 1 (same
-//! as `raw`) or -1/2.2 (sRGB, the default); any other value gets a warning.
+//! (an override of the file's transfer curve: 1 linear, -1 sRGB, another value a power law)
+//! is honoured as for bitmaps (`texture::Decode`).
 //!
 //! `sunsky` (Mitsuba 3.9 names): `turbidity`, `albedo`, `sun_direction` or
 //! `latitude/longitude/timezone/year/month/day/hour/minute/second`, `sun_scale`, `sky_scale`,
@@ -24,7 +24,6 @@ use super::tree::{resolve_file, Elem};
 use super::Builder;
 use crate::IoError;
 use glam::{Mat3, Mat4, Vec3};
-use octolux::math::Color;
 use octolux::scene::sunsky::{SolarTime, SunSky, SunSkyDesc, SUN_APERTURE_DEG};
 use octolux::scene::Light;
 
@@ -71,24 +70,8 @@ impl<'t> Builder<'t> {
             let x = x.to_ascii_lowercase();
             x == "exr" || x == "hdr" || x == "rgbe" || x == "pic"
         });
-        let mut raw = p.bool_or("raw", false)?;
-        if let Some(g) = p.float("gamma")? {
-            if g == 1.0 {
-                raw = true;
-            } else if !(g == -1.0 || (g - 2.2).abs() < 1e-3) {
-                self.warn(e, format!("gamma {g} is not supported; the image is decoded as {}", if eight_bit { "sRGB" } else { "linear" }));
-            }
-        }
-        if raw && eight_bit {
-            // `read_image` decoded the 8-bit values from sRGB; undo it to keep them as stored.
-            for c in &mut img.data {
-                *c = Color::new(
-                    crate::image_io::linear_to_srgb(c.x),
-                    crate::image_io::linear_to_srgb(c.y),
-                    crate::image_io::linear_to_srgb(c.z),
-                );
-            }
-        }
+        // Mitsuba 3's `raw`, Mitsuba 0.6's `gamma`: as for bitmaps.
+        super::texture::Decode::from_props(p, e)?.apply(&mut img, eight_bit);
         let scale = p.float_or("scale", 1.0)?;
         let to_world = self.environment_frame(e, p)?;
         p.accept(&["cache", "filter_type"]);

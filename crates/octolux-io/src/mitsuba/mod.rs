@@ -182,6 +182,14 @@ fn collect_refs(e: &Elem, refs: &mut HashSet<String>) {
 /// differentiable variants give the same image on surface scenes).
 pub const PATH_TRACERS: &[&str] = &["path", "volpath", "volpathmis", "prb", "prb_basic", "prbvolpath"];
 
+/// Integrators of other methods that converge to the image a path tracer converges to (unbiased
+/// or consistent light transport on surface scenes: bidirectional, particle and photon tracers,
+/// Metropolis methods, path guiding): octolux's `path` renders that image, so a scene naming
+/// one gets a note, not a warning, and its `max_depth` has a path tracer's meaning (Mitsuba's
+/// default -1 when absent).
+pub const SAME_IMAGE: &[&str] =
+    &["bdpt", "ptracer", "photonmapper", "ppm", "sppm", "pssmlt", "mlt", "erpt", "guided_path", "volpath_simple"];
+
 /// Map every object `id` to its element; duplicate ids are an error.
 fn collect_ids<'t>(e: &'t Elem, ids: &mut HashMap<String, &'t Elem>, aliases: &mut Vec<&'t Elem>) -> Result<(), IoError> {
     for c in &e.children {
@@ -213,8 +221,8 @@ struct Builder<'t> {
     notes: Vec<String>,
     /// Material index of each bsdf element already instantiated (by address).
     materials: HashMap<*const Elem, u32>,
-    /// Image index of each texture file already read (and whether read `raw`).
-    images: HashMap<(PathBuf, bool), u32>,
+    /// Image index of each texture file already read, per decoding (`raw`, 0.6's `gamma`).
+    images: HashMap<(PathBuf, texture::Decode), u32>,
     /// The trilinear filter (MIP pyramid) of each image index that has one.
     mipmaps: HashMap<u32, TexFilter>,
     default_material: Option<u32>,
@@ -227,7 +235,7 @@ struct Builder<'t> {
 }
 
 /// Mitsuba 3's film when a scene gives none.
-const DEFAULT_FILM: FilmDesc = FilmDesc { width: 768, height: 576, filter: PixelFilter::Gaussian { stddev: 0.5 } };
+const DEFAULT_FILM: FilmDesc = FilmDesc { width: 768, height: 576, filter: PixelFilter::Gaussian { stddev: 0.5 }, sample_border: false };
 
 impl<'t> Builder<'t> {
     fn warn(&mut self, e: &Elem, msg: impl std::fmt::Display) {
@@ -309,8 +317,7 @@ impl<'t> Builder<'t> {
             }
         }
         // Other methods whose max_depth means a path tracer's (unbounded by default).
-        const OTHER_PATH_METHODS: &[&str] = &["ptracer", "bdpt", "photonmapper", "ppm", "sppm"];
-        let path_like = PATH_TRACERS.contains(&ty) || OTHER_PATH_METHODS.contains(&ty);
+        let path_like = PATH_TRACERS.contains(&ty) || SAME_IMAGE.contains(&ty);
         self.desc.hints.max_depth = depth.map(|d| d as i32).or(path_like.then_some(-1));
         self.desc.hints.integrator = Some(ty.to_string());
         // Russian roulette only changes the variance.

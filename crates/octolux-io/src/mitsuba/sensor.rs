@@ -127,12 +127,11 @@ impl<'t> Builder<'t> {
             seen = true;
             filter = self.rfilter(o.target)?;
         }
-        // Mitsuba 0.6's `highQualityEdges` (Mitsuba 3's `sample_border`) also samples a band
-        // outside the film, for its edge pixels; false, the default, is what octolux does.
+        // Mitsuba 0.6's `highQualityEdges` (Mitsuba 3's `sample_border`): also sample the band
+        // outside the film that the filter reaches from the edge pixels (`octolux::render`).
+        let mut sample_border = false;
         for name in ["high_quality_edges", "sample_border"] {
-            if p.bool_or(name, false)? {
-                self.warn(e, format!("{name} = true (samples from outside the film for its edge pixels) is not supported; ignored"));
-            }
+            sample_border |= p.bool_or(name, false)?;
         }
         // 0.6's hdrfilm has no `gamma` (its ldrfilm does): 0.6 ignores it.
         if ty == "hdrfilm" {
@@ -141,7 +140,7 @@ impl<'t> Builder<'t> {
         // Output format only (Mitsuba 0.6's `banner` and `attach_log` change the file's metadata).
         p.accept(&["pixel_format", "component_format", "file_format", "banner", "attach_log"]);
         p.finish(&mut self.warnings);
-        Ok(FilmDesc { width: size[0], height: size[1], filter })
+        Ok(FilmDesc { width: size[0], height: size[1], filter, sample_border })
     }
 
     pub(super) fn rfilter(&mut self, e: &'t Elem) -> Result<PixelFilter, IoError> {

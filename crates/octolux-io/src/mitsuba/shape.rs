@@ -160,7 +160,7 @@ impl<'t> Builder<'t> {
                         return Err(em.loc.error(format!("{}: radiance {radiance} is not finite", em.describe())));
                     }
                     emission = Some(radiance);
-                    ep.accept(&["sampling_weight"]);
+                    self.sampling_weight(em, &ep)?;
                     ep.finish(&mut self.warnings);
                 }
                 "medium" => {

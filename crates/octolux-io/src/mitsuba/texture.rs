@@ -4,11 +4,66 @@
 use super::props::{ColorKind, Props, Spec};
 use super::tree::{resolve_file, Elem};
 use super::Builder;
-use crate::image_io::linear_to_srgb;
+use crate::image_io::{linear_to_srgb, srgb_to_linear};
 use crate::IoError;
 use glam::Vec2;
+use octolux::image::Image;
 use octolux::math::Color;
 use octolux::scene::material::{TexFilter, Texture};
+
+/// How a bitmap's stored values become the linear values octolux uses: as the file says (8-bit
+/// files sRGB, EXR and HDR linear), or as Mitsuba 3's `raw` and Mitsuba 0.6's `gamma` ask
+/// (`gamma` 1: linear, -1: sRGB, any other positive value `g`: `v^g`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(super) enum Decode {
+    File,
+    /// The stored values themselves (`raw`, `gamma` 1).
+    Linear,
+    Srgb,
+    /// A power law, the exponent's bits.
+    Power(u32),
+}
+
+impl Decode {
+    /// From a bitmap's (or envmap's) `raw` and `gamma`: `gamma` must be -1, or positive and
+    /// finite; with both given, `gamma` decides and `raw` must agree (true only with 1).
+    pub(super) fn from_props(p: &Props<'_>, e: &Elem) -> Result<Decode, IoError> {
+        let raw = p.boolean("raw")?;
+        let Some(g) = p.float("gamma")? else { return Ok(if raw == Some(true) { Decode::Linear } else { Decode::File }) };
+        let d = if g == -1.0 {
+            Decode::Srgb
+        } else if g == 1.0 {
+            Decode::Linear
+        } else if g.is_finite() && g > 0.0 {
+            Decode::Power(g.to_bits())
+        } else {
+            return Err(e.loc.error(format!("{}: gamma {g} must be 1 (linear), -1 (sRGB) or another positive exponent", e.describe())));
+        };
+        if raw.is_some_and(|r| r != (d == Decode::Linear)) {
+            return Err(e.loc.error(format!("{}: raw and gamma {g} disagree; give one of them", e.describe())));
+        }
+        Ok(d)
+    }
+
+    /// Apply to an image as read (`eight_bit`: decoded from sRGB by the reader).
+    pub(super) fn apply(self, img: &mut Image, eight_bit: bool) {
+        if self == Decode::File || (self == Decode::Linear && !eight_bit) {
+            return;
+        }
+        for c in &mut img.data {
+            // the stored values (the reader's sRGB decoding undone, exact to float rounding)
+            let stored = if eight_bit { Color::new(linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z)) } else { *c };
+            *c = match self {
+                Decode::File | Decode::Linear => stored,
+                Decode::Srgb => Color::new(srgb_to_linear(stored.x), srgb_to_linear(stored.y), srgb_to_linear(stored.z)),
+                Decode::Power(bits) => {
+                    let g = f32::from_bits(bits);
+                    Color::new(stored.x.max(0.0).powf(g), stored.y.max(0.0).powf(g), stored.z.max(0.0).powf(g))
+                }
+            };
+        }
+    }
+}
 
 impl<'t> Builder<'t> {
     /// A colour parameter as a texture (default when absent).
@@ -71,21 +126,20 @@ impl<'t> Builder<'t> {
                 let name = p.string("filename")?.ok_or_else(|| e.loc.error(format!("{} needs a \"filename\"", e.describe())))?;
                 let path = resolve_file(&e.loc, name, &self.main_dir, self.search_dirs)
                     .ok_or_else(|| e.loc.error(format!("{}: image file \"{name}\" not found", e.describe())))?;
-                // Mitsuba 3 decodes 8-bit files from sRGB unless `raw` (EXR and HDR are linear).
+                // Mitsuba 3 decodes 8-bit files from sRGB unless `raw` (EXR and HDR are linear);
+                // Mitsuba 0.6's `gamma` overrides the file's encoding ([`Decode`]).
                 let eight_bit = !path.extension().is_some_and(|x| x.eq_ignore_ascii_case("exr") || x.eq_ignore_ascii_case("hdr"));
-                let raw = p.bool_or("raw", false)? && eight_bit;
-                let key = (path.clone(), raw);
+                let mut decode = Decode::from_props(&p, e)?;
+                if decode == Decode::Linear && !eight_bit {
+                    decode = Decode::File;
+                }
+                let key = (path.clone(), decode);
                 let image = match self.images.get(&key) {
                     Some(&i) => i,
                     None => {
                         let (mut img, negative) = crate::image_io::read_texture(&path)?;
                         self.warnings.extend(negative);
-                        if raw {
-                            // The stored values themselves (the decoding undone, exact to float rounding).
-                            for c in &mut img.data {
-                                *c = Color::new(linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z));
-                            }
-                        }
+                        decode.apply(&mut img, eight_bit);
                         self.desc.images.push(img);
                         let i = (self.desc.images.len() - 1) as u32;
                         self.images.insert(key, i);

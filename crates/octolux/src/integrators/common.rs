@@ -11,6 +11,7 @@ pub use crate::math::facing;
 
 use crate::math::{Color, Ray, RayDifferential};
 use crate::sampling::Sampler;
+use crate::scene::lights::LightSelection;
 use crate::scene::material::{Lobe, Material};
 use crate::scene::{Scene, SurfaceHit};
 use glam::Vec3;
@@ -68,8 +69,8 @@ impl std::ops::AddAssign for RayCounters {
     }
 }
 
-/// Next-event estimation of direct light at a surface hit: one light sample (chosen by power),
-/// one shadow ray, no MIS. Used by the cache integrators, whose indirect light comes from a
+/// Next-event estimation of direct light at a surface hit: one light sample (chosen by the
+/// light tree, [`LightSelection::Tree`]), one shadow ray, no MIS. Used by the cache integrators, whose indirect light comes from a
 /// cache rather than a BSDF-sampled continuation to combine with. `wo` is local.
 pub fn direct_light(
     scene: &Scene,
@@ -81,7 +82,7 @@ pub fn direct_light(
 ) -> Color {
     let u_sel = sampler.next_1d();
     let u = sampler.next_2d();
-    let Some(ls) = scene.lights.sample_li(hit.p, u_sel, u) else { return Color::ZERO };
+    let Some(ls) = scene.lights.sample_li(LightSelection::Tree, hit.p, hit.frame.n, u_sel, u) else { return Color::ZERO };
     if !(ls.pdf > 0.0) || ls.li == Color::ZERO {
         return Color::ZERO;
     }

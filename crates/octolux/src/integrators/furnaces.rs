@@ -64,7 +64,7 @@ fn sky_object_scene(geometry: Geometry, rho: f32, sky: f32) -> Scene {
             fov_axis: FovAxis::X,
             near_clip: 1e-3,
         },
-        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box },
+        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     };
     Scene::prepare(desc, BackendKind::Bvh).expect("valid sky scene")

@@ -7,6 +7,7 @@ use super::common::RayCounters;
 use super::pathloop::{self, Depths, Never};
 use crate::math::{Color, Ray, RayDifferential};
 use crate::sampling::Sampler;
+use crate::scene::lights::LightSelection;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 
@@ -18,18 +19,22 @@ pub struct PathSettings {
     pub max_depth: i32,
     /// Depth from which Russian roulette may end paths.
     pub rr_depth: u32,
+    /// How next-event estimation picks a light: `tree` (the light tree, by importance at the
+    /// shading point: power, distance and orientation) or `power` (by emitted power alone,
+    /// kept for comparison). See `scene::lights`.
+    pub light_selection: LightSelection,
 }
 
 impl Default for PathSettings {
     fn default() -> Self {
-        PathSettings { max_depth: -1, rr_depth: 5 }
+        PathSettings { max_depth: -1, rr_depth: 5, light_selection: LightSelection::Tree }
     }
 }
 
 impl PathSettings {
     /// The loop's path length limits.
     pub fn depths(&self) -> Depths {
-        Depths { max_depth: self.max_depth, rr_depth: self.rr_depth }
+        Depths { max_depth: self.max_depth, rr_depth: self.rr_depth, lights: self.light_selection }
     }
 }
 

@@ -57,6 +57,7 @@
 use super::common::{mis_power, RayCounters};
 use crate::math::{max_component, Color, Ray, RayDifferential};
 use crate::sampling::Sampler;
+use crate::scene::lights::LightSelection;
 use crate::scene::material::{Lobe, Material, TexCoord};
 use crate::scene::{Scene, SurfaceHit};
 use glam::{Mat3, Vec3};
@@ -66,13 +67,16 @@ use glam::{Mat3, Vec3};
 /// twice the segment's length.
 pub const SPREAD_DIFFUSE: f32 = 2.0;
 
-/// Path length limits (Mitsuba's meaning, see the module docs).
+/// Path length limits (Mitsuba's meaning, see the module docs) and the light selection of
+/// next-event estimation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Depths {
     /// Longest path in vertices; -1 = unbounded.
     pub max_depth: i32,
     /// Depth from which Russian roulette may end paths.
     pub rr_depth: u32,
+    /// How next-event estimation picks a light (and what the MIS weights take as its pdf).
+    pub lights: LightSelection,
 }
 
 /// A surface vertex with a non-delta lobe, offered to [`Ending::end`].
@@ -217,6 +221,9 @@ pub fn li<E: Ending>(
     let mut prev_pdf = 1.0f32;
     let mut prev_delta = true;
     let mut prev_p = ray.o;
+    // The shading normal at `prev_p`: the light selection's there, for the MIS weight.
+    let mut prev_n = Vec3::ZERO;
+    let sel = depths.lights;
     let mut specular_chain = true;
     // Traced on from a residual: no further vertex ends in the cache (module docs).
     let mut residual_on = false;
@@ -235,7 +242,7 @@ pub fn li<E: Ending>(
             // Escaped: environment emission.
             let le = scene.lights.env_le(ray.d);
             if le != Color::ZERO {
-                let w = if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_env(ray.d)) };
+                let w = if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_env(sel, ray.d)) };
                 result += weight * le * w;
             }
             break;
@@ -253,7 +260,8 @@ pub fn li<E: Ending>(
         if let Some(light) = hit.light {
             let le = scene.lights.area_le(light, hit.ng, -ray.d);
             if le != Color::ZERO {
-                let w = if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_area(light, prev_p, hit.p, hit.ng)) };
+                let w =
+                    if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_area(sel, light, prev_p, prev_n, hit.p, hit.ng)) };
                 result += weight * le * w;
             }
         }
@@ -300,7 +308,7 @@ pub fn li<E: Ending>(
             let u = sampler.next_2d();
             // An environment sample's radiance is looked up only once the shadow ray is clear
             // (`sample_li_deferred`): the same sum, without the sky model for occluded samples.
-            if let Some((mut ls, env)) = scene.lights.sample_li_deferred(hit.p, u_sel, u) {
+            if let Some((mut ls, env)) = scene.lights.sample_li_deferred(sel, hit.p, hit.frame.n, u_sel, u) {
                 if ls.pdf > 0.0 && (env || ls.li != Color::ZERO) {
                     let wi = hit.frame.to_local(ls.wi);
                     let f = material.eval(&scene.images, hit.uv, wo, wi) * hit.shading_factor(ls.wi);
@@ -394,6 +402,7 @@ pub fn li<E: Ending>(
         prev_pdf = bs.pdf;
         prev_delta = bs.lobe.is_delta();
         prev_p = hit.p;
+        prev_n = hit.frame.n;
         specular_chain &= prev_delta;
         if E::FOOTPRINT {
             cone_spread += lobe_spread(bs.lobe, material, scene, hit.uv);

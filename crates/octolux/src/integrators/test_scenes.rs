@@ -56,7 +56,7 @@ fn box_desc_with(res: u32, filter: PixelFilter) -> SceneDesc {
             fov_axis: FovAxis::X,
             near_clip: 1e-3,
         },
-        film: FilmDesc { width: res, height: res, filter },
+        film: FilmDesc { width: res, height: res, filter, sample_border: false },
         ..Default::default()
     }
 }
@@ -76,7 +76,7 @@ pub(crate) fn furnace_scene(rho: f32, le: f32) -> Scene {
         }],
         materials: vec![Material::Diffuse { reflectance: Texture::Const(Color::splat(rho)) }],
         camera: CameraDesc { to_world: look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y), fov_deg: 60.0, fov_axis: FovAxis::X, near_clip: 1e-3 },
-        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box },
+        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     };
     Scene::prepare(desc, BackendKind::Bvh).expect("valid furnace scene")
@@ -113,7 +113,7 @@ pub(crate) fn furnace_box_scene(rho: f32, le: f32) -> Scene {
         // 60°: the camera sees the middle of the back wall, at least 0.42 from its edges, where
         // next-event estimation from the adjacent walls (1/r² at the edge) has heavy tails.
         camera: CameraDesc { to_world: look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y), fov_deg: 60.0, fov_axis: FovAxis::X, near_clip: 1e-3 },
-        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box },
+        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     };
     Scene::prepare(desc, BackendKind::Bvh).expect("valid furnace scene")
@@ -140,7 +140,7 @@ pub(crate) fn sky_plane_desc(rho: f32, sky: f32) -> SceneDesc {
             fov_axis: FovAxis::X,
             near_clip: 1e-3,
         },
-        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box },
+        film: FilmDesc { width: 16, height: 16, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     }
 }

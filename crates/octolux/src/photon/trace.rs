@@ -513,7 +513,7 @@ mod tests {
                 fov_axis: FovAxis::X,
                 near_clip: 1e-3,
             },
-            film: FilmDesc { width: 4, height: 4, filter: PixelFilter::Box },
+            film: FilmDesc { width: 4, height: 4, filter: PixelFilter::Box, sample_border: false },
             ..Default::default()
         };
         Scene::prepare(desc, crate::accel::BackendKind::Bvh).expect("valid scene")

@@ -287,11 +287,16 @@ pub struct FilmDesc {
     pub width: u32,
     pub height: u32,
     pub filter: PixelFilter,
+    /// Mitsuba 3's `sample_border` (0.6's `highQualityEdges`): pixels outside the film, as far
+    /// as the filter reaches, are sampled too and splat into the edge pixels, which then get
+    /// as many samples as any other (`crate::render`).
+    #[serde(default)]
+    pub sample_border: bool,
 }
 
 impl Default for FilmDesc {
     fn default() -> Self {
-        FilmDesc { width: 512, height: 512, filter: PixelFilter::Tent }
+        FilmDesc { width: 512, height: 512, filter: PixelFilter::Tent, sample_border: false }
     }
 }
 
@@ -448,7 +453,7 @@ mod tests {
         SceneDesc {
             shapes: vec![ShapeDesc { name: "t".into(), geometry: Geometry::Mesh(mesh), material: 0, emission: None, flip_normals: false }],
             materials: vec![Material::Diffuse { reflectance: crate::scene::material::Texture::Const(Color::splat(0.5)) }],
-            film: FilmDesc { width: 8, height: 8, filter },
+            film: FilmDesc { width: 8, height: 8, filter, sample_border: false },
             ..Default::default()
         }
     }

@@ -3,12 +3,18 @@
 //!
 //! Conventions: `LightSample::wi` points from the shading point towards the light;
 //! `LightSample::pdf` is a solid-angle density that already includes the probability of
-//! choosing the light (by power); for delta lights (point, spot, directional) `pdf` is just
-//! that selection probability and `delta` is true. Area lights emit from the front side of
+//! choosing the light at that point ([`LightSet::select_pmf_at`]); for delta lights (point,
+//! spot, directional) `pdf` is just that selection probability and `delta` is true. Area lights emit from the front side of
 //! their shape only (`dot(ng, w_out) > 0`), like Mitsuba's `area` emitter.
 //!
-//! Light selection (for next-event estimation and photon emission) is proportional to each
-//! light's emitted power (mean over RGB). Powers:
+//! Light selection for next-event estimation ([`LightSelection`]) is by default a light tree
+//! ([`tree`]): the lights with a position (area, point, spot) are chosen by their importance at
+//! the shading point, from their bounds of position, emission direction and intensity; the
+//! lights at infinity (directional, environment) as a group with probability
+//! `n / (n + 1)` for `n` of them (`1` without positioned lights, as pbrt-v4 does), among
+//! themselves by power. `LightSelection::Power` chooses every light by its emitted power,
+//! whatever the shading point (kept for comparison: it starves small lights that are close).
+//! Photon emission is always proportional to each light's emitted power (mean over RGB). Powers:
 //! - area: `π · L · A` (Lambertian emitter, one side);
 //! - point: `4π · I`;
 //! - spot: Mitsuba's falloff is linear in angle, full intensity inside the beam angle `b`,
@@ -45,12 +51,28 @@ use super::envmap::EnvMap;
 use super::sunsky::SunSky;
 use crate::image::Image;
 use crate::math::{Bounds3, Color, Frame};
+use crate::sampling::ONE_MINUS_EPSILON;
 use crate::sampling::{
     square_to_cosine_hemisphere, square_to_uniform_cone, square_to_uniform_disk_concentric, square_to_uniform_sphere,
     square_to_uniform_triangle, uniform_cone_pdf, Distribution1D, UNIFORM_SPHERE_PDF,
 };
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
+use tree::{LightBounds, LightTree};
+
+pub mod tree;
+
+/// How next-event estimation chooses a light (module docs); spelled `"tree"` and `"power"` in
+/// settings.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LightSelection {
+    /// The light tree: by importance at the shading point (the default).
+    #[default]
+    Tree,
+    /// By emitted power alone, the same everywhere (photon emission's choice).
+    Power,
+}
 
 /// A sampled connection from a shading point to a light (next-event estimation).
 #[derive(Clone, Copy, Debug)]
@@ -87,8 +109,19 @@ pub struct LightSet {
     pub lights: Vec<Light>,
     /// Light index per shape (`u32::MAX` for shapes that do not emit).
     shape_light: Vec<u32>,
-    /// Power-proportional light-selection distribution (None when the scene has no light).
+    /// Power-proportional light-selection distribution (None when the scene has no light):
+    /// photon emission, and next-event estimation under `LightSelection::Power`.
     select: Option<Distribution1D>,
+    /// The tree over the lights with a position (`None` when none emits).
+    tree: Option<LightTree>,
+    /// The lights at infinity (directional, environment) that emit, chosen among themselves by
+    /// power under `LightSelection::Tree`: their indices, the distribution, and per light its
+    /// slot (`u32::MAX` for other lights).
+    infinite_ids: Vec<u32>,
+    infinite: Option<Distribution1D>,
+    infinite_slot: Vec<u32>,
+    /// Probability of choosing the lights at infinity under `LightSelection::Tree`.
+    p_infinite: f32,
     /// Per light: prepared geometry for area lights (world triangles with an area CDF, or the
     /// sphere), `None` for others.
     area: Vec<Option<AreaGeometry>>,
@@ -179,7 +212,54 @@ impl LightSet {
         }
         let weights: Vec<f32> = power.iter().map(|p| (p.x + p.y + p.z) / 3.0).collect();
         let select = Distribution1D::new(&weights);
-        LightSet { lights: all, shape_light, select, area, scene_sphere, power, env_radiance, env_lights, env_maps, env_map_of }
+        let mut placed = Vec::new();
+        let mut infinite_ids = Vec::new();
+        let mut infinite_slot = vec![u32::MAX; all.len()];
+        for (li, l) in all.iter().enumerate() {
+            if !(weights[li] > 0.0) {
+                continue;
+            }
+            match l {
+                Light::Directional { .. } | Light::Constant { .. } | Light::Envmap { .. } | Light::Sunsky(_) => {
+                    infinite_slot[li] = infinite_ids.len() as u32;
+                    infinite_ids.push(li as u32);
+                }
+                _ => {
+                    if let Some(b) = light_bounds(l, area[li].as_ref()) {
+                        placed.push((li as u32, b));
+                    }
+                }
+            }
+        }
+        let tree = LightTree::build(&placed, all.len());
+        let infinite = Distribution1D::new(&infinite_ids.iter().map(|&l| weights[l as usize]).collect::<Vec<_>>());
+        let p_infinite = match (&tree, &infinite) {
+            (_, None) => 0.0,
+            (None, Some(_)) => 1.0,
+            (Some(_), Some(_)) => infinite_ids.len() as f32 / (infinite_ids.len() as f32 + 1.0),
+        };
+        LightSet {
+            lights: all,
+            shape_light,
+            select,
+            tree,
+            infinite_ids,
+            infinite,
+            infinite_slot,
+            p_infinite,
+            area,
+            scene_sphere,
+            power,
+            env_radiance,
+            env_lights,
+            env_maps,
+            env_map_of,
+        }
+    }
+
+    /// The light tree, when some light with a position emits.
+    pub fn tree(&self) -> Option<&LightTree> {
+        self.tree.as_ref()
     }
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
@@ -195,7 +275,38 @@ impl LightSet {
         self.shape_light.get(shape as usize).copied().filter(|&l| l != u32::MAX)
     }
 
-    /// Probability of selecting light `l`.
+    /// Probability that next-event estimation by `sel` at point `p` with normal `n`
+    /// (`Vec3::ZERO`: none) selects light `l`.
+    #[inline]
+    pub fn select_pmf_at(&self, sel: LightSelection, l: u32, p: Vec3, n: Vec3) -> f32 {
+        if sel == LightSelection::Power || self.lights.len() == 1 {
+            return self.select_pmf(l);
+        }
+        match self.infinite_slot.get(l as usize) {
+            None => 0.0,
+            Some(&u32::MAX) => self.tree.as_ref().map_or(0.0, |t| (1.0 - self.p_infinite) * t.pmf(l, p, n)),
+            Some(&slot) => self.infinite.as_ref().map_or(0.0, |d| self.p_infinite * d.pmf(slot as usize)),
+        }
+    }
+
+    /// Pick a light for next-event estimation by `sel` at `p` with normal `n`: (index,
+    /// probability, the same as [`Self::select_pmf_at`]'s).
+    #[inline]
+    fn pick_at(&self, sel: LightSelection, p: Vec3, n: Vec3, u: f32) -> Option<(usize, f32)> {
+        if sel == LightSelection::Power || self.lights.len() == 1 {
+            return self.pick(u);
+        }
+        if u < self.p_infinite {
+            let d = self.infinite.as_ref()?;
+            let (i, pm, _) = d.sample((u / self.p_infinite).min(ONE_MINUS_EPSILON));
+            return (pm > 0.0).then(|| (self.infinite_ids[i] as usize, self.p_infinite * pm));
+        }
+        let tree = self.tree.as_ref()?;
+        let (l, pm) = tree.sample(p, n, ((u - self.p_infinite) / (1.0 - self.p_infinite)).clamp(0.0, ONE_MINUS_EPSILON))?;
+        Some((l as usize, (1.0 - self.p_infinite) * pm))
+    }
+
+    /// Probability that photon emission (and `LightSelection::Power`) selects light `l`.
     #[inline]
     pub fn select_pmf(&self, l: u32) -> f32 {
         match &self.select {
@@ -221,9 +332,10 @@ impl LightSet {
         }
     }
 
-    /// Sample a light (by power) and a point on it as seen from `p`.
-    pub fn sample_li(&self, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
-        let (mut ls, env) = self.sample_li_deferred(p, u_select, u)?;
+    /// Sample a light (chosen by `sel`) and a point on it as seen from `p` with normal `n`
+    /// (`Vec3::ZERO`: none; the light tree's importance, [`tree`]).
+    pub fn sample_li(&self, sel: LightSelection, p: Vec3, n: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        let (mut ls, env) = self.sample_li_deferred(sel, p, n, u_select, u)?;
         if env {
             ls.li = self.env_le(ls.wi);
         }
@@ -235,8 +347,8 @@ impl LightSet {
     /// The sky model's radiance costs six `exp` and an `asin`; a path tracer needs it only when
     /// the light sample is unoccluded, which indoors is the exception. Same samples, same
     /// values as `sample_li`.
-    pub fn sample_li_deferred(&self, p: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, bool)> {
-        let (l, psel) = self.pick(u_select)?;
+    pub fn sample_li_deferred(&self, sel: LightSelection, p: Vec3, n: Vec3, u_select: f32, u: Vec2) -> Option<(LightSample, bool)> {
+        let (l, psel) = self.pick_at(sel, p, n, u_select)?;
         if let Light::Constant { .. } | Light::Envmap { .. } | Light::Sunsky(_) = &self.lights[l] {
             // All environment lights act as one emitter (module docs): the sampled direction
             // carries the radiance of all of them and their mixture density.
@@ -244,7 +356,7 @@ impl LightSet {
                 Light::Constant { .. } => square_to_uniform_sphere(u),
                 _ => self.env_maps.get(*self.env_map_of.get(l)? as usize)?.1.sample_direction(u)?.0,
             };
-            let pdf = self.pdf_li_env(wi);
+            let pdf = self.pdf_li_env(sel, wi);
             let keep = matches!(&self.lights[l], Light::Constant { .. }) || pdf > 0.0;
             return keep.then_some((LightSample { wi, dist: f32::INFINITY, li: Color::ZERO, pdf, delta: false }, true));
         }
@@ -330,12 +442,12 @@ impl LightSet {
         }
     }
 
-    /// Solid-angle pdf (with selection) that `sample_li` from `p` picks point `p_light` with
-    /// normal `ng` on area light `light`.
-    pub fn pdf_li_area(&self, light: u32, p: Vec3, p_light: Vec3, ng: Vec3) -> f32 {
+    /// Solid-angle pdf (with selection by `sel`) that `sample_li` from `p` with normal `n`
+    /// picks point `p_light` with normal `ng` on area light `light`.
+    pub fn pdf_li_area(&self, sel: LightSelection, light: u32, p: Vec3, n: Vec3, p_light: Vec3, ng: Vec3) -> f32 {
         let l = light as usize;
         let Some(Some(geom)) = self.area.get(l) else { return 0.0 };
-        let psel = self.select_pmf(light);
+        let psel = self.select_pmf_at(sel, light, p, n);
         if psel == 0.0 {
             return 0.0;
         }
@@ -365,12 +477,15 @@ impl LightSet {
         le
     }
 
-    /// Solid-angle pdf (with selection) that `sample_li` picks direction `dir` on environment lights.
+    /// Solid-angle pdf (with selection by `sel`) that `sample_li` picks direction `dir` on
+    /// environment lights (from any shading point: lights at infinity are chosen alike
+    /// everywhere).
     #[inline]
-    pub fn pdf_li_env(&self, dir: Vec3) -> f32 {
-        let mut pdf = self.env_lights.iter().map(|&l| self.select_pmf(l)).sum::<f32>() * UNIFORM_SPHERE_PDF;
+    pub fn pdf_li_env(&self, sel: LightSelection, dir: Vec3) -> f32 {
+        let pmf = |l: u32| self.select_pmf_at(sel, l, Vec3::ZERO, Vec3::ZERO);
+        let mut pdf = self.env_lights.iter().map(|&l| pmf(l)).sum::<f32>() * UNIFORM_SPHERE_PDF;
         for (l, env) in &self.env_maps {
-            pdf += self.select_pmf(*l) * env.pdf(dir);
+            pdf += pmf(*l) * env.pdf(dir);
         }
         pdf
     }
@@ -570,11 +685,59 @@ impl AreaGeometry {
     }
 }
 
+/// The light tree's bounds of a light with a position (tree module docs): `None` for the
+/// lights at infinity and area lights without geometry.
+fn light_bounds(l: &Light, geom: Option<&AreaGeometry>) -> Option<LightBounds> {
+    const FULL: (Vec3, f32, f32) = (Vec3::Z, -1.0, 0.0);
+    match l {
+        Light::Area { radiance, .. } => match geom? {
+            AreaGeometry::Sphere { center, radius, .. } => {
+                let r = Vec3::splat(*radius);
+                // seen from any direction, a sphere's intensity is L · π r²
+                let (axis, cos_o, cos_e) = FULL;
+                Some(LightBounds::new(*center - r, *center + r, axis, cos_o, cos_e, *radiance * (PI * radius * radius)))
+            }
+            AreaGeometry::Triangles { tris, normals, area, .. } => {
+                let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                let mut sum = Vec3::ZERO;
+                for (t, n) in tris.iter().zip(normals) {
+                    for v in t {
+                        lo = lo.min(*v);
+                        hi = hi.max(*v);
+                    }
+                    sum += *n * (0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length());
+                }
+                let axis = sum.normalize_or_zero();
+                let (axis, cos_o) = if axis == Vec3::ZERO {
+                    (Vec3::Z, -1.0)
+                } else {
+                    // a little slack for rounding: the bound must hold every normal
+                    let c = normals.iter().map(|n| n.dot(axis)).fold(1.0f32, f32::min);
+                    (axis, (c - 1e-4).max(-1.0))
+                };
+                Some(LightBounds::new(lo, hi, axis, cos_o, 0.0, *radiance * *area))
+            }
+        },
+        Light::Point { position, intensity } => {
+            let (axis, cos_o, cos_e) = FULL;
+            Some(LightBounds::new(*position, *position, axis, cos_o, cos_e, *intensity))
+        }
+        Light::Spot { position, frame, intensity, cos_cutoff, cos_falloff_start } => {
+            let c = cos_cutoff.clamp(-1.0, 1.0).acos();
+            let b = cos_falloff_start.clamp(-1.0, 1.0).acos().min(c);
+            Some(LightBounds::new(*position, *position, frame.n, b.cos(), (c - b).cos(), *intensity))
+        }
+        Light::Directional { .. } | Light::Constant { .. } | Light::Envmap { .. } | Light::Sunsky(_) => None,
+    }
+}
+
 /// False for NaN, zero and negative values.
 #[inline]
 fn not_positive(x: f32) -> bool {
     x.is_nan() || x <= 0.0
 }
 
+#[cfg(test)]
+mod selection_tests;
 #[cfg(test)]
 mod tests;

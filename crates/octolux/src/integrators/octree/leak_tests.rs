@@ -46,7 +46,7 @@ fn two_rooms_desc(x_lit: f32, t: f32, to_world: Mat4, res: u32) -> SceneDesc {
         ],
         materials: vec![Material::Diffuse { reflectance: Texture::Const(Color::splat(0.6)) }],
         camera: CameraDesc { to_world, ..CameraDesc::default() },
-        film: FilmDesc { width: res, height: res, filter: PixelFilter::Box },
+        film: FilmDesc { width: res, height: res, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     }
 }

@@ -55,6 +55,7 @@ use crate::caches::{Octree, OctreeError, OctreeSettings, OctreeStats};
 use crate::math::{Color, Ray, RayDifferential};
 use crate::photon::trace::{trace_photons, PhotonError};
 use crate::sampling::Sampler;
+use crate::scene::lights::LightSelection;
 use crate::scene::material::Material;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -278,7 +279,7 @@ impl OctreeIntegrator {
 
     /// The path loop's limits.
     fn depths(&self) -> Depths {
-        Depths { max_depth: self.settings.max_depth, rr_depth: self.settings.rr_depth }
+        Depths { max_depth: self.settings.max_depth, rr_depth: self.settings.rr_depth, lights: LightSelection::Tree }
     }
 
     /// Radiance along a primary ray: the path loop ending in the octrees, or a debug view.

@@ -134,7 +134,7 @@ fn octree_ending_no_path_is_the_path_tracer_bit_for_bit() {
             let rs = RenderSettings { spp: 8, ..Default::default() };
             let o = Integrator::Octree(Box::new(OctreeIntegrator::build(scene, s.clone()).unwrap()));
             let (a, sa) = render(scene, &o, &rs, &|_, _| {});
-            let p = Integrator::Path(PathSettings { max_depth, rr_depth: s.rr_depth });
+            let p = Integrator::Path(PathSettings { max_depth, rr_depth: s.rr_depth, ..Default::default() });
             let (b, sb) = render(scene, &p, &rs, &|_, _| {});
             assert_eq!(sa.counters.cache_ends, [0; 4], "{name}");
             assert!(

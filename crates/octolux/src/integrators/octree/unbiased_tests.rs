@@ -38,7 +38,7 @@ fn octree(scene: &Scene, mode: Mode, q: f32, photons: u64) -> Integrator {
 }
 
 fn path() -> Integrator {
-    Integrator::Path(PathSettings { max_depth: -1, rr_depth: 5 })
+    Integrator::Path(PathSettings { max_depth: -1, rr_depth: 5, ..Default::default() })
 }
 
 /// The test box (`test_scenes::box_desc`) at `res`² pixels with its light `scale` times as

@@ -7,7 +7,7 @@ use crate::scene::desc::TriMesh;
 use crate::testing::{chi2_2d, chi2_sphere, direction_to_zphi, zphi_to_direction, Chi2Config};
 
 /// Number of chi-square tests in this module (Šidák family size).
-const CHI2_TESTS: usize = 5;
+const CHI2_TESTS: usize = 6;
 
 fn shape(geometry: Geometry, emission: Option<Color>, flip_normals: bool) -> ShapeDesc {
     ShapeDesc { name: "s".into(), geometry, material: 0, emission, flip_normals }
@@ -51,50 +51,56 @@ fn mesh_light_sampling_matches_pdf() {
     assert_eq!(set.lights.len(), 2);
     let l = set.shape_light(0).unwrap();
     assert_eq!(l, 1);
-    let psel = set.select_pmf(l);
     let area_power = std::f32::consts::PI * 2.0 * 3.0; // mean radiance 3, area 2
     let point_power = 4.0 * std::f32::consts::PI;
-    assert!((psel - area_power / (area_power + point_power)).abs() < 1e-5, "selection by power: {psel}");
+    let by_power = set.select_pmf(l);
+    assert!((by_power - area_power / (area_power + point_power)).abs() < 1e-5, "selection by power: {by_power}");
+    assert_eq!(set.select_pmf_at(LightSelection::Power, l, Vec3::ZERO, Vec3::Z), by_power);
     let p = Vec3::new(0.3, 0.8, 0.0);
+    let n = Vec3::new(0.2, 0.1, 1.0).normalize();
     let ng = -Vec3::Z;
-    let mut bad = None;
-    let r = chi2_2d(
-        &cfg(),
-        Vec2::ZERO,
-        Vec2::new(2.0, 1.0),
-        |s| {
-            let (us, u) = (s.next_1d(), s.next_2d());
-            let ls = set.sample_li(p, us, u)?;
-            if ls.delta {
-                return None;
+    for sel in [LightSelection::Tree, LightSelection::Power] {
+        let psel = set.select_pmf_at(sel, l, p, n);
+        assert!(psel > 0.0 && psel < 1.0, "{sel:?}: {psel}");
+        let mut bad = None;
+        let r = chi2_2d(
+            &cfg(),
+            Vec2::ZERO,
+            Vec2::new(2.0, 1.0),
+            |s| {
+                let (us, u) = (s.next_1d(), s.next_2d());
+                let ls = set.sample_li(sel, p, n, us, u)?;
+                if ls.delta {
+                    return None;
+                }
+                let q = p + ls.wi * ls.dist;
+                let pdf = set.pdf_li_area(sel, l, p, n, q, ng);
+                if (pdf - ls.pdf).abs() > 1e-3 * pdf || (q.z - 1.0).abs() > 1e-4 || ls.li != radiance {
+                    bad = Some(format!("sample pdf {} vs pdf_li_area {pdf}, q {q}, li {}", ls.pdf, ls.li));
+                }
+                Some(Vec2::new(q.x, q.y))
+            },
+            |xy| {
+                // density w.r.t. area on the plane: solid-angle pdf × cos / dist²
+                let q = Vec3::new(xy.x, xy.y, 1.0);
+                let d = q - p;
+                let cos = d.z / d.length();
+                (set.pdf_li_area(sel, l, p, n, q, ng) * cos / d.length_squared()) as f64
+            },
+        );
+        assert!(bad.is_none(), "{sel:?}: {bad:?}");
+        assert!(r.passed, "{sel:?}: {r:?}");
+        assert!((r.pdf_integral - psel as f64).abs() < 1e-3, "{sel:?}: {} vs {psel}", r.pdf_integral);
+        // behind the light: nothing (the light's back faces the point)
+        let behind = Vec3::new(1.0, 0.5, 2.0);
+        let mut s = Sampler::new(1, 2, 3);
+        for _ in 0..1000 {
+            if let Some(ls) = set.sample_li(sel, behind, Vec3::Z, s.next_1d(), s.next_2d()) {
+                assert!(ls.delta, "only the point light is visible from behind");
             }
-            let q = p + ls.wi * ls.dist;
-            let pdf = set.pdf_li_area(l, p, q, ng);
-            if (pdf - ls.pdf).abs() > 1e-3 * pdf || (q.z - 1.0).abs() > 1e-4 || ls.li != radiance {
-                bad = Some(format!("sample pdf {} vs pdf_li_area {pdf}, q {q}, li {}", ls.pdf, ls.li));
-            }
-            Some(Vec2::new(q.x, q.y))
-        },
-        |xy| {
-            // density w.r.t. area on the plane: solid-angle pdf × cos / dist²
-            let q = Vec3::new(xy.x, xy.y, 1.0);
-            let d = q - p;
-            let cos = d.z / d.length();
-            (set.pdf_li_area(l, p, q, ng) * cos / d.length_squared()) as f64
-        },
-    );
-    assert!(bad.is_none(), "{bad:?}");
-    assert!(r.passed, "{r:?}");
-    assert!((r.pdf_integral - psel as f64).abs() < 1e-3, "{} vs {psel}", r.pdf_integral);
-    // behind the light: nothing (the light's back faces the point)
-    let behind = Vec3::new(1.0, 0.5, 2.0);
-    let mut s = Sampler::new(1, 2, 3);
-    for _ in 0..1000 {
-        if let Some(ls) = set.sample_li(behind, s.next_1d(), s.next_2d()) {
-            assert!(ls.delta, "only the point light is visible from behind");
         }
+        assert_eq!(set.pdf_li_area(sel, l, behind, Vec3::Z, Vec3::new(1.0, 0.5, 1.0), ng), 0.0);
     }
-    assert_eq!(set.pdf_li_area(l, behind, Vec3::new(1.0, 0.5, 1.0), ng), 0.0);
     assert_eq!(set.area_le(l, ng, Vec3::Z), Color::ZERO);
     assert_eq!(set.area_le(l, ng, -Vec3::Z), radiance);
     assert_eq!(set.area_le(0, ng, -Vec3::Z), Color::ZERO, "light 0 is the point light");
@@ -130,20 +136,20 @@ fn sphere_light_sampling_matches_pdf_outside_and_inside() {
         Vec2::new(cos_max, 0.0),
         Vec2::new(1.0, std::f32::consts::TAU),
         |s| {
-            let ls = set.sample_li(p, s.next_1d(), s.next_2d())?;
+            let ls = set.sample_li(LightSelection::Tree, p, Vec3::ZERO, s.next_1d(), s.next_2d())?;
             let q = p + ls.wi * ls.dist;
             let n = (q - c) / r;
             if ((q - c).length() - r).abs() > 1e-4 || n.dot(ls.wi) >= 0.0 {
                 bad = Some(format!("sampled point {q} is not on the near side of the sphere"));
             }
-            if (set.pdf_li_area(0, p, q, n) - ls.pdf).abs() > 1e-3 * ls.pdf {
-                bad = Some(format!("pdf {} vs {}", ls.pdf, set.pdf_li_area(0, p, q, n)));
+            if (set.pdf_li_area(LightSelection::Tree, 0, p, Vec3::ZERO, q, n) - ls.pdf).abs() > 1e-3 * ls.pdf {
+                bad = Some(format!("pdf {} vs {}", ls.pdf, set.pdf_li_area(LightSelection::Tree, 0, p, Vec3::ZERO, q, n)));
             }
             Some(direction_to_zphi(frame.to_local(ls.wi)))
         },
         |zp| {
             let d = frame.to_world(zphi_to_direction(zp));
-            hit_sphere(p, d, c, r).map_or(0.0, |q| set.pdf_li_area(0, p, q, (q - c) / r) as f64)
+            hit_sphere(p, d, c, r).map_or(0.0, |q| set.pdf_li_area(LightSelection::Tree, 0, p, Vec3::ZERO, q, (q - c) / r) as f64)
         },
     );
     assert!(bad.is_none(), "{bad:?}");
@@ -158,7 +164,7 @@ fn sphere_light_sampling_matches_pdf_outside_and_inside() {
         Vec2::new(-1.0, 0.0),
         Vec2::new(1.0, std::f32::consts::TAU),
         |s| {
-            let ls = set.sample_li(p, s.next_1d(), s.next_2d())?;
+            let ls = set.sample_li(LightSelection::Tree, p, Vec3::ZERO, s.next_1d(), s.next_2d())?;
             let q = p + ls.wi * ls.dist;
             Some(direction_to_zphi((q - c).normalize()))
         },
@@ -168,7 +174,7 @@ fn sphere_light_sampling_matches_pdf_outside_and_inside() {
             let q = c + n * r;
             let d = q - p;
             let cos = (-n).dot(-d.normalize());
-            (set.pdf_li_area(0, p, q, -n) * cos / d.length_squared() * r * r) as f64
+            (set.pdf_li_area(LightSelection::Tree, 0, p, Vec3::ZERO, q, -n) * cos / d.length_squared() * r * r) as f64
         },
     );
     assert!(inside.passed, "{inside:?}");
@@ -177,7 +183,7 @@ fn sphere_light_sampling_matches_pdf_outside_and_inside() {
     // inside a sphere that emits outwards: its inner side is its back, nothing arrives
     let set = LightSet::new(&[], &[shape(Geometry::Sphere { center: c, radius: r }, Some(radiance), false)], bounds_of(c - r, c + r));
     let mut s = Sampler::new(4, 0, 0);
-    assert!((0..1000).all(|_| set.sample_li(p, s.next_1d(), s.next_2d()).is_none()));
+    assert!((0..1000).all(|_| set.sample_li(LightSelection::Tree, p, Vec3::ZERO, s.next_1d(), s.next_2d()).is_none()));
 }
 
 #[test]
@@ -317,8 +323,8 @@ fn delta_and_environment_lights() {
     let p = Vec3::new(0.0, 0.0, 0.0);
     let set = LightSet::new(&[Light::Point { position: Vec3::new(0.0, 3.0, 4.0), intensity: Color::splat(10.0) }], &[], Bounds3::EMPTY);
     // a single light ignores the selection number
-    let a = set.sample_li(p, 0.1, Vec2::new(0.3, 0.3)).unwrap();
-    let b = set.sample_li(p, 0.95, Vec2::new(0.7, 0.1)).unwrap();
+    let a = set.sample_li(LightSelection::Tree, p, Vec3::ZERO, 0.1, Vec2::new(0.3, 0.3)).unwrap();
+    let b = set.sample_li(LightSelection::Tree, p, Vec3::ZERO, 0.95, Vec2::new(0.7, 0.1)).unwrap();
     assert!(a.delta && a.pdf == 1.0 && (a.dist - 5.0).abs() < 1e-6 && (a.li - Color::splat(10.0 / 25.0)).abs().max_element() < 1e-6);
     assert_eq!((a.wi, a.li), (b.wi, b.li));
     assert!((a.wi - Vec3::new(0.0, 0.6, 0.8)).length() < 1e-6);
@@ -327,9 +333,9 @@ fn delta_and_environment_lights() {
     let spot =
         Light::Spot { position: Vec3::new(0.0, 0.0, 2.0), frame, intensity: Color::splat(4.0), cos_cutoff: 0.9, cos_falloff_start: 0.95 };
     let set = LightSet::new(&[spot], &[], Bounds3::EMPTY);
-    let ls = set.sample_li(p, 0.5, Vec2::ZERO).unwrap();
+    let ls = set.sample_li(LightSelection::Tree, p, Vec3::ZERO, 0.5, Vec2::ZERO).unwrap();
     assert!((ls.li - Color::splat(1.0)).abs().max_element() < 1e-6, "on axis: I / d²");
-    assert!(set.sample_li(Vec3::new(5.0, 0.0, 0.0), 0.5, Vec2::ZERO).is_none(), "outside the cone");
+    assert!(set.sample_li(LightSelection::Tree, Vec3::new(5.0, 0.0, 0.0), Vec3::ZERO, 0.5, Vec2::ZERO).is_none(), "outside the cone");
 
     let dir = Vec3::new(1.0, -1.0, 0.0).normalize();
     let env = Color::new(0.5, 0.25, 1.0);
@@ -337,18 +343,18 @@ fn delta_and_environment_lights() {
     let set = LightSet::new(&lights, &[], bounds_of(Vec3::splat(-1.0), Vec3::splat(1.0)));
     assert_eq!(set.env_le(Vec3::X), env);
     let p_env = set.select_pmf(1);
-    assert!((set.pdf_li_env(Vec3::Y) - p_env / (4.0 * std::f32::consts::PI)).abs() < 1e-7);
+    assert!((set.pdf_li_env(LightSelection::Tree, Vec3::Y) - p_env / (4.0 * std::f32::consts::PI)).abs() < 1e-7);
     let mut s = Sampler::new(2, 0, 0);
     let (mut n_env, n) = (0usize, 20_000);
     for _ in 0..n {
-        let ls = set.sample_li(p, s.next_1d(), s.next_2d()).unwrap();
+        let ls = set.sample_li(LightSelection::Tree, p, Vec3::ZERO, s.next_1d(), s.next_2d()).unwrap();
         assert!(ls.dist.is_infinite());
         if ls.delta {
             assert!((ls.wi + dir).length() < 1e-6 && ls.li == Color::splat(2.0) && (ls.pdf - set.select_pmf(0)).abs() < 1e-7);
         } else {
             n_env += 1;
             assert_eq!(ls.li, env);
-            assert!((ls.pdf - set.pdf_li_env(ls.wi)).abs() < 1e-7);
+            assert!((ls.pdf - set.pdf_li_env(LightSelection::Tree, ls.wi)).abs() < 1e-7);
         }
     }
     let expect = p_env as f64 * n as f64;
@@ -356,7 +362,9 @@ fn delta_and_environment_lights() {
     // an empty set samples nothing
     let empty = LightSet::new(&[], &[], Bounds3::EMPTY);
     assert!(
-        empty.is_empty() && empty.sample_li(p, 0.5, Vec2::ZERO).is_none() && empty.sample_emission(0.5, Vec2::ZERO, Vec2::ZERO).is_none()
+        empty.is_empty()
+            && empty.sample_li(LightSelection::Tree, p, Vec3::ZERO, 0.5, Vec2::ZERO).is_none()
+            && empty.sample_emission(0.5, Vec2::ZERO, Vec2::ZERO).is_none()
     );
     assert_eq!(empty.total_power(), Color::ZERO);
 }
@@ -389,18 +397,20 @@ fn deferred_light_samples_are_sample_li_s_with_the_environment_radiance_left_out
         v.push(ls.delta as u32);
         v
     };
-    for _ in 0..20_000 {
+    for k in 0..20_000 {
+        let sel = if k % 2 == 0 { LightSelection::Tree } else { LightSelection::Power };
         let p = Vec3::new(s.next_1d() * 2.0, s.next_1d(), s.next_1d() * 0.9);
+        let n = crate::sampling::square_to_uniform_sphere(s.next_2d());
         let (u_sel, u) = (s.next_1d(), s.next_2d());
-        let eager = set.sample_li(p, u_sel, u);
-        let deferred = set.sample_li_deferred(p, u_sel, u);
+        let eager = set.sample_li(sel, p, n, u_sel, u);
+        let deferred = set.sample_li_deferred(sel, p, n, u_sel, u);
         assert_eq!(eager.is_some(), deferred.is_some());
         let (Some(eager), Some((mut ls, env))) = (eager, deferred) else { continue };
         seen[env as usize] += 1;
         if env {
             assert_eq!(ls.li, Color::ZERO);
             assert!(ls.dist.is_infinite() && !ls.delta);
-            assert_eq!(ls.pdf.to_bits(), set.pdf_li_env(ls.wi).to_bits());
+            assert_eq!(ls.pdf.to_bits(), set.pdf_li_env(sel, ls.wi).to_bits());
             ls.li = set.env_le(ls.wi);
         }
         assert_eq!(bits(&ls), bits(&eager));

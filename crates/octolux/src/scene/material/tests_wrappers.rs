@@ -117,7 +117,7 @@ fn quad_hit(m: Material, images: Vec<Image>, uv: Vec2) -> (Scene, SurfaceHit) {
             fov_axis: FovAxis::X,
             near_clip: 1e-3,
         },
-        film: FilmDesc { width: 4, height: 4, filter: PixelFilter::Box },
+        film: FilmDesc { width: 4, height: 4, filter: PixelFilter::Box, sample_border: false },
         ..Default::default()
     };
     let scene = Scene::prepare(desc, BackendKind::Bvh).expect("valid scene");

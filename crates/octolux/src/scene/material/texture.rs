@@ -410,7 +410,7 @@ mod tests {
                 fov_axis: FovAxis::X,
                 near_clip: 0.0,
             },
-            film: FilmDesc { width: w, height: h, filter: PixelFilter::Box },
+            film: FilmDesc { width: w, height: h, filter: PixelFilter::Box, sample_border: false },
             ..Default::default()
         };
         let scene = Scene::prepare(desc, BackendKind::Bvh).unwrap();
