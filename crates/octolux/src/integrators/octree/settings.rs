@@ -132,8 +132,14 @@ impl Mode {
     }
 }
 
-/// Default of [`OctreeIntegratorSettings::footprint`].
-pub const DEFAULT_FOOTPRINT: f32 = 1.0;
+/// Default of [`OctreeIntegratorSettings::footprint`]. Measured in one time-to-error run per
+/// value (docs/lab/2026-12-04-time-to-error.md): at the lowest target each scene reached, 0.25
+/// took at most the CPU time of 1 on nine of the ten reference scenes (bitterli 0.114 s
+/// against 0.139 s to relMSE 0.01, sponza 3.59 s against 3.76 s) and 10% more on torus. At
+/// 0.25 a camera vertex ends in the cache where its pixel is a quarter of a leaf wide (low
+/// resolutions, small leaves); 0 ends every path at the camera vertex where `max_depth` is
+/// unbounded (the paper's read, with its bias: cornell-box levels off near relMSE 5e-5).
+pub const DEFAULT_FOOTPRINT: f32 = 0.25;
 /// Default of [`OctreeIntegratorSettings::min_alpha`].
 pub const DEFAULT_MIN_ALPHA: f32 = 0.3;
 /// Default of [`OctreeIntegratorSettings::q`].
