@@ -80,7 +80,11 @@ pub struct OctreeIntegratorSettings {
     /// With `mode = terminate`: the caustic octree is read where the leaf holding the point has
     /// at least this many photons; elsewhere the caustic light is path-traced. Measured (1M
     /// photons, 64 spp): cornell-spheres relMSE 6.9e-4 with 0, 7.0e-4 with 4, 2.6e-3 with 16,
-    /// 1.8e-2 never (path-traced caustics); cbox 9.3e-4, 9.3e-4, 4.0e-3, 1.8e-2.
+    /// 1.8e-2 never (path-traced caustics); cbox 9.3e-4, 9.3e-4, 4.0e-3, 1.8e-2. On the ten
+    /// time-to-error scenes (docs/lab/2026-12-04-time-to-error.md) 0 against 4: torus 4.6e-3
+    /// against 5.0e-2 and veach-lamp 0.12 against 0.70 at 1.6M photons and 256 spp (with 4,
+    /// two path-traced caustic samples through the glass carried 87% of torus' error), every
+    /// other scene and rung within 6%. Default 0: the caustic octree is always read.
     pub caustic_photons: u32,
     /// With `mode = unbiased`: how readily a path ending in the cache is traced on to correct
     /// the cache's value (the residual estimator, docs/guide/octree.md "Without bias"). A path goes
@@ -148,7 +152,7 @@ pub const DEFAULT_Q: f32 = 1.0;
 /// 20x the path's.
 pub const Q_MIN: f32 = 0.05;
 /// Default of [`OctreeIntegratorSettings::caustic_photons`].
-pub const DEFAULT_CAUSTIC_PHOTONS: u32 = 4;
+pub const DEFAULT_CAUSTIC_PHOTONS: u32 = 0;
 
 /// Caustics are sharp, so the caustic octree is finer than the global one. Measured on
 /// cornell-spheres (128², 64 spp, 1M photons, relMSE vs Mitsuba 3): caustic (h_max, n_max) =
