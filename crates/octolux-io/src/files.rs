@@ -140,6 +140,30 @@ pub fn check_input(path: &Path) -> Result<u64, IoError> {
     Ok(len)
 }
 
+/// Refuse an existing `path` that is not a regular file (a folder, a device, a FIFO, a socket),
+/// saying what it is; a missing file or a regular one passes (the caller's own checks, such as
+/// the file's format by its extension, come next). Loaders that choose a format by extension
+/// call it first, so that `/dev/zero` named as a bitmap says it is a device, not that its
+/// format is unknown.
+pub fn refuse_non_regular(path: &Path) -> Result<(), IoError> {
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => check_input(path).map(|_| ()),
+        _ => Ok(()),
+    }
+}
+
+/// `unsupported <what> format '.ext' (expected ...)`, or `... has no file extension` for a
+/// name without one: the message of a file whose format its extension does not give.
+pub fn unknown_format(path: &Path, what: &str, expected: &str) -> IoError {
+    match path.extension() {
+        Some(ext) => IoError::invalid(path, format!("unsupported {what} format '.{}' (expected {expected})", ext.to_string_lossy())),
+        None => IoError::invalid(
+            path,
+            format!("the {what} format is chosen by the file's extension, and this name has none (expected {expected})"),
+        ),
+    }
+}
+
 /// Read a whole input file by the rule (module docs); it is remembered as an input.
 pub fn read(path: &Path) -> Result<Vec<u8>, IoError> {
     use std::io::Read;

@@ -809,3 +809,49 @@ fn out_of_range_colours_warn_and_repeated_defines_take_the_last() {
     };
     assert_eq!(*c, Color::splat(0.3));
 }
+
+/// `/dev/zero` (or a FIFO) named directly as a bitmap, a mesh or a scene said "unsupported
+/// image format '.'" ("unknown mesh format", "unknown scene format"): what the file is comes
+/// first now; a regular file without an extension says that it has none.
+#[test]
+fn a_device_named_as_a_bitmap_or_mesh_says_what_it_is() {
+    setup();
+    let dir = tmp_dir("device_by_name");
+    let p = dir.join("h.xml");
+    let load = |body: &str| {
+        std::fs::write(&p, format!("<scene version=\"3.0.0\">\n{body}\n</scene>")).unwrap();
+        octolux_io::mitsuba::load(&p, &[]).unwrap_err().to_string()
+    };
+    let dev = "/dev/zero: this is a character device, not a regular file: octolux reads only regular files";
+    let bitmap = |f: &str| {
+        format!(
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">\
+             <string name=\"filename\" value=\"{f}\"/></texture></bsdf></shape>"
+        )
+    };
+    assert_eq!(load(&bitmap("/dev/zero")), dev);
+    assert_eq!(load("<emitter type=\"envmap\"><string name=\"filename\" value=\"/dev/zero\"/></emitter>"), dev);
+    assert_eq!(load("<shape type=\"ply\"><string name=\"filename\" value=\"/dev/zero\"/></shape>"), dev);
+    assert_eq!(octolux_io::load_scene("/dev/zero", &[]).unwrap_err().to_string(), dev);
+    let fifo = dir.join("pipe");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    assert_eq!(
+        load(&bitmap("pipe")),
+        format!("{}: this is a FIFO (named pipe), not a regular file: octolux reads only regular files", fifo.display())
+    );
+    // a regular file without an extension: the message says so (it said "format '.'")
+    std::fs::write(dir.join("tex"), b"not an image").unwrap();
+    assert_eq!(
+        load(&bitmap("tex")),
+        format!(
+            "{}/tex: the image format is chosen by the file's extension, and this name has none (expected png, jpg, exr or hdr)",
+            dir.display()
+        )
+    );
+    assert_eq!(
+        load("<shape type=\"ply\"><string name=\"filename\" value=\"tex\"/></shape>"),
+        format!("{}/tex: the mesh format is chosen by the file's extension, and this name has none (expected .obj or .ply)", dir.display())
+    );
+    std::fs::write(dir.join("t.tga"), b"not an image").unwrap();
+    assert_eq!(load(&bitmap("t.tga")), format!("{}/t.tga: unsupported image format '.tga' (expected png, jpg, exr or hdr)", dir.display()));
+}
