@@ -949,3 +949,104 @@ fn gltf_uris_outside_the_folder_need_the_flag() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stderr(&o), "");
 }
+
+/// A binary PLY grid of `nx` x `ny` quads (two triangles each), written row by row: `(nx +
+/// 1)(ny + 1)` vertices, `2 nx ny` triangles.
+fn write_ply_grid(path: &Path, nx: u32, ny: u32) {
+    use std::io::Write;
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path).expect("create"));
+    let (v, t) = ((nx + 1) * (ny + 1), 2 * nx * ny);
+    write!(
+        f,
+        "ply\nformat binary_little_endian 1.0\nelement vertex {v}\nproperty float x\nproperty float y\nproperty float z\n\
+         element face {t}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    .expect("write");
+    for j in 0..=ny {
+        for i in 0..=nx {
+            for c in [i as f32 / nx as f32, j as f32 / ny as f32, 0.0] {
+                f.write_all(&c.to_le_bytes()).expect("write");
+            }
+        }
+    }
+    for j in 0..ny {
+        for i in 0..nx {
+            let a = j * (nx + 1) + i;
+            let (b, c, d) = (a + 1, a + nx + 1, a + nx + 2);
+            for tri in [[a, b, d], [a, d, c]] {
+                f.write_all(&[3]).expect("write");
+                for k in tri {
+                    f.write_all(&(k as i32).to_le_bytes()).expect("write");
+                }
+            }
+        }
+    }
+    f.flush().expect("flush");
+}
+
+/// The peak resident size (KiB) of one `octolux` run, read from `/proc/PID/status` (`VmHWM`,
+/// which only grows) while it runs; `None` where there is no such file (not Linux).
+fn peak_rss_kib(args: &[&str]) -> Option<u64> {
+    let mut child = octolux().args(args).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().expect("spawn");
+    let status = format!("/proc/{}/status", child.id());
+    let mut peak: Option<u64> = None;
+    loop {
+        let hwm = std::fs::read_to_string(&status).ok().and_then(|text| {
+            text.lines().find_map(|l| l.strip_prefix("VmHWM:")).and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        });
+        if let Some(kib) = hwm {
+            peak = Some(peak.map_or(kib, |p| p.max(kib)));
+        }
+        if child.try_wait().expect("wait").is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let o = child.wait_with_output().expect("output");
+    assert!(o.status.success(), "octolux {args:?}: {}", stderr(&o));
+    peak
+}
+
+/// Issue 27, item 3: the memory a mesh is allowed is what the whole render takes. With 64
+/// bytes per triangle a 1 KB glTF of 262 million instanced triangles got through an 18 GiB
+/// limit, and the process was killed (out of memory) at 21 GiB. Here the peak resident size
+/// of a render of a 2-million-triangle grid (less that of a 2-triangle one) must stay within
+/// the budget's estimate for its vertices and triangles, with each backend.
+#[test]
+fn the_mesh_budget_bounds_the_measured_peak() {
+    let dir = TempDir::new("meshpeak");
+    let (small, big) = (dir.path.join("small.ply"), dir.path.join("big.ply"));
+    write_ply_grid(&small, 1, 1);
+    let (nx, ny) = (1000, 1000);
+    write_ply_grid(&big, nx, ny);
+    let (v, t) = (((nx + 1) * (ny + 1)) as u64, (2 * nx * ny) as u64);
+    let estimate = v * budget::VERTEX_BYTES + t * budget::TRIANGLE_BYTES;
+    let out = path_str(&dir.path.join("x.exr"));
+    let render = |mesh: &Path, backend: &str| {
+        peak_rss_kib(&["render", &path_str(mesh), "--backend", backend, "--resolution", "4x4", "--spp", "1", "-q", "-o", &out])
+    };
+    let mut backends = vec!["bvh"];
+    let embree = octolux().args(["render", &path_str(&small), "--backend", "embree", "-q", "-o", &out]).output().expect("runs");
+    if embree.status.success() {
+        backends.push("embree");
+    } else {
+        assert!(std::env::var("OCTOLUX_REQUIRE_EMBREE").map_or(true, |v| v != "1"), "OCTOLUX_REQUIRE_EMBREE=1: {}", stderr(&embree));
+        println!("skip: Embree cannot be loaded; the Embree case of the_mesh_budget_bounds_the_measured_peak is not run");
+    }
+    for backend in backends {
+        let (Some(base), Some(peak)) = (render(&small, backend), render(&big, backend)) else {
+            println!("skip: no /proc/PID/status here; the_mesh_budget_bounds_the_measured_peak is not run");
+            return;
+        };
+        let used = peak.saturating_sub(base) * 1024;
+        let per_triangle = (used as f64 - (v * budget::VERTEX_BYTES) as f64) / t as f64;
+        println!(
+            "{backend}: {t} triangles, {v} vertices: peak {} more than a 2-triangle render ({per_triangle:.0} bytes per triangle \
+             beyond {} per vertex); the budget's estimate {}",
+            budget::format_bytes(used),
+            budget::VERTEX_BYTES,
+            budget::format_bytes(estimate)
+        );
+        assert!(used <= estimate, "{backend}: the render took {used} bytes more than a 2-triangle one, the budget estimates {estimate}");
+    }
+}

@@ -103,6 +103,7 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
         default_material: None,
         sensors: Vec::new(),
         default_emitter_material: None,
+        mesh_totals: (0, 0),
     };
     b.scene(&tree.root)?;
     Ok(LoadedScene { desc: b.desc, warnings: b.warnings, sensors: b.sensors, notes: b.notes })
@@ -224,6 +225,9 @@ struct Builder<'t> {
     default_emitter_material: Option<u32>,
     /// Mesh files read ahead in parallel ([`shape::prefetch_meshes`]), taken on first use.
     prefetched: HashMap<PathBuf, Result<crate::mesh::RawMesh, IoError>>,
+    /// Vertices and triangles of every mesh shape so far, checked against the memory budget
+    /// as a whole (`shape.rs`: one mesh file named by many shapes is read once per shape).
+    mesh_totals: (u64, u64),
 }
 
 /// Mitsuba 3's film when a scene gives none.
