@@ -1050,3 +1050,52 @@ fn the_mesh_budget_bounds_the_measured_peak() {
         assert!(used <= estimate, "{backend}: the render took {used} bytes more than a 2-triangle one, the budget estimates {estimate}");
     }
 }
+
+/// Issue 27, item 8: `max_depth` from a scene file and from a lighting cache is checked by
+/// the same validator as the flag's (the scene file said "or >= 0"; a crafted cache got in).
+#[test]
+fn a_scene_files_and_a_caches_values_are_checked_as_the_flags() {
+    let dir = TempDir::new("values2");
+    let scene = write_scene(&dir, "path", "1", 8);
+    let text = std::fs::read_to_string(&scene).expect("read");
+    std::fs::write(
+        &scene,
+        text.replace("<integrator type=\"path\"/>", "<integrator type=\"path\"><integer name=\"max_depth\" value=\"-5\"/></integrator>"),
+    )
+    .expect("write");
+    let o = run(&["render", &scene, "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert_eq!(
+        stderr(&o),
+        format!("error: cannot load scene '{scene}': {scene}:3: <integrator type=\"path\">: max_depth -5 must be -1 (unbounded) or at least 0\n")
+    );
+    // a cache whose settings hold max_depth -5 (its checksum made right)
+    let good = dir.path.join("c.oxc");
+    let o = run(&["bake", "cornell-box", "--photons", "2000", "-q", "-o", &path_str(&good)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut c = octolux_io::cache::decode(&std::fs::read(&good).expect("read"), true).expect("decodes");
+    assert_eq!(c.parts.settings.max_depth, -1);
+    c.parts.settings.max_depth = -5;
+    let bad = dir.path.join("bad.oxc");
+    std::fs::write(&bad, octolux_io::cache::encode(&c)).expect("write");
+    let o = run(&[
+        "render",
+        "cornell-box",
+        "--cache",
+        &path_str(&bad),
+        "--resolution",
+        "4x4",
+        "--spp",
+        "1",
+        "-q",
+        "-o",
+        &path_str(&dir.path.join("y.exr")),
+    ]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: {}: cannot use this lighting cache: its settings: max_depth -5 must be -1 (unbounded) or at least 0\n",
+            bad.display()
+        )
+    );
+    assert!(!dir.path.join("x.exr").exists() && !dir.path.join("y.exr").exists());
+}

@@ -308,8 +308,10 @@ impl<'t> Builder<'t> {
         let p = self.props(e)?;
         let depth = p.int("max_depth")?;
         if let Some(d) = depth {
-            if d < -1 || d > i32::MAX as i64 {
-                return Err(e.loc.error(format!("{}: max_depth {d} must be -1 (unbounded) or >= 0", e.describe())));
+            // the one check of the value, as for the flag, --set, settings files and caches
+            crate::settings::check_max_depth(d).map_err(|m| e.loc.error(format!("{}: max_depth {m}", e.describe())))?;
+            if d > i32::MAX as i64 {
+                return Err(e.loc.error(format!("{}: max_depth {d} is too large (at most {})", e.describe(), i32::MAX)));
             }
         }
         // Other methods whose max_depth means a path tracer's (unbounded by default).
