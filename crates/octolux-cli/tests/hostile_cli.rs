@@ -1099,3 +1099,67 @@ fn a_scene_files_and_a_caches_values_are_checked_as_the_flags() {
     );
     assert!(!dir.path.join("x.exr").exists() && !dir.path.join("y.exr").exists());
 }
+
+/// Issue 27, item 7: a camera path whose `up` turns from +x to -x between two valid keys
+/// passes through zero half-way (a black frame, exit 0, before); an object path key of scale
+/// 1e30 (the inserted object put every point of the scene inside it).
+#[test]
+fn camera_up_between_keys_and_object_scales_are_checked() {
+    let dir = TempDir::new("frames2");
+    let key = |t: f64, up: [f32; 3]| serde_json::json!({"time": t, "position": [0, 1, 4], "target": [0, 1, 0], "up": up, "fov": 40});
+    let path = dir.path.join("up.json");
+    std::fs::write(&path, serde_json::json!({"fps": 2, "keyframes": [key(0.0, [1.0, 0.0, 0.0]), key(1.0, [-1.0, 0.0, 0.0])]}).to_string())
+        .expect("write");
+    let out = path_str(&dir.path.join("x.exr"));
+    let o = run(&["render", "cornell-box", "--camera-path", &path_str(&path), "-q", "-o", &out]);
+    assert_eq!(
+        stderr(&o),
+        format!("error: camera path {}: frame 2 (time 0.5 s, between keyframes): up is zero or along the view direction\n", path.display())
+    );
+    let obj = dir.path.join("o.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 0.3 0 0\nv 0 0.3 0\nf 1 2 3\n").expect("write");
+    let op = dir.path.join("op.json");
+    std::fs::write(
+        &op,
+        r#"{"fps": 1, "keyframes": [{"time": 0, "position": [0, 0, 0]}, {"time": 1, "position": [0, 0, 0], "scale": 1e30}]}"#,
+    )
+    .expect("write");
+    let o = run(&["render", "cornell-box", "--insert", &path_str(&obj), "--insert-path", &path_str(&op), "-q", "-o", &out]);
+    assert_eq!(stderr(&o), format!("error: object path {}: keyframe 2: scale 1e30 is out of range [1e-6, 1e6]\n", op.display()));
+    assert_eq!(dir.files(), vec!["o.obj", "op.json", "up.json"]);
+}
+
+/// Issue 27, item 10: `export` never replaces a mesh file the exported scene reads (a scene
+/// whose shape `floor` reads `meshes/0000_floor.ply`, exported beside it, would write its own
+/// `meshes/0000_floor.ply`); the file and the XML are left as they were.
+#[test]
+fn export_never_replaces_a_mesh_it_reads() {
+    let dir = TempDir::new("export-input");
+    let first = dir.path.join("first.xml");
+    let o = run(&["export", "cornell-box", "-o", &path_str(&first)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let floor = dir.path.join("meshes").join("0000_floor.ply");
+    let before = std::fs::read(&floor).expect("the export wrote the floor");
+    let scene = dir.path.join("a.xml");
+    std::fs::write(
+        &scene,
+        "<scene version=\"3.0.0\"><shape type=\"ply\" id=\"floor\"><string name=\"filename\" value=\"meshes/0000_floor.ply\"/>\
+         <transform name=\"to_world\"><translate y=\"0.5\"/></transform></shape></scene>",
+    )
+    .expect("write");
+    let o = run(&["export", &path_str(&scene), "-o", &path_str(&dir.path.join("b.xml"))]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).ends_with(&format!(
+            "error: cannot export to {}: output '{}' is an input of this run: writing it would destroy the input\n",
+            dir.path.join("b.xml").display(),
+            floor.display()
+        )),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(&floor).expect("read"), before);
+    assert!(!dir.path.join("b.xml").exists());
+    let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
+    assert!(stray.is_empty(), "left behind {stray:?}");
+}
