@@ -1163,3 +1163,99 @@ fn export_never_replaces_a_mesh_it_reads() {
     let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
     assert!(stray.is_empty(), "left behind {stray:?}");
 }
+
+/// Issue 27, item 1: every writer refuses `/dev/null` (and a device node of its own) before
+/// any work, and an output that a scene reads (a texture where the render's PNG goes, a mesh
+/// named as a bake's cache) is refused once the scene is read, before the render or the bake
+/// (whose first lines, printed when they start, must not appear), not at the rename after it:
+/// a render of 10^8 samples per pixel over such a texture ran until it was stopped. A frame's
+/// output that is a FIFO is refused before the first frame.
+#[test]
+fn every_writer_refuses_devices_and_the_scenes_own_files_before_the_work() {
+    let dir = TempDir::new("writers");
+    let refused = |p: &Path, kind: &str| {
+        format!("error: output '{}' is {kind}, not a regular file: octolux replaces only regular files\n", p.display())
+    };
+    let null = Path::new("/dev/null");
+    // a scene that does not exist, an image that does not exist: the output is checked first
+    // (a regression would fail on the missing input, never touch /dev/null)
+    for args in [
+        vec!["render", "no-such-scene.xml", "-q", "-o", "/dev/null"],
+        vec!["report", "no-such-image.exr", "-o", "/dev/null"],
+        vec!["export", "no-such-scene.xml", "-o", "/dev/null"],
+    ] {
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}");
+        assert_eq!(stderr(&o), refused(null, "a character device"), "{args:?}");
+    }
+    assert_eq!(file_type(null), "char");
+    // a device node of our own where the render's PNG, the report and the export would go
+    let (png, html, xml) = (dir.path.join("d.png"), dir.path.join("d.html"), dir.path.join("d.xml"));
+    let mknod = |p: &Path| Command::new("mknod").arg(p).args(["c", "1", "3"]).stderr(Stdio::null()).status().is_ok_and(|s| s.success());
+    if mknod(&png) && mknod(&html) && mknod(&xml) {
+        let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("d.exr"))]);
+        assert_eq!(stderr(&o), refused(&png, "a character device"));
+        let img = dir.path.join("a.exr");
+        let px = octolux::math::Color::new(0.5, 0.5, 0.5);
+        octolux_io::image_io::write_exr(&img, &octolux::image::Image { width: 2, height: 2, data: vec![px; 4] }).expect("write");
+        let o = run(&["report", &path_str(&img), "-o", &path_str(&html)]);
+        assert_eq!(stderr(&o), refused(&html, "a character device"));
+        let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+        assert_eq!(stderr(&o), refused(&xml, "a character device"));
+        for p in [&png, &html, &xml] {
+            assert_eq!(file_type(p), "char", "{} left as it was", p.display());
+            std::fs::remove_file(p).expect("rm");
+        }
+        std::fs::remove_file(&img).expect("rm");
+    } else {
+        println!("skipped the device-node cases of every_writer_refuses_devices_...: mknod needs root");
+        let _ = [&png, &html, &xml].map(std::fs::remove_file);
+    }
+    // a texture where the render's PNG would go: refused once the scene is read
+    let tex = dir.path.join("t.png");
+    let o = run(&["render", "cornell-box", "--resolution", "2x2", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("t.exr"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = std::fs::read(&tex).expect("the PNG");
+    let scene = dir.path.join("t.xml");
+    std::fs::write(
+        &scene,
+        scene_xml("path", "4", 8).replace(
+            "</scene>",
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\">\
+         <texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"t.png\"/></texture></bsdf></shape></scene>",
+        ),
+    )
+    .expect("write");
+    let o = run(&["render", &path_str(&scene), "-o", &path_str(&dir.path.join("t.exr"))]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), format!("error: output '{}' is an input of this run: writing it would destroy the input\n", tex.display()));
+    assert_eq!(std::fs::read(&tex).expect("read"), before);
+    // a mesh named as a bake's cache: refused before the photons are traced
+    let o = run(&["export", "cornell-box", "-o", &path_str(&dir.path.join("c.xml"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mesh = dir.path.join("meshes").join("0000_floor.ply");
+    let before = std::fs::read(&mesh).expect("the floor");
+    let o = run(&["bake", &path_str(&dir.path.join("c.xml")), "--photons", "20000", "-o", &path_str(&mesh)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), format!("error: output '{}' is an input of this run: writing it would destroy the input\n", mesh.display()));
+    assert_eq!(std::fs::read(&mesh).expect("read"), before);
+    // a FIFO where the second frame's PNG would go: refused before the first frame
+    let path = write_camera_path(&dir, 1.0, &[(0.0, [0.0, 1.0, 4.0], [0.0, 1.0, 0.0]), (1.0, [1.0, 1.0, 4.0], [0.0, 1.0, 0.0])]);
+    let fifo = dir.path.join("f_0002.png");
+    mkfifo(&fifo);
+    let o = run(&[
+        "render",
+        "cornell-box",
+        "--camera-path",
+        &path_str(&path),
+        "--resolution",
+        "4x4",
+        "-q",
+        "-o",
+        &path_str(&dir.path.join("f.exr")),
+    ]);
+    assert_eq!(stderr(&o), refused(&fifo, "a FIFO (named pipe)"));
+    assert!(!dir.path.join("f_0001.exr").exists());
+    let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
+    assert!(stray.is_empty(), "left behind {stray:?}");
+}
