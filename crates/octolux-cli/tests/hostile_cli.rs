@@ -1189,6 +1189,26 @@ fn every_writer_refuses_devices_and_the_scenes_own_files_before_the_work() {
         assert_eq!(stderr(&o), refused(null, "a character device"), "{args:?}");
     }
     assert_eq!(file_type(null), "char");
+    // `/dev/stdout` is a link to `/proc/self/fd/1`: with stdout a regular file, the rename
+    // would have replaced the link; one of our own stands in for it
+    let fd = dir.path.join("fd.exr");
+    std::os::unix::fs::symlink("/proc/self/fd/1", &fd).expect("symlink");
+    let log = std::fs::File::create(dir.path.join("stdout.txt")).expect("create");
+    let o = octolux()
+        .args(["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&fd)])
+        .stdout(log)
+        .output()
+        .expect("runs");
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: output '{}' is a link to '/proc/self/fd/1', an open file of a process: octolux writes only files it can replace\n",
+            fd.display()
+        )
+    );
+    assert_eq!(file_type(&fd), "link");
+    std::fs::remove_file(&fd).expect("rm");
+    std::fs::remove_file(dir.path.join("stdout.txt")).expect("rm");
     // a device node of our own where the render's PNG, the report and the export would go
     let (png, html, xml) = (dir.path.join("d.png"), dir.path.join("d.html"), dir.path.join("d.xml"));
     let mknod = |p: &Path| Command::new("mknod").arg(p).args(["c", "1", "3"]).stderr(Stdio::null()).status().is_ok_and(|s| s.success());

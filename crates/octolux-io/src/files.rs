@@ -225,6 +225,15 @@ pub fn recheck_output(path: &Path) -> Result<(), String> {
         return Err(format!("output path '{shown}' is a folder"));
     }
     if ft.is_symlink() {
+        // `/dev/stdout` -> `/proc/self/fd/1`: a process's open file, not a file of its own;
+        // renaming over the link would replace `/dev/stdout` itself for the whole machine
+        let target = std::fs::read_link(path).unwrap_or_default();
+        if target.starts_with("/proc") || target.starts_with("/dev/fd") {
+            return Err(format!(
+                "output '{shown}' is a link to '{}', an open file of a process: octolux writes only files it can replace",
+                target.display()
+            ));
+        }
         if let Ok(t) = std::fs::metadata(path) {
             if t.is_dir() {
                 return Err(format!("output path '{shown}' is a folder"));
