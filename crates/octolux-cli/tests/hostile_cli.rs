@@ -841,6 +841,23 @@ fn every_source_of_a_value_is_checked_alike() {
     // NaN and infinity: said so (it was "invalid type: null")
     let o = with(&["--integrator", "octree", "--set", "global.epsilon=NaN"]);
     assert_eq!(stderr(&o), "error: --set global.epsilon=NaN: NaN is not a finite number\n");
+    // a number out of range, and an object that is not JSON: said so (they said "invalid type:
+    // string \"1e999\", expected f32" and "is a table of settings ..., not a value")
+    let o = with(&["--integrator", "octree", "--set", "global.epsilon=1e999"]);
+    assert_eq!(stderr(&o), "error: --set global.epsilon=1e999: 1e999 is not a finite number (number out of range at line 1 column 5)\n");
+    let o = with(&["--integrator", "octree", "--set", "global={\"epsilon\": 1e999}"]);
+    assert_eq!(
+        stderr(&o),
+        "error: --set global={\"epsilon\": 1e999}: {\"epsilon\": 1e999} is not a finite number (number out of range at line 1 column \
+         17)\n"
+    );
+    let o = with(&["--integrator", "octree", "--set", "global={n_max: 400}"]);
+    assert_eq!(stderr(&o), "error: --set global={n_max: 400}: {n_max: 400} is not valid JSON: key must be a string at line 1 column 2\n");
+    // a negative length reaches the check of the value (clap took it for an option)
+    let obj = dir.path.join("o.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 0.3 0 0\nv 0 0.3 0\nf 1 2 3\n").expect("write");
+    let o = with(&["--insert", &path_str(&obj), "--insert-ao-distance", "-1"]);
+    assert_eq!(stderr(&o), "error: --insert-ao-distance must be a positive length, got -1\n");
     let toml = dir.path.join("s.toml");
     std::fs::write(&toml, "type = \"octree\"\n[global]\nepsilon = inf\n").expect("write");
     assert_eq!(
