@@ -1296,3 +1296,87 @@ fn every_writer_refuses_devices_and_the_scenes_own_files_before_the_work() {
     let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
     assert!(stray.is_empty(), "left behind {stray:?}");
 }
+
+/// Issue 27, item 3: a scene's images are counted together against the memory budget. Each
+/// file was checked alone: a small Mitsuba scene naming one large image through hard links,
+/// or a glTF whose images all name one file (or one buffer view), decoded it once per name.
+/// One file under several names (`sub/../t.png`) is read once. Here at a 20 MiB limit, with a
+/// 512x512 PNG (8 MiB as texels): two fit, the third is refused.
+#[test]
+fn a_scenes_images_are_counted_together() {
+    let dir = TempDir::new("texels");
+    let px = octolux::math::Color::new(0.5, 0.25, 0.125);
+    let img = octolux::image::Image { width: 512, height: 512, data: vec![px; 512 * 512] };
+    octolux_io::image_io::write_png(&dir.path.join("t.png"), &img).expect("write");
+    for n in ["h1.png", "h2.png"] {
+        std::fs::hard_link(dir.path.join("t.png"), dir.path.join(n)).expect("hard link");
+    }
+    std::fs::create_dir(dir.path.join("sub")).expect("mkdir");
+    let limited = |args: &[&str]| octolux().env(budget::MEMORY_LIMIT_ENV, "20M").args(args).output().expect("runs");
+    let out = path_str(&dir.path.join("x.exr"));
+    let textured = |names: [&str; 3]| {
+        let spheres: Vec<String> = names
+            .iter()
+            .map(|n| {
+                format!(
+                    "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">\
+                     <string name=\"filename\" value=\"{n}\"/></texture></bsdf></shape>\n"
+                )
+            })
+            .collect();
+        let p = dir.path.join("s.xml");
+        std::fs::write(&p, scene_xml("path", "1", 8).replace("</scene>", &format!("{}</scene>", spheres.concat()))).expect("write");
+        p
+    };
+    let scene = textured(["t.png", "h1.png", "h2.png"]);
+    let line = scene_xml("path", "1", 8).lines().count() + 2;
+    let o = limited(&["render", &path_str(&scene), "-q", "-o", &out]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot load scene '{s}': {s}:{line}: <texture type=\"bitmap\" name=\"reflectance\">: the scene's images together, with this one: \
+             786432 texels would need 24.0 MiB of memory, more than the limit of 20.0 MiB (set OCTOLUX_MEMORY_LIMIT to change the \
+             limit)\n",
+            s = scene.display()
+        )
+    );
+    let scene = textured(["t.png", "sub/../t.png", "./t.png"]);
+    let o = limited(&["render", &path_str(&scene), "-q", "-o", &out]);
+    assert!(o.status.success(), "one file under three names is read once: {}", stderr(&o));
+    // a glTF of three images naming one file
+    let mut buf = Vec::new();
+    for v in [0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0] {
+        buf.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(dir.path.join("tri.bin"), &buf).expect("write");
+    let prim = |i: u32| format!(r#"{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "material": {i}}}"#);
+    let gltf = dir.path.join("s.gltf");
+    std::fs::write(
+        &gltf,
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{}, {}, {}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}}}},
+    {{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 1}}}}}}, {{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 2}}}}}}],
+  "textures": [{{"source": 0}}, {{"source": 1}}, {{"source": 2}}],
+  "images": [{{"uri": "t.png"}}, {{"uri": "t.png"}}, {{"uri": "t.png"}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 36}}, {{"buffer": 0, "byteOffset": 36, "byteLength": 24}}],
+  "buffers": [{{"byteLength": 60, "uri": "tri.bin"}}]}}"#,
+            prim(0),
+            prim(1),
+            prim(2)
+        ),
+    )
+    .expect("write");
+    let o = limited(&["render", &path_str(&gltf), "--resolution", "4x4", "--spp", "1", "-q", "-o", &out]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot load scene '{g}': {g}: image 2: the scene's images together, with this one: 786432 texels would need 24.0 \
+             MiB of memory, more than the limit of 20.0 MiB (set OCTOLUX_MEMORY_LIMIT to change the limit)\n",
+            g = gltf.display()
+        )
+    );
+}

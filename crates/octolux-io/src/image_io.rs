@@ -229,6 +229,18 @@ pub fn read_texture(path: &Path) -> Result<(Image, Option<String>), IoError> {
     Ok((img, warning))
 }
 
+/// The memory budget of a scene's images together, `new` added to `images` (each file is
+/// checked alone when it is read; a small scene may name one large image many times: under
+/// several names in Mitsuba, as many glTF images over one buffer view).
+pub fn check_scene_texels(images: &[Image], new: &Image) -> Result<(), octolux::budget::BudgetError> {
+    let texels = images.iter().map(|i| i.data.len() as u64).sum::<u64>() + new.data.len() as u64;
+    octolux::budget::check_items(
+        || format!("the scene's images together, with this one: {texels} texels"),
+        texels,
+        octolux::budget::TEXEL_BYTES,
+    )
+}
+
 /// The image formats [`read_image`] reads, for messages.
 const IMAGE_FORMATS: &str = "png, jpg, exr or hdr";
 

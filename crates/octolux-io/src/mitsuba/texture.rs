@@ -33,6 +33,16 @@ impl<'t> Builder<'t> {
         }
     }
 
+    /// Add a decoded image (a bitmap's, an envmap's) to the scene, checked first against the
+    /// memory budget together with every image before it (MIP levels included): each file is
+    /// checked alone when read, but a 1 KB scene may name one large image under many names
+    /// (hard links, each read on its own).
+    pub(super) fn push_image(&mut self, e: &Elem, img: octolux::image::Image) -> Result<u32, IoError> {
+        crate::image_io::check_scene_texels(&self.desc.images, &img).map_err(|b| e.loc.error(format!("{}: {b}", e.describe())))?;
+        self.desc.images.push(img);
+        Ok((self.desc.images.len() - 1) as u32)
+    }
+
     /// The trilinear filter of image `image`, its MIP pyramid built once per image.
     fn mipmapped(&mut self, image: u32) -> TexFilter {
         if let Some(f) = self.mipmaps.get(&image) {
@@ -74,7 +84,8 @@ impl<'t> Builder<'t> {
                 // Mitsuba 3 decodes 8-bit files from sRGB unless `raw` (EXR and HDR are linear).
                 let eight_bit = !path.extension().is_some_and(|x| x.eq_ignore_ascii_case("exr") || x.eq_ignore_ascii_case("hdr"));
                 let raw = p.bool_or("raw", false)? && eight_bit;
-                let key = (path.clone(), raw);
+                // one file under several names (`sub/../t.png`, a link) is read once
+                let key = (std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone()), raw);
                 let image = match self.images.get(&key) {
                     Some(&i) => i,
                     None => {
@@ -86,8 +97,7 @@ impl<'t> Builder<'t> {
                                 *c = Color::new(linear_to_srgb(c.x), linear_to_srgb(c.y), linear_to_srgb(c.z));
                             }
                         }
-                        self.desc.images.push(img);
-                        let i = (self.desc.images.len() - 1) as u32;
+                        let i = self.push_image(e, img)?;
                         self.images.insert(key, i);
                         i
                     }
