@@ -328,7 +328,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "RAYS", requires = "insert")]
     pub insert_ao: Option<u32>,
     /// Length of those rays (default: the object's bounding-box diagonal).
-    #[arg(long, value_name = "LENGTH", requires = "insert")]
+    #[arg(long, value_name = "LENGTH", requires = "insert", allow_negative_numbers = true)]
     pub insert_ao_distance: Option<f32>,
     /// Output image path; `.exr` (and `.png`, `.json` beside it).
     #[arg(short, long, default_value = "out.exr")]

@@ -841,6 +841,23 @@ fn every_source_of_a_value_is_checked_alike() {
     // NaN and infinity: said so (it was "invalid type: null")
     let o = with(&["--integrator", "octree", "--set", "global.epsilon=NaN"]);
     assert_eq!(stderr(&o), "error: --set global.epsilon=NaN: NaN is not a finite number\n");
+    // a number out of range, and an object that is not JSON: said so (they said "invalid type:
+    // string \"1e999\", expected f32" and "is a table of settings ..., not a value")
+    let o = with(&["--integrator", "octree", "--set", "global.epsilon=1e999"]);
+    assert_eq!(stderr(&o), "error: --set global.epsilon=1e999: 1e999 is not a finite number (number out of range at line 1 column 5)\n");
+    let o = with(&["--integrator", "octree", "--set", "global={\"epsilon\": 1e999}"]);
+    assert_eq!(
+        stderr(&o),
+        "error: --set global={\"epsilon\": 1e999}: {\"epsilon\": 1e999} is not a finite number (number out of range at line 1 column \
+         17)\n"
+    );
+    let o = with(&["--integrator", "octree", "--set", "global={n_max: 400}"]);
+    assert_eq!(stderr(&o), "error: --set global={n_max: 400}: {n_max: 400} is not valid JSON: key must be a string at line 1 column 2\n");
+    // a negative length reaches the check of the value (clap took it for an option)
+    let obj = dir.path.join("o.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 0.3 0 0\nv 0 0.3 0\nf 1 2 3\n").expect("write");
+    let o = with(&["--insert", &path_str(&obj), "--insert-ao-distance", "-1"]);
+    assert_eq!(stderr(&o), "error: --insert-ao-distance must be a positive length, got -1\n");
     let toml = dir.path.join("s.toml");
     std::fs::write(&toml, "type = \"octree\"\n[global]\nepsilon = inf\n").expect("write");
     assert_eq!(
@@ -948,4 +965,418 @@ fn gltf_uris_outside_the_folder_need_the_flag() {
     let o = child.wait_with_output().expect("wait");
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stderr(&o), "");
+}
+
+/// A binary PLY grid of `nx` x `ny` quads (two triangles each), written row by row: `(nx +
+/// 1)(ny + 1)` vertices, `2 nx ny` triangles.
+fn write_ply_grid(path: &Path, nx: u32, ny: u32) {
+    use std::io::Write;
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path).expect("create"));
+    let (v, t) = ((nx + 1) * (ny + 1), 2 * nx * ny);
+    write!(
+        f,
+        "ply\nformat binary_little_endian 1.0\nelement vertex {v}\nproperty float x\nproperty float y\nproperty float z\n\
+         element face {t}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    .expect("write");
+    for j in 0..=ny {
+        for i in 0..=nx {
+            for c in [i as f32 / nx as f32, j as f32 / ny as f32, 0.0] {
+                f.write_all(&c.to_le_bytes()).expect("write");
+            }
+        }
+    }
+    for j in 0..ny {
+        for i in 0..nx {
+            let a = j * (nx + 1) + i;
+            let (b, c, d) = (a + 1, a + nx + 1, a + nx + 2);
+            for tri in [[a, b, d], [a, d, c]] {
+                f.write_all(&[3]).expect("write");
+                for k in tri {
+                    f.write_all(&(k as i32).to_le_bytes()).expect("write");
+                }
+            }
+        }
+    }
+    f.flush().expect("flush");
+}
+
+/// The peak resident size (KiB) of one `octolux` run, read from `/proc/PID/status` (`VmHWM`,
+/// which only grows) while it runs; `None` where there is no such file (not Linux).
+fn peak_rss_kib(args: &[&str]) -> Option<u64> {
+    let mut child = octolux().args(args).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().expect("spawn");
+    let status = format!("/proc/{}/status", child.id());
+    let mut peak: Option<u64> = None;
+    loop {
+        let hwm = std::fs::read_to_string(&status).ok().and_then(|text| {
+            text.lines().find_map(|l| l.strip_prefix("VmHWM:")).and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        });
+        if let Some(kib) = hwm {
+            peak = Some(peak.map_or(kib, |p| p.max(kib)));
+        }
+        if child.try_wait().expect("wait").is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let o = child.wait_with_output().expect("output");
+    assert!(o.status.success(), "octolux {args:?}: {}", stderr(&o));
+    peak
+}
+
+/// Issue 27, item 3: the memory a mesh is allowed is what the whole render takes. With 64
+/// bytes per triangle a 1 KB glTF of 262 million instanced triangles got through an 18 GiB
+/// limit, and the process was killed (out of memory) at 21 GiB. Here the peak resident size
+/// of a render of a 2-million-triangle grid (less that of a 2-triangle one) must stay within
+/// the budget's estimate for its vertices and triangles, with each backend.
+#[test]
+fn the_mesh_budget_bounds_the_measured_peak() {
+    let dir = TempDir::new("meshpeak");
+    let (small, big) = (dir.path.join("small.ply"), dir.path.join("big.ply"));
+    write_ply_grid(&small, 1, 1);
+    let (nx, ny) = (1000, 1000);
+    write_ply_grid(&big, nx, ny);
+    let (v, t) = (((nx + 1) * (ny + 1)) as u64, (2 * nx * ny) as u64);
+    let estimate = v * budget::VERTEX_BYTES + t * budget::TRIANGLE_BYTES;
+    let out = path_str(&dir.path.join("x.exr"));
+    let render = |mesh: &Path, backend: &str| {
+        peak_rss_kib(&["render", &path_str(mesh), "--backend", backend, "--resolution", "4x4", "--spp", "1", "-q", "-o", &out])
+    };
+    let mut backends = vec!["bvh"];
+    let embree = octolux().args(["render", &path_str(&small), "--backend", "embree", "-q", "-o", &out]).output().expect("runs");
+    if embree.status.success() {
+        backends.push("embree");
+    } else {
+        assert!(std::env::var("OCTOLUX_REQUIRE_EMBREE").map_or(true, |v| v != "1"), "OCTOLUX_REQUIRE_EMBREE=1: {}", stderr(&embree));
+        println!("skip: Embree cannot be loaded; the Embree case of the_mesh_budget_bounds_the_measured_peak is not run");
+    }
+    for backend in backends {
+        let (Some(base), Some(peak)) = (render(&small, backend), render(&big, backend)) else {
+            println!("skip: no /proc/PID/status here; the_mesh_budget_bounds_the_measured_peak is not run");
+            return;
+        };
+        let used = peak.saturating_sub(base) * 1024;
+        let per_triangle = (used as f64 - (v * budget::VERTEX_BYTES) as f64) / t as f64;
+        println!(
+            "{backend}: {t} triangles, {v} vertices: peak {} more than a 2-triangle render ({per_triangle:.0} bytes per triangle \
+             beyond {} per vertex); the budget's estimate {}",
+            budget::format_bytes(used),
+            budget::VERTEX_BYTES,
+            budget::format_bytes(estimate)
+        );
+        assert!(used <= estimate, "{backend}: the render took {used} bytes more than a 2-triangle one, the budget estimates {estimate}");
+    }
+}
+
+/// Issue 27, item 8: `max_depth` from a scene file and from a lighting cache is checked by
+/// the same validator as the flag's (the scene file said "or >= 0"; a crafted cache got in).
+#[test]
+fn a_scene_files_and_a_caches_values_are_checked_as_the_flags() {
+    let dir = TempDir::new("values2");
+    let scene = write_scene(&dir, "path", "1", 8);
+    let text = std::fs::read_to_string(&scene).expect("read");
+    std::fs::write(
+        &scene,
+        text.replace("<integrator type=\"path\"/>", "<integrator type=\"path\"><integer name=\"max_depth\" value=\"-5\"/></integrator>"),
+    )
+    .expect("write");
+    let o = run(&["render", &scene, "-q", "-o", &path_str(&dir.path.join("x.exr"))]);
+    assert_eq!(
+        stderr(&o),
+        format!("error: cannot load scene '{scene}': {scene}:3: <integrator type=\"path\">: max_depth -5 must be -1 (unbounded) or at least 0\n")
+    );
+    // a cache whose settings hold max_depth -5 (its checksum made right)
+    let good = dir.path.join("c.oxc");
+    let o = run(&["bake", "cornell-box", "--photons", "2000", "-q", "-o", &path_str(&good)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut c = octolux_io::cache::decode(&std::fs::read(&good).expect("read"), true).expect("decodes");
+    assert_eq!(c.parts.settings.max_depth, -1);
+    c.parts.settings.max_depth = -5;
+    let bad = dir.path.join("bad.oxc");
+    std::fs::write(&bad, octolux_io::cache::encode(&c)).expect("write");
+    let o = run(&[
+        "render",
+        "cornell-box",
+        "--cache",
+        &path_str(&bad),
+        "--resolution",
+        "4x4",
+        "--spp",
+        "1",
+        "-q",
+        "-o",
+        &path_str(&dir.path.join("y.exr")),
+    ]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: {}: cannot use this lighting cache: its settings: max_depth -5 must be -1 (unbounded) or at least 0\n",
+            bad.display()
+        )
+    );
+    assert!(!dir.path.join("x.exr").exists() && !dir.path.join("y.exr").exists());
+}
+
+/// Issue 27, item 7: a camera path whose `up` turns from +x to -x between two valid keys
+/// passes through zero half-way (a black frame, exit 0, before); an object path key of scale
+/// 1e30 (the inserted object put every point of the scene inside it).
+#[test]
+fn camera_up_between_keys_and_object_scales_are_checked() {
+    let dir = TempDir::new("frames2");
+    let key = |t: f64, up: [f32; 3]| serde_json::json!({"time": t, "position": [0, 1, 4], "target": [0, 1, 0], "up": up, "fov": 40});
+    let path = dir.path.join("up.json");
+    std::fs::write(&path, serde_json::json!({"fps": 2, "keyframes": [key(0.0, [1.0, 0.0, 0.0]), key(1.0, [-1.0, 0.0, 0.0])]}).to_string())
+        .expect("write");
+    let out = path_str(&dir.path.join("x.exr"));
+    let o = run(&["render", "cornell-box", "--camera-path", &path_str(&path), "-q", "-o", &out]);
+    assert_eq!(
+        stderr(&o),
+        format!("error: camera path {}: frame 2 (time 0.5 s, between keyframes): up is zero or along the view direction\n", path.display())
+    );
+    let obj = dir.path.join("o.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 0.3 0 0\nv 0 0.3 0\nf 1 2 3\n").expect("write");
+    let op = dir.path.join("op.json");
+    std::fs::write(
+        &op,
+        r#"{"fps": 1, "keyframes": [{"time": 0, "position": [0, 0, 0]}, {"time": 1, "position": [0, 0, 0], "scale": 1e30}]}"#,
+    )
+    .expect("write");
+    let o = run(&["render", "cornell-box", "--insert", &path_str(&obj), "--insert-path", &path_str(&op), "-q", "-o", &out]);
+    assert_eq!(stderr(&o), format!("error: object path {}: keyframe 2: scale 1e30 is out of range [1e-6, 1e6]\n", op.display()));
+    assert_eq!(dir.files(), vec!["o.obj", "op.json", "up.json"]);
+}
+
+/// Issue 27, item 10: `export` never replaces a mesh file the exported scene reads (a scene
+/// whose shape `floor` reads `meshes/0000_floor.ply`, exported beside it, would write its own
+/// `meshes/0000_floor.ply`); the file and the XML are left as they were.
+#[test]
+fn export_never_replaces_a_mesh_it_reads() {
+    let dir = TempDir::new("export-input");
+    let first = dir.path.join("first.xml");
+    let o = run(&["export", "cornell-box", "-o", &path_str(&first)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let floor = dir.path.join("meshes").join("0000_floor.ply");
+    let before = std::fs::read(&floor).expect("the export wrote the floor");
+    let scene = dir.path.join("a.xml");
+    std::fs::write(
+        &scene,
+        "<scene version=\"3.0.0\"><shape type=\"ply\" id=\"floor\"><string name=\"filename\" value=\"meshes/0000_floor.ply\"/>\
+         <transform name=\"to_world\"><translate y=\"0.5\"/></transform></shape></scene>",
+    )
+    .expect("write");
+    let o = run(&["export", &path_str(&scene), "-o", &path_str(&dir.path.join("b.xml"))]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).ends_with(&format!(
+            "error: cannot export to {}: output '{}' is an input of this run: writing it would destroy the input\n",
+            dir.path.join("b.xml").display(),
+            floor.display()
+        )),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(&floor).expect("read"), before);
+    assert!(!dir.path.join("b.xml").exists());
+    let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
+    assert!(stray.is_empty(), "left behind {stray:?}");
+}
+
+/// Issue 27, item 1: every writer refuses `/dev/null` (and a device node of its own) before
+/// any work, and an output that a scene reads (a texture where the render's PNG goes, a mesh
+/// named as a bake's cache) is refused once the scene is read, before the render or the bake
+/// (whose first lines, printed when they start, must not appear), not at the rename after it:
+/// a render of 10^8 samples per pixel over such a texture ran until it was stopped. A frame's
+/// output that is a FIFO is refused before the first frame.
+#[test]
+fn every_writer_refuses_devices_and_the_scenes_own_files_before_the_work() {
+    let dir = TempDir::new("writers");
+    let refused = |p: &Path, kind: &str| {
+        format!("error: output '{}' is {kind}, not a regular file: octolux replaces only regular files\n", p.display())
+    };
+    let null = Path::new("/dev/null");
+    // a scene that does not exist, an image that does not exist: the output is checked first
+    // (a regression would fail on the missing input, never touch /dev/null)
+    for args in [
+        vec!["render", "no-such-scene.xml", "-q", "-o", "/dev/null"],
+        vec!["report", "no-such-image.exr", "-o", "/dev/null"],
+        vec!["export", "no-such-scene.xml", "-o", "/dev/null"],
+    ] {
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}");
+        assert_eq!(stderr(&o), refused(null, "a character device"), "{args:?}");
+    }
+    assert_eq!(file_type(null), "char");
+    // `/dev/stdout` is a link to `/proc/self/fd/1`: with stdout a regular file, the rename
+    // would have replaced the link; one of our own stands in for it
+    let fd = dir.path.join("fd.exr");
+    std::os::unix::fs::symlink("/proc/self/fd/1", &fd).expect("symlink");
+    let log = std::fs::File::create(dir.path.join("stdout.txt")).expect("create");
+    let o = octolux()
+        .args(["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&fd)])
+        .stdout(log)
+        .output()
+        .expect("runs");
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: output '{}' is a link to '/proc/self/fd/1', an open file of a process: octolux writes only files it can replace\n",
+            fd.display()
+        )
+    );
+    assert_eq!(file_type(&fd), "link");
+    std::fs::remove_file(&fd).expect("rm");
+    std::fs::remove_file(dir.path.join("stdout.txt")).expect("rm");
+    // a device node of our own where the render's PNG, the report and the export would go
+    let (png, html, xml) = (dir.path.join("d.png"), dir.path.join("d.html"), dir.path.join("d.xml"));
+    let mknod = |p: &Path| Command::new("mknod").arg(p).args(["c", "1", "3"]).stderr(Stdio::null()).status().is_ok_and(|s| s.success());
+    if mknod(&png) && mknod(&html) && mknod(&xml) {
+        let o = run(&["render", "cornell-box", "--resolution", "4x4", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("d.exr"))]);
+        assert_eq!(stderr(&o), refused(&png, "a character device"));
+        let img = dir.path.join("a.exr");
+        let px = octolux::math::Color::new(0.5, 0.5, 0.5);
+        octolux_io::image_io::write_exr(&img, &octolux::image::Image { width: 2, height: 2, data: vec![px; 4] }).expect("write");
+        let o = run(&["report", &path_str(&img), "-o", &path_str(&html)]);
+        assert_eq!(stderr(&o), refused(&html, "a character device"));
+        let o = run(&["export", "cornell-box", "-o", &path_str(&xml)]);
+        assert_eq!(stderr(&o), refused(&xml, "a character device"));
+        for p in [&png, &html, &xml] {
+            assert_eq!(file_type(p), "char", "{} left as it was", p.display());
+            std::fs::remove_file(p).expect("rm");
+        }
+        std::fs::remove_file(&img).expect("rm");
+    } else {
+        println!("skipped the device-node cases of every_writer_refuses_devices_...: mknod needs root");
+        let _ = [&png, &html, &xml].map(std::fs::remove_file);
+    }
+    // a texture where the render's PNG would go: refused once the scene is read
+    let tex = dir.path.join("t.png");
+    let o = run(&["render", "cornell-box", "--resolution", "2x2", "--spp", "1", "-q", "-o", &path_str(&dir.path.join("t.exr"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = std::fs::read(&tex).expect("the PNG");
+    let scene = dir.path.join("t.xml");
+    std::fs::write(
+        &scene,
+        scene_xml("path", "4", 8).replace(
+            "</scene>",
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\">\
+         <texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"t.png\"/></texture></bsdf></shape></scene>",
+        ),
+    )
+    .expect("write");
+    let o = run(&["render", &path_str(&scene), "-o", &path_str(&dir.path.join("t.exr"))]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), format!("error: output '{}' is an input of this run: writing it would destroy the input\n", tex.display()));
+    assert_eq!(std::fs::read(&tex).expect("read"), before);
+    // a mesh named as a bake's cache: refused before the photons are traced
+    let o = run(&["export", "cornell-box", "-o", &path_str(&dir.path.join("c.xml"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mesh = dir.path.join("meshes").join("0000_floor.ply");
+    let before = std::fs::read(&mesh).expect("the floor");
+    let o = run(&["bake", &path_str(&dir.path.join("c.xml")), "--photons", "20000", "-o", &path_str(&mesh)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), format!("error: output '{}' is an input of this run: writing it would destroy the input\n", mesh.display()));
+    assert_eq!(std::fs::read(&mesh).expect("read"), before);
+    // a FIFO where the second frame's PNG would go: refused before the first frame
+    let path = write_camera_path(&dir, 1.0, &[(0.0, [0.0, 1.0, 4.0], [0.0, 1.0, 0.0]), (1.0, [1.0, 1.0, 4.0], [0.0, 1.0, 0.0])]);
+    let fifo = dir.path.join("f_0002.png");
+    mkfifo(&fifo);
+    let o = run(&[
+        "render",
+        "cornell-box",
+        "--camera-path",
+        &path_str(&path),
+        "--resolution",
+        "4x4",
+        "-q",
+        "-o",
+        &path_str(&dir.path.join("f.exr")),
+    ]);
+    assert_eq!(stderr(&o), refused(&fifo, "a FIFO (named pipe)"));
+    assert!(!dir.path.join("f_0001.exr").exists());
+    let stray: Vec<String> = dir.files().into_iter().filter(|f| f.starts_with('.')).collect();
+    assert!(stray.is_empty(), "left behind {stray:?}");
+}
+
+/// Issue 27, item 3: a scene's images are counted together against the memory budget. Each
+/// file was checked alone: a small Mitsuba scene naming one large image through hard links,
+/// or a glTF whose images all name one file (or one buffer view), decoded it once per name.
+/// One file under several names (`sub/../t.png`) is read once. Here at a 20 MiB limit, with a
+/// 512x512 PNG (8 MiB as texels): two fit, the third is refused.
+#[test]
+fn a_scenes_images_are_counted_together() {
+    let dir = TempDir::new("texels");
+    let px = octolux::math::Color::new(0.5, 0.25, 0.125);
+    let img = octolux::image::Image { width: 512, height: 512, data: vec![px; 512 * 512] };
+    octolux_io::image_io::write_png(&dir.path.join("t.png"), &img).expect("write");
+    for n in ["h1.png", "h2.png"] {
+        std::fs::hard_link(dir.path.join("t.png"), dir.path.join(n)).expect("hard link");
+    }
+    std::fs::create_dir(dir.path.join("sub")).expect("mkdir");
+    let limited = |args: &[&str]| octolux().env(budget::MEMORY_LIMIT_ENV, "20M").args(args).output().expect("runs");
+    let out = path_str(&dir.path.join("x.exr"));
+    let textured = |names: [&str; 3]| {
+        let spheres: Vec<String> = names
+            .iter()
+            .map(|n| {
+                format!(
+                    "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">\
+                     <string name=\"filename\" value=\"{n}\"/></texture></bsdf></shape>\n"
+                )
+            })
+            .collect();
+        let p = dir.path.join("s.xml");
+        std::fs::write(&p, scene_xml("path", "1", 8).replace("</scene>", &format!("{}</scene>", spheres.concat()))).expect("write");
+        p
+    };
+    let scene = textured(["t.png", "h1.png", "h2.png"]);
+    let line = scene_xml("path", "1", 8).lines().count() + 2;
+    let o = limited(&["render", &path_str(&scene), "-q", "-o", &out]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot load scene '{s}': {s}:{line}: <texture type=\"bitmap\" name=\"reflectance\">: the scene's images together, with this one: \
+             786432 texels would need 24.0 MiB of memory, more than the limit of 20.0 MiB (set OCTOLUX_MEMORY_LIMIT to change the \
+             limit)\n",
+            s = scene.display()
+        )
+    );
+    let scene = textured(["t.png", "sub/../t.png", "./t.png"]);
+    let o = limited(&["render", &path_str(&scene), "-q", "-o", &out]);
+    assert!(o.status.success(), "one file under three names is read once: {}", stderr(&o));
+    // a glTF of three images naming one file
+    let mut buf = Vec::new();
+    for v in [0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0] {
+        buf.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(dir.path.join("tri.bin"), &buf).expect("write");
+    let prim = |i: u32| format!(r#"{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "material": {i}}}"#);
+    let gltf = dir.path.join("s.gltf");
+    std::fs::write(
+        &gltf,
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{}, {}, {}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}}}},
+    {{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 1}}}}}}, {{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 2}}}}}}],
+  "textures": [{{"source": 0}}, {{"source": 1}}, {{"source": 2}}],
+  "images": [{{"uri": "t.png"}}, {{"uri": "t.png"}}, {{"uri": "t.png"}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}}],
+  "bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 36}}, {{"buffer": 0, "byteOffset": 36, "byteLength": 24}}],
+  "buffers": [{{"byteLength": 60, "uri": "tri.bin"}}]}}"#,
+            prim(0),
+            prim(1),
+            prim(2)
+        ),
+    )
+    .expect("write");
+    let o = limited(&["render", &path_str(&gltf), "--resolution", "4x4", "--spp", "1", "-q", "-o", &out]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot load scene '{g}': {g}: image 2: the scene's images together, with this one: 786432 texels would need 24.0 \
+             MiB of memory, more than the limit of 20.0 MiB (set OCTOLUX_MEMORY_LIMIT to change the limit)\n",
+            g = gltf.display()
+        )
+    );
 }

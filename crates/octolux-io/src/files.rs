@@ -140,6 +140,30 @@ pub fn check_input(path: &Path) -> Result<u64, IoError> {
     Ok(len)
 }
 
+/// Refuse an existing `path` that is not a regular file (a folder, a device, a FIFO, a socket),
+/// saying what it is; a missing file or a regular one passes (the caller's own checks, such as
+/// the file's format by its extension, come next). Loaders that choose a format by extension
+/// call it first, so that `/dev/zero` named as a bitmap says it is a device, not that its
+/// format is unknown.
+pub fn refuse_non_regular(path: &Path) -> Result<(), IoError> {
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => check_input(path).map(|_| ()),
+        _ => Ok(()),
+    }
+}
+
+/// `unsupported <what> format '.ext' (expected ...)`, or `... has no file extension` for a
+/// name without one: the message of a file whose format its extension does not give.
+pub fn unknown_format(path: &Path, what: &str, expected: &str) -> IoError {
+    match path.extension() {
+        Some(ext) => IoError::invalid(path, format!("unsupported {what} format '.{}' (expected {expected})", ext.to_string_lossy())),
+        None => IoError::invalid(
+            path,
+            format!("the {what} format is chosen by the file's extension, and this name has none (expected {expected})"),
+        ),
+    }
+}
+
 /// Read a whole input file by the rule (module docs); it is remembered as an input.
 pub fn read(path: &Path) -> Result<Vec<u8>, IoError> {
     use std::io::Read;
@@ -201,6 +225,15 @@ pub fn recheck_output(path: &Path) -> Result<(), String> {
         return Err(format!("output path '{shown}' is a folder"));
     }
     if ft.is_symlink() {
+        // `/dev/stdout` -> `/proc/self/fd/1`: a process's open file, not a file of its own;
+        // renaming over the link would replace `/dev/stdout` itself for the whole machine
+        let target = std::fs::read_link(path).unwrap_or_default();
+        if target.starts_with("/proc") || target.starts_with("/dev/fd") {
+            return Err(format!(
+                "output '{shown}' is a link to '{}', an open file of a process: octolux writes only files it can replace",
+                target.display()
+            ));
+        }
         if let Ok(t) = std::fs::metadata(path) {
             if t.is_dir() {
                 return Err(format!("output path '{shown}' is a folder"));

@@ -567,6 +567,8 @@ impl Loader<'_> {
         let named =
             self.path.with_file_name(format!("{}#image{}", self.path.file_name().unwrap_or_default().to_string_lossy(), img.index()));
         self.warnings.extend(crate::image_io::check_texels(&named, &mut decoded)?);
+        crate::image_io::check_scene_texels(&self.desc.images, &decoded)
+            .map_err(|b| IoError::invalid(self.path, format!("image {}: {b}", img.index())))?;
         self.desc.images.push(decoded);
         let i = (self.desc.images.len() - 1) as u32;
         self.images.insert(img.index(), i);

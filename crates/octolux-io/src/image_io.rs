@@ -229,12 +229,28 @@ pub fn read_texture(path: &Path) -> Result<(Image, Option<String>), IoError> {
     Ok((img, warning))
 }
 
+/// The memory budget of a scene's images together, `new` added to `images` (each file is
+/// checked alone when it is read; a small scene may name one large image many times: under
+/// several names in Mitsuba, as many glTF images over one buffer view).
+pub fn check_scene_texels(images: &[Image], new: &Image) -> Result<(), octolux::budget::BudgetError> {
+    let texels = images.iter().map(|i| i.data.len() as u64).sum::<u64>() + new.data.len() as u64;
+    octolux::budget::check_items(
+        || format!("the scene's images together, with this one: {texels} texels"),
+        texels,
+        octolux::budget::TEXEL_BYTES,
+    )
+}
+
+/// The image formats [`read_image`] reads, for messages.
+const IMAGE_FORMATS: &str = "png, jpg, exr or hdr";
+
 /// Read a texture as linear RGB: `.exr` and `.hdr` are linear, `.png`/`.jpg`/`.jpeg` are
 /// sRGB-decoded. Alpha is dropped; grey images are replicated to RGB.
 pub fn read_image(path: &Path) -> Result<Image, IoError> {
+    crate::files::refuse_non_regular(path)?;
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
     if !matches!(ext.as_str(), "exr" | "hdr" | "rgbe" | "pic" | "png" | "jpg" | "jpeg") {
-        return Err(IoError::invalid(path, format!("unsupported image format '.{ext}' (expected png, jpg, exr or hdr)")));
+        return Err(crate::files::unknown_format(path, "image", IMAGE_FORMATS));
     }
     let bytes = crate::files::read(path)?;
     decode_image(path, &bytes)
@@ -249,7 +265,7 @@ pub fn decode_image(path: &Path, bytes: &[u8]) -> Result<Image, IoError> {
         "exr" => return decode_exr(path, bytes),
         "hdr" | "rgbe" | "pic" => false,
         "png" | "jpg" | "jpeg" => true,
-        _ => return Err(IoError::invalid(path, format!("unsupported image format '.{ext}' (expected png, jpg, exr or hdr)"))),
+        _ => return Err(crate::files::unknown_format(path, "image", IMAGE_FORMATS)),
     };
     let decode_err = |e: image::ImageError| match e {
         image::ImageError::IoError(e) => IoError::os(path, e),

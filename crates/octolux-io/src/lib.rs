@@ -94,6 +94,7 @@ fn load_any(spec: &str, defines: &[(String, String)]) -> Result<LoadedScene, IoE
         }
         return Err(IoError::os(path, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file")));
     }
+    files::refuse_non_regular(path)?;
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
     match ext.as_str() {
         "xml" => mitsuba::load(path, defines),

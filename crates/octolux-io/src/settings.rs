@@ -246,6 +246,9 @@ fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Res
             Ok(v) => v,
             // JSON has no NaN or infinity: said so, not "invalid type: string"
             Err(_) if is_non_finite_word(raw) => bail!("--set {s}: {} is not a finite number", raw.trim()),
+            // `1e999` and `{"epsilon": 1e999}`: said so, not "invalid type: string" or "not an object"
+            Err(e) if e.to_string().starts_with("number out of range") => bail!("--set {s}: {} is not a finite number ({e})", raw.trim()),
+            Err(e) if raw.trim_start().starts_with(['{', '[']) => bail!("--set {s}: {} is not valid JSON: {e}", raw.trim()),
             Err(_) => Value::String(raw.to_string()),
         };
         let value = enum_spelling(lookup(&base, key), &value);

@@ -809,3 +809,117 @@ fn out_of_range_colours_warn_and_repeated_defines_take_the_last() {
     };
     assert_eq!(*c, Color::splat(0.3));
 }
+
+/// A binary PLY grid of `nx` x `ny` quads (two triangles each) in the plane z = 0, written row
+/// by row: `(nx + 1)(ny + 1)` vertices, `2 nx ny` triangles.
+fn write_ply_grid(path: &Path, nx: u32, ny: u32) {
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    let (v, t) = ((nx + 1) * (ny + 1), 2 * nx * ny);
+    write!(
+        f,
+        "ply\nformat binary_little_endian 1.0\nelement vertex {v}\nproperty float x\nproperty float y\nproperty float z\n\
+         element face {t}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+    .unwrap();
+    for j in 0..=ny {
+        for i in 0..=nx {
+            for c in [i as f32 / nx as f32, j as f32 / ny as f32, 0.0] {
+                f.write_all(&c.to_le_bytes()).unwrap();
+            }
+        }
+    }
+    for j in 0..ny {
+        for i in 0..nx {
+            let a = j * (nx + 1) + i;
+            let (b, c, d) = (a + 1, a + nx + 1, a + nx + 2);
+            for tri in [[a, b, d], [a, d, c]] {
+                f.write_all(&[3]).unwrap();
+                for k in tri {
+                    f.write_all(&(k as i32).to_le_bytes()).unwrap();
+                }
+            }
+        }
+    }
+    f.flush().unwrap();
+}
+
+/// A 1 KB scene naming one mesh file in many shapes read it once per shape: each read passed
+/// the budget alone, and 10 shapes of a 2-million-triangle PLY loaded under a 1 GiB limit
+/// (3.3 GB peak). The meshes of a scene are counted together, at the shape that passes.
+#[test]
+fn one_mesh_file_named_by_many_shapes_is_counted_once_per_shape() {
+    setup();
+    let dir = tmp_dir("many_shapes");
+    // 250,000 triangles and 125,751 vertices: within the limit alone
+    let (nx, ny) = (500, 250);
+    write_ply_grid(&dir.join("g.ply"), nx, ny);
+    let (v, t) = (((nx + 1) * (ny + 1)) as u64, (2 * nx * ny) as u64);
+    let one = v * budget::VERTEX_BYTES + t * budget::TRIANGLE_BYTES;
+    assert!(one < LIMIT);
+    let fit = LIMIT / one; // shapes that fit; the next one passes the limit
+    let shape = "<shape type=\"ply\"><string name=\"filename\" value=\"g.ply\"/></shape>\n";
+    let p = dir.join("h.xml");
+    std::fs::write(&p, format!("<scene version=\"3.0.0\">\n{}</scene>", shape.repeat(fit as usize + 5))).unwrap();
+    let line = fit + 2;
+    let n = fit + 1;
+    assert_eq!(
+        octolux_io::mitsuba::load(&p, &[]).unwrap_err().to_string(),
+        format!(
+            "{}:{line}: <shape type=\"ply\">: the scene's meshes together, with this one: a mesh of {} vertices and {} triangles \
+             would need {} of memory, more than the limit of 1.0 GiB (set OCTOLUX_MEMORY_LIMIT to change the limit)",
+            p.display(),
+            n * v,
+            n * t,
+            budget::format_bytes(n * one)
+        )
+    );
+    // as many shapes as fit are read
+    std::fs::write(&p, format!("<scene version=\"3.0.0\">\n{}</scene>", shape.repeat(fit as usize))).unwrap();
+    assert_eq!(octolux_io::mitsuba::load(&p, &[]).unwrap().desc.shapes.len(), fit as usize);
+}
+
+/// `/dev/zero` (or a FIFO) named directly as a bitmap, a mesh or a scene said "unsupported
+/// image format '.'" ("unknown mesh format", "unknown scene format"): what the file is comes
+/// first now; a regular file without an extension says that it has none.
+#[test]
+fn a_device_named_as_a_bitmap_or_mesh_says_what_it_is() {
+    setup();
+    let dir = tmp_dir("device_by_name");
+    let p = dir.join("h.xml");
+    let load = |body: &str| {
+        std::fs::write(&p, format!("<scene version=\"3.0.0\">\n{body}\n</scene>")).unwrap();
+        octolux_io::mitsuba::load(&p, &[]).unwrap_err().to_string()
+    };
+    let dev = "/dev/zero: this is a character device, not a regular file: octolux reads only regular files";
+    let bitmap = |f: &str| {
+        format!(
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">\
+             <string name=\"filename\" value=\"{f}\"/></texture></bsdf></shape>"
+        )
+    };
+    assert_eq!(load(&bitmap("/dev/zero")), dev);
+    assert_eq!(load("<emitter type=\"envmap\"><string name=\"filename\" value=\"/dev/zero\"/></emitter>"), dev);
+    assert_eq!(load("<shape type=\"ply\"><string name=\"filename\" value=\"/dev/zero\"/></shape>"), dev);
+    assert_eq!(octolux_io::load_scene("/dev/zero", &[]).unwrap_err().to_string(), dev);
+    let fifo = dir.join("pipe");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    assert_eq!(
+        load(&bitmap("pipe")),
+        format!("{}: this is a FIFO (named pipe), not a regular file: octolux reads only regular files", fifo.display())
+    );
+    // a regular file without an extension: the message says so (it said "format '.'")
+    std::fs::write(dir.join("tex"), b"not an image").unwrap();
+    assert_eq!(
+        load(&bitmap("tex")),
+        format!(
+            "{}/tex: the image format is chosen by the file's extension, and this name has none (expected png, jpg, exr or hdr)",
+            dir.display()
+        )
+    );
+    assert_eq!(
+        load("<shape type=\"ply\"><string name=\"filename\" value=\"tex\"/></shape>"),
+        format!("{}/tex: the mesh format is chosen by the file's extension, and this name has none (expected .obj or .ply)", dir.display())
+    );
+    std::fs::write(dir.join("t.tga"), b"not an image").unwrap();
+    assert_eq!(load(&bitmap("t.tga")), format!("{}/t.tga: unsupported image format '.tga' (expected png, jpg, exr or hdr)", dir.display()));
+}

@@ -29,8 +29,17 @@ pub const TEXEL_BYTES: u64 = 32;
 /// Bytes per mesh vertex: position, normal (f32 x 3 each), texture coordinate (f32 x 2), and
 /// the loaders' temporaries, rounded up.
 pub const VERTEX_BYTES: u64 = 64;
-/// Bytes per triangle: three u32 indices, the BVH's primitive reference and bounds, rounded up.
-pub const TRIANGLE_BYTES: u64 = 64;
+/// Bytes per triangle, for the whole way from the file to the first pass: the loader's copy
+/// and its temporaries, the scene's flattened copy made while the loaded one still lives, the
+/// duplicate-triangle pass and the BVH or Embree build. Measured as the peak resident size of
+/// `octolux render MESH.ply --resolution 4x4 --spp 1` over grids of `T` triangles and `T/2`
+/// vertices (0.5 to 4 million triangles), less a 2-triangle mesh's, less [`VERTEX_BYTES`] per
+/// vertex: 150 to 185 bytes per triangle with the BVH, 133 to 142 with Embree (varying with
+/// the size), rounded up. 64, the value before, let a 1 KB glTF of 262 million instanced
+/// triangles through an 18 GiB limit, and the process was killed, out of memory, at 21 GiB
+/// resident (issue 27). `hostile_cli.rs` (`the_mesh_budget_bounds_the_measured_peak`) measures
+/// it again.
+pub const TRIANGLE_BYTES: u64 = 256;
 /// Bytes per stored photon: twice the 48-byte photon record (the record and the search
 /// structure built over it, kd-tree or octree) plus 16. `photon/mod.rs` asserts at compile
 /// time that the record still fits (this module sits below `photon`, so it does not import it).

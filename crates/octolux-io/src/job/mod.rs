@@ -514,6 +514,10 @@ pub fn run_render(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Re
         None => None,
     };
     let prepare_s = t1.elapsed().as_secs_f64();
+    // every input is read now (the scene's meshes and textures too): no output may be one
+    for (out, _) in &images {
+        out.recheck()?;
+    }
     let threads = rayon::current_num_threads();
     let from_cache = cache.is_some();
     let made =
@@ -686,6 +690,9 @@ pub fn run_bake(job: &BakeJob, fe: &dyn Frontend) -> Result<bake::BakeReport> {
     let report_path = bake::report_path(&job.output)?;
     crate::files::check_output(&report_path)?;
     let loaded = load(&job.scene, fe)?;
+    // the scene's own files are inputs too, known once it is read
+    crate::files::recheck_output(&job.output)?;
+    crate::files::recheck_output(&report_path)?;
     let mut warnings = loaded.warnings.clone();
     let mut req = job.settings.clone();
     req.flags.extend(job.max_depth.map(settings::max_depth_flag));

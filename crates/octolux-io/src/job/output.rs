@@ -53,6 +53,17 @@ impl Outputs {
         Ok(o)
     }
 
+    /// The checks of what exists under each name, again ([`files::recheck_output`]): run once
+    /// the scene and every file it names are read, before the long work, so that a texture or
+    /// a mesh that is one of these outputs (noted as an input only when it is read) is refused
+    /// then, not after the render.
+    pub fn recheck(&self) -> Result<()> {
+        for p in [&self.exr, &self.png, &self.json] {
+            files::recheck_output(p).map_err(JobError)?;
+        }
+        Ok(())
+    }
+
     /// Write the set (module docs). `json` gives the complete text of `OUT.json`, asked for
     /// once the images are staged (so that it can hold their write time).
     pub fn write(&self, image: &Image, json: impl FnOnce() -> Result<String>) -> Result<()> {

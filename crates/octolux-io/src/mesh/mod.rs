@@ -130,10 +130,11 @@ pub struct RawMesh {
 
 /// Read a `.obj` or `.ply` mesh (by extension, case-insensitive) without removing anything.
 pub fn load_mesh_raw(path: &Path) -> Result<RawMesh, IoError> {
+    crate::files::refuse_non_regular(path)?;
     match lower_extension(path).as_str() {
         "obj" => obj::load_obj_with_warnings(path),
         "ply" => ply::load_ply_with_warnings(path),
-        other => Err(IoError::invalid(path, format!("unknown mesh format '.{other}' (expected .obj or .ply)"))),
+        _ => Err(crate::files::unknown_format(path, "mesh", ".obj or .ply")),
     }
 }
 
@@ -212,7 +213,7 @@ pub fn load_mesh_scene(path: &Path) -> Result<LoadedScene, IoError> {
         "obj" => {
             warnings = obj::obj_scene(path, &mut desc, &default_material)?;
         }
-        other => return Err(IoError::invalid(path, format!("unknown mesh format '.{other}' (expected .obj or .ply)"))),
+        _ => return Err(crate::files::unknown_format(path, "mesh", ".obj or .ply")),
     }
     desc.camera = framing_camera(desc.bounds());
     if desc.shapes.iter().all(|s| s.emission.is_none()) {

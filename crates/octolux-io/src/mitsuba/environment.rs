@@ -75,8 +75,7 @@ impl<'t> Builder<'t> {
         let scale = p.float_or("scale", 1.0)?;
         let to_world = self.environment_frame(e, p)?;
         p.accept(&["cache", "filter_type"]);
-        self.desc.images.push(img);
-        let image = (self.desc.images.len() - 1) as u32;
+        let image = self.push_image(e, img)?;
         Ok(Light::Envmap { image, scale, to_world })
     }
 

@@ -103,6 +103,7 @@ fn build(tree: &tree::Tree, path: &Path, warnings: Vec<String>) -> Result<Loaded
         default_material: None,
         sensors: Vec::new(),
         default_emitter_material: None,
+        mesh_totals: (0, 0),
     };
     b.scene(&tree.root)?;
     Ok(LoadedScene { desc: b.desc, warnings: b.warnings, sensors: b.sensors, notes: b.notes })
@@ -232,6 +233,9 @@ struct Builder<'t> {
     default_emitter_material: Option<u32>,
     /// Mesh files read ahead in parallel ([`shape::prefetch_meshes`]), taken on first use.
     prefetched: HashMap<PathBuf, Result<crate::mesh::RawMesh, IoError>>,
+    /// Vertices and triangles of every mesh shape so far, checked against the memory budget
+    /// as a whole (`shape.rs`: one mesh file named by many shapes is read once per shape).
+    mesh_totals: (u64, u64),
 }
 
 /// Mitsuba 3's film when a scene gives none.
@@ -312,8 +316,10 @@ impl<'t> Builder<'t> {
         let p = self.props(e)?;
         let depth = p.int("max_depth")?;
         if let Some(d) = depth {
-            if d < -1 || d > i32::MAX as i64 {
-                return Err(e.loc.error(format!("{}: max_depth {d} must be -1 (unbounded) or >= 0", e.describe())));
+            // the one check of the value, as for the flag, --set, settings files and caches
+            crate::settings::check_max_depth(d).map_err(|m| e.loc.error(format!("{}: max_depth {m}", e.describe())))?;
+            if d > i32::MAX as i64 {
+                return Err(e.loc.error(format!("{}: max_depth {d} is too large (at most {})", e.describe(), i32::MAX)));
             }
         }
         // Other methods whose max_depth means a path tracer's (unbounded by default).

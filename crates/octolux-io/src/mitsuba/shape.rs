@@ -101,6 +101,14 @@ impl<'t> Builder<'t> {
             }
         };
         if let Geometry::Mesh(m) = &mut geometry {
+            // The scene's meshes together: each file is checked alone when read, but a small
+            // file may name one large mesh file in many shapes (each reads and places its own
+            // copy), so the sum is checked as each shape adds to it.
+            let (v, t) = self.mesh_totals;
+            let (v, t) = (v + m.positions.len() as u64, t + m.indices.len() as u64);
+            self.mesh_totals = (v, t);
+            octolux::budget::check_mesh(v, t)
+                .map_err(|b| e.loc.error(format!("{}: the scene's meshes together, with this one: {b}", e.describe())))?;
             if !m.positions.iter().all(|v| v.is_finite()) {
                 return Err(e.loc.error(format!("{}: vertices are not finite (check to_world)", e.describe())));
             }

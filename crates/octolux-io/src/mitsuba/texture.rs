@@ -88,6 +88,16 @@ impl<'t> Builder<'t> {
         }
     }
 
+    /// Add a decoded image (a bitmap's, an envmap's) to the scene, checked first against the
+    /// memory budget together with every image before it (MIP levels included): each file is
+    /// checked alone when read, but a 1 KB scene may name one large image under many names
+    /// (hard links, each read on its own).
+    pub(super) fn push_image(&mut self, e: &Elem, img: octolux::image::Image) -> Result<u32, IoError> {
+        crate::image_io::check_scene_texels(&self.desc.images, &img).map_err(|b| e.loc.error(format!("{}: {b}", e.describe())))?;
+        self.desc.images.push(img);
+        Ok((self.desc.images.len() - 1) as u32)
+    }
+
     /// The trilinear filter of image `image`, its MIP pyramid built once per image.
     fn mipmapped(&mut self, image: u32) -> TexFilter {
         if let Some(f) = self.mipmaps.get(&image) {
@@ -133,15 +143,15 @@ impl<'t> Builder<'t> {
                 if decode == Decode::Linear && !eight_bit {
                     decode = Decode::File;
                 }
-                let key = (path.clone(), decode);
+                // one file under several names (`sub/../t.png`, a link) is read once
+                let key = (std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone()), decode);
                 let image = match self.images.get(&key) {
                     Some(&i) => i,
                     None => {
                         let (mut img, negative) = crate::image_io::read_texture(&path)?;
                         self.warnings.extend(negative);
                         decode.apply(&mut img, eight_bit);
-                        self.desc.images.push(img);
-                        let i = (self.desc.images.len() - 1) as u32;
+                        let i = self.push_image(e, img)?;
                         self.images.insert(key, i);
                         i
                     }
