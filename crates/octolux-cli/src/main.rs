@@ -61,6 +61,15 @@ pub(crate) fn note_inputs<'a>(paths: impl IntoIterator<Item = &'a Path>) {
     }
 }
 
+/// Create the folder of an output where it is missing (as the render and bake jobs do), saying
+/// so; a failed run removes it again if it stayed empty ([`main`]).
+pub(crate) fn output_folder(path: &Path) -> Result<()> {
+    if let Some(dir) = octolux_io::files::create_output_folder(path).map_err(anyhow::Error::msg)? {
+        eprintln!("created the output folder '{}'", dir.display());
+    }
+    Ok(())
+}
+
 /// The command line's front end of a job: warnings and notes on stderr, the log unless `-q`,
 /// a progress bar while an image renders, and the signal handler told when the loop runs.
 pub(crate) struct Log {
@@ -149,6 +158,7 @@ fn cmd_export(args: &ExportArgs) -> Result<()> {
     }
     job::check_max_depth(Some(args.max_depth), "--max-depth")?;
     note_inputs([Path::new(&args.scene.scene)]);
+    output_folder(&args.output)?;
     output::check_file(&args.output)?;
     // a signal exits at once, removing the staged files (interrupt.rs)
     interrupt::install()?;
@@ -171,6 +181,8 @@ fn main() -> std::process::ExitCode {
     match run(Cli::parse()) {
         Ok(code) => code,
         Err(e) => {
+            // the output folders this run created, if they stayed empty
+            octolux_io::files::remove_created_folders();
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE
         }

@@ -146,6 +146,7 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
         bail!("report: give at least one image");
     }
     crate::note_inputs(images.iter().map(PathBuf::as_path).chain(reference).chain(bench.iter().map(PathBuf::as_path)));
+    crate::output_folder(output)?;
     octolux_io::job::output::check_file(output)?;
     let reference = reference.map(|p| Ok::<_, anyhow::Error>((p, read_checked(p)?))).transpose()?;
     let mut loaded = Vec::new();
