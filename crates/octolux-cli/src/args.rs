@@ -333,7 +333,8 @@ pub struct RenderArgs {
     /// Output image path; `.exr` (and `.png`, `.json` beside it).
     #[arg(short, long, default_value = "out.exr")]
     pub output: PathBuf,
-    /// No progress bar.
+    /// Warnings and errors only: no log and no progress. Without -q the progress is a bar on a
+    /// terminal, else a line on stderr every 5 seconds (`$OCTOLUX_PROGRESS_SECONDS`).
     #[arg(long, short)]
     pub quiet: bool,
 }
@@ -392,7 +393,7 @@ pub struct BakeArgs {
     pub backend: BackendKind,
     #[command(flatten)]
     pub keys: CommonKeys,
-    /// No statistics on the log.
+    /// Warnings and errors only: no log.
     #[arg(long, short)]
     pub quiet: bool,
 }

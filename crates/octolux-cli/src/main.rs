@@ -30,8 +30,10 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::budget;
 use octolux_io::job::{self, output, Frontend, RenderOutcome};
+use std::io::IsTerminal;
 use std::path::Path;
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
     defs.iter()
@@ -71,15 +73,43 @@ pub(crate) fn output_folder(path: &Path) -> Result<()> {
 }
 
 /// The command line's front end of a job: warnings and notes on stderr, the log unless `-q`,
-/// a progress bar while an image renders, and the signal handler told when the loop runs.
+/// and while an image renders its progress (unless `-q`): a bar on a terminal, else a line
+/// every [`progress_every`] seconds (a log file, a batch job's output); the signal handler is
+/// told when the loop runs.
 pub(crate) struct Log {
     pub quiet: bool,
-    bar: Mutex<Option<ProgressBar>>,
+    progress: Mutex<Option<Progress>>,
+}
+
+/// The progress of the image under way.
+enum Progress {
+    Bar(ProgressBar),
+    /// Lines on stderr: when the image started, when the last line was printed.
+    Lines {
+        start: Instant,
+        last: Instant,
+        every: Duration,
+    },
+}
+
+/// Seconds between two progress lines without a terminal: 5, or `$OCTOLUX_PROGRESS_SECONDS`.
+pub(crate) fn progress_every() -> Duration {
+    std::env::var("OCTOLUX_PROGRESS_SECONDS")
+        .ok()
+        .and_then(|s| s.trim().parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+        .map_or(Duration::from_secs(5), Duration::from_secs_f64)
+}
+
+/// A progress line: `rendering: 42% (1720 of 4096 pixels), 12 s`.
+fn progress_line(done: u64, total: u64, elapsed: Duration) -> String {
+    let pct = if total == 0 { 100 } else { done.min(total) * 100 / total };
+    format!("rendering: {pct}% ({} of {total} pixels), {:.0} s", done.min(total), elapsed.as_secs_f64())
 }
 
 impl Log {
     pub fn new(quiet: bool) -> Self {
-        Log { quiet, bar: Mutex::new(None) }
+        Log { quiet, progress: Mutex::new(None) }
     }
 }
 
@@ -96,32 +126,48 @@ impl Frontend for Log {
         eprintln!("note: {n}");
     }
     fn rendering(&self, pixels: Option<u64>) {
-        let mut bar = self.bar.lock().unwrap_or_else(|e| e.into_inner());
+        let mut progress = self.progress.lock().unwrap_or_else(|e| e.into_inner());
         match pixels {
             Some(n) => {
                 // the first signal now asks the loop to stop (and stays so until the run ends:
                 // a signal while a frame is written stops the next one cleanly)
                 interrupt::set_rendering(true);
-                if !self.quiet {
+                if self.quiet {
+                    return;
+                }
+                *progress = Some(if std::io::stderr().is_terminal() {
                     let b = ProgressBar::new(n);
                     b.set_style(
                         ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
                             .unwrap_or_else(|_| ProgressStyle::default_bar()),
                     );
-                    *bar = Some(b);
-                }
+                    Progress::Bar(b)
+                } else {
+                    let now = Instant::now();
+                    Progress::Lines { start: now, last: now, every: progress_every() }
+                });
             }
             None => {
-                if let Some(b) = bar.take() {
+                if let Some(Progress::Bar(b)) = progress.take() {
                     b.finish_and_clear();
                 }
             }
         }
     }
     fn progress(&self, done: u64, total: u64) {
-        if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
-            b.set_length(total);
-            b.set_position(done.min(total));
+        match self.progress.lock().unwrap_or_else(|e| e.into_inner()).as_mut() {
+            Some(Progress::Bar(b)) => {
+                b.set_length(total);
+                b.set_position(done.min(total));
+            }
+            Some(Progress::Lines { start, last, every }) => {
+                let now = Instant::now();
+                if now.duration_since(*last) >= *every && done < total {
+                    *last = now;
+                    eprintln!("{}", progress_line(done, total, now.duration_since(*start)));
+                }
+            }
+            None => {}
         }
     }
 }

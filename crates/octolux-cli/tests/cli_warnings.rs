@@ -75,3 +75,38 @@ fn settings_lists_every_key_with_its_default_type_and_doc() {
     let o = run(&["settings", "bdpt"]);
     assert_eq!(o.status.code(), Some(2), "clap refuses an unknown integrator");
 }
+
+#[test]
+fn progress_shows_without_a_terminal_and_quiet_keeps_only_warnings() {
+    let dir = std::env::temp_dir().join(format!("octolux-cli-progress-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let out = dir.join("x.exr");
+    // stderr is a pipe here, not a terminal: progress lines, one per tile with a 0 s interval
+    let run = |quiet: bool| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_octolux"));
+        c.args(["render", "cornell-box", "--integrator", "path", "--photons", "2000", "--spp", "1", "--resolution", "64x64", "-o"])
+            .arg(&out)
+            .env("OCTOLUX_PROGRESS_SECONDS", "0");
+        if quiet {
+            c.arg("-q");
+        }
+        let o = c.output().expect("octolux runs");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let err = run(false);
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("rendering: ")).collect();
+    assert!(!lines.is_empty(), "no progress line: {err}");
+    for l in &lines {
+        // `rendering: 42% (1720 of 4096 pixels), 0 s`
+        let (pct, rest) = l["rendering: ".len()..].split_once("% (").expect(l);
+        let pct: u64 = pct.parse().expect(l);
+        assert!(pct < 100 && rest.contains(" of 4096 pixels), ") && rest.ends_with(" s"), "{l}");
+    }
+    assert!(err.contains("octolux: cornell-box (32 triangles)") && err.contains("rendered 1 spp"), "{err}");
+    // -q: the warning (--photons with path) and nothing else
+    let quiet = run(true);
+    assert_eq!(quiet.lines().count(), 1, "{quiet}");
+    assert!(quiet.starts_with("warning: --photons applies to"), "{quiet}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
