@@ -104,6 +104,8 @@ fn progress_shows_without_a_terminal_and_quiet_keeps_only_warnings() {
         assert!(pct < 100 && rest.contains(" of 4096 pixels), ") && rest.ends_with(" s"), "{l}");
     }
     assert!(err.contains("octolux: cornell-box (32 triangles)") && err.contains("rendered 1 spp"), "{err}");
+    // the log says why `--backend auto` (the default) chose the BVH
+    assert!(err.contains("backend bvh8 (octolux) (auto: fewer than 65536 triangles, where the BVH is faster than Embree), "), "{err}");
     // -q: the warning (--photons with path) and nothing else
     let quiet = run(true);
     assert_eq!(quiet.lines().count(), 1, "{quiet}");

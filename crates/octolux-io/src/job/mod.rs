@@ -563,15 +563,17 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
         _ if !build.is_null() => fe.info(&format!("{name}: {}", stats::summary(&build))),
         _ => {}
     }
+    let tris = scene.triangle_count();
     fe.info(&format!(
-        "octolux: {} ({} triangles), {}x{}, {} spp, integrator {}, backend {}, {} threads",
+        "octolux: {} ({tris} triangle{}), {}x{}, {} spp, integrator {}, backend {}{}, {} threads",
         job.scene.scene,
-        scene.triangle_count(),
+        if tris == 1 { "" } else { "s" },
         scene.film.width,
         scene.film.height,
         spp,
         integrator.name(),
         scene.backend_name(),
+        scene.backend_choice().map(|c| format!(" ({c})")).unwrap_or_default(),
         threads
     ));
     if let Some(view) = settings::get(&integrator_settings, "view").filter(|v| v != "render") {
