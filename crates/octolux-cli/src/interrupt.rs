@@ -27,12 +27,12 @@ static RENDERING: AtomicBool = AtomicBool::new(false);
 pub fn install() -> Result<()> {
     ctrlc::set_handler(|| {
         if RENDERING.load(Ordering::SeqCst) && !CANCEL.swap(true, Ordering::SeqCst) {
-            eprintln!("\noctolux: interrupted; writing the passes done so far (interrupt again to exit at once)");
+            say!("\noctolux: interrupted; writing the passes done so far (interrupt again to exit at once)");
             return;
         }
         octolux_io::files::remove_staged();
         octolux_io::files::remove_created_folders();
-        eprintln!("\noctolux: interrupted; exiting without writing");
+        say!("\noctolux: interrupted; exiting without writing");
         std::process::exit(EXIT_INTERRUPTED as i32);
     })
     .context("cannot install the interrupt handler")

@@ -18,6 +18,15 @@
 //! checked against the memory budget ([`octolux::budget`]) and the output folder is checked
 //! before any long work; `compare` refuses images holding non-finite values.
 
+/// `eprintln!` that survives a closed stderr (`octolux render ... 2>&1 | head -1`): a line that
+/// cannot be written is dropped and the run goes on (`eprintln!` panics, exit status 101).
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
+
 mod args;
 mod bake;
 mod flicker;
@@ -67,7 +76,7 @@ pub(crate) fn note_inputs<'a>(paths: impl IntoIterator<Item = &'a Path>) {
 /// so; a failed run removes it again if it stayed empty ([`main`]).
 pub(crate) fn output_folder(path: &Path) -> Result<()> {
     if let Some(dir) = octolux_io::files::create_output_folder(path).map_err(anyhow::Error::msg)? {
-        eprintln!("created the output folder '{}'", dir.display());
+        say!("created the output folder '{}'", dir.display());
     }
     Ok(())
 }
@@ -116,14 +125,14 @@ impl Log {
 impl Frontend for Log {
     fn info(&self, line: &str) {
         if !self.quiet {
-            eprintln!("{line}");
+            say!("{line}");
         }
     }
     fn warning(&self, w: &str) {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     fn note(&self, n: &str) {
-        eprintln!("note: {n}");
+        say!("note: {n}");
     }
     fn rendering(&self, pixels: Option<u64>) {
         let mut progress = self.progress.lock().unwrap_or_else(|e| e.into_inner());
@@ -164,7 +173,7 @@ impl Frontend for Log {
                 let now = Instant::now();
                 if now.duration_since(*last) >= *every && done < total {
                     *last = now;
-                    eprintln!("{}", progress_line(done, total, now.duration_since(*start)));
+                    say!("{}", progress_line(done, total, now.duration_since(*start)));
                 }
             }
             None => {}
@@ -191,7 +200,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     match job::run_render(&render, &log, &interrupt::CANCEL)? {
         RenderOutcome::Done(_) => Ok(std::process::ExitCode::SUCCESS),
         RenderOutcome::Interrupted(msg) => {
-            eprintln!("{msg}");
+            say!("{msg}");
             Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED))
         }
     }
@@ -212,7 +221,7 @@ fn cmd_export(args: &ExportArgs) -> Result<()> {
     loaded.desc.validate().with_context(|| format!("scene '{}' is invalid", args.scene.scene))?;
     octolux_io::export::write_mitsuba_scene(&loaded.desc, args.spp, args.max_depth, &args.output)
         .with_context(|| format!("cannot export to {}", args.output.display()))?;
-    eprintln!("wrote {}", args.output.display());
+    say!("wrote {}", args.output.display());
     Ok(())
 }
 
@@ -221,7 +230,7 @@ fn cmd_export(args: &ExportArgs) -> Result<()> {
 /// interrupted render exits with [`interrupt::EXIT_INTERRUPTED`].
 fn main() -> std::process::ExitCode {
     if let Some(msg) = args::removed_flag(&std::env::args().collect::<Vec<_>>()) {
-        eprintln!("error: {msg}");
+        say!("error: {msg}");
         return std::process::ExitCode::FAILURE;
     }
     match run(Cli::parse()) {
@@ -229,7 +238,7 @@ fn main() -> std::process::ExitCode {
         Err(e) => {
             // the output folders this run created, if they stayed empty
             octolux_io::files::remove_created_folders();
-            eprintln!("error: {e:#}");
+            say!("error: {e:#}");
             std::process::ExitCode::FAILURE
         }
     }
@@ -270,11 +279,12 @@ fn run(cli: Cli) -> Result<std::process::ExitCode> {
     }
 }
 
-/// `compare`: refuses images holding NaN or infinite values (a metric over them would be NaN,
+/// `compare`: reads EXR, HDR, PNG and JPEG (the last two decoded from sRGB to linear, as
+/// textures are); refuses images holding NaN or infinite values (a metric over them would be NaN,
 /// printed as `null`), saying how many each holds.
 fn cmd_compare(image: &std::path::Path, reference: &std::path::Path) -> Result<()> {
-    let a = octolux_io::image_io::read_exr(image).with_context(|| format!("cannot read {}", image.display()))?;
-    let r = octolux_io::image_io::read_exr(reference).with_context(|| format!("cannot read {}", reference.display()))?;
+    let a = octolux_io::image_io::read_image(image).context("cannot read the image")?;
+    let r = octolux_io::image_io::read_image(reference).context("cannot read the reference")?;
     let mut bad = Vec::new();
     for (path, img) in [(image, &a), (reference, &r)] {
         let n = img.data.iter().flat_map(|c| [c.x, c.y, c.z]).filter(|v| !v.is_finite()).count();

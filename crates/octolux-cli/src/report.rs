@@ -16,7 +16,7 @@
 use anyhow::{bail, Context, Result};
 use octolux::image::Image;
 use octolux::{budget, metrics};
-use octolux_io::image_io::{encode_png_rgb8, read_exr, srgb8_bytes};
+use octolux_io::image_io::{encode_png_rgb8, read_image, srgb8_bytes};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -109,7 +109,7 @@ fn false_colour(w: u32, h: u32, values: &[f32], lut: &[u8]) -> Result<String> {
 }
 
 fn read_checked(path: &Path) -> Result<Image> {
-    let img = read_exr(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let img = read_image(path).context("cannot read the image")?;
     let bad = img.data.iter().filter(|c| !c.is_finite()).count();
     if bad > 0 {
         bail!("{} holds non-finite values (NaN or infinity) in {bad} pixels", path.display());
@@ -213,7 +213,7 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
     // `</` cannot close the script element from inside the JSON
     let html = TEMPLATE.replace("\"__OCTOLUX_DATA__\"", &data.to_string().replace("</", "<\\/"));
     octolux_io::job::output::write_file_atomic(output, html.as_bytes())?;
-    eprintln!("report: {} images -> {} ({} bytes)", entries.len(), output.display(), html.len());
+    say!("report: {} images -> {} ({} bytes)", entries.len(), output.display(), html.len());
     Ok(())
 }
 

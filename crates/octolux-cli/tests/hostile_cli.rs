@@ -391,6 +391,22 @@ fn compare_refuses_non_finite_values_and_counts_them() {
     assert_eq!(stderr(&o), format!("error: cannot compare: {} holds 5 non-finite values (NaN or infinity) in 2 pixels\n", b.display()));
     let o = run(&["compare", &path_str(&g), &path_str(&g)]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // PNGs are read (decoded from sRGB), not refused as unreadable OpenEXR (issue 30)
+    let p = dir.path.join("good.png");
+    octolux_io::image_io::write_png(&p, &good).expect("write");
+    let o = run(&["compare", &path_str(&p), &path_str(&g)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    // 0.5 through 8-bit sRGB and back: within half a step
+    assert!(json["rel_mse"].as_f64().is_some_and(|e| e < 1e-4), "{json}");
+    let o = run(&["compare", &path_str(&dir.path.join("good.json")), &path_str(&g)]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot read the image: {}: unsupported image format '.json' (expected png, jpg, exr or hdr)\n",
+            dir.path.join("good.json").display()
+        )
+    );
 }
 
 #[test]
@@ -751,7 +767,7 @@ fn inputs_that_are_not_regular_files_are_refused() {
     let o = run(&["render", "cornell-box", "--cache", "/dev/zero", "-q", "-o", &out]);
     assert_eq!(stderr(&o), format!("error: {dev}\n"));
     let o = run(&["compare", "/dev/zero", &out]);
-    assert_eq!(stderr(&o), format!("error: cannot read /dev/zero: {dev}\n"));
+    assert_eq!(stderr(&o), format!("error: cannot read the image: {dev}\n"));
     let o = run(&["render", "cornell-box", "--camera-path", &path_str(&dir.path), "-q", "-o", &out]);
     assert_eq!(stderr(&o), format!("error: camera path {}: this is a folder, not a file\n", dir.path.display()));
     assert!(dir.files().is_empty());
@@ -1005,6 +1021,23 @@ fn gltf_uris_outside_the_folder_need_the_flag() {
     let o = child.wait_with_output().expect("wait");
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stderr(&o), "");
+}
+
+#[test]
+fn a_closed_stderr_does_not_stop_a_render() {
+    // `octolux render ... 2>&1 | head -1`: the log's reader is gone; the render goes on and
+    // writes its set (each log line panicked, exit status 101, issue 30)
+    let dir = TempDir::new("stderr");
+    let out = dir.path.join("x.exr");
+    let mut child = octolux()
+        .args(["render", "--resolution", "8x8", "--spp", "1", "--photons", "100", "-o", &path_str(&out)])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    drop(child.stderr.take());
+    let status = child.wait().expect("wait");
+    assert!(status.success(), "{status:?}");
+    assert!(out.is_file() && out.with_extension("json").is_file());
 }
 
 /// A binary PLY grid of `nx` x `ny` quads (two triangles each), written row by row: `(nx +
