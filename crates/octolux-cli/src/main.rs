@@ -73,7 +73,7 @@ pub(crate) fn note_inputs<'a>(paths: impl IntoIterator<Item = &'a Path>) {
 }
 
 /// Create the folder of an output where it is missing (as the render and bake jobs do), saying
-/// so; a failed run removes it again if it stayed empty ([`main`]).
+/// so; a failed run removes it again if it stayed empty (`main`).
 pub(crate) fn output_folder(path: &Path) -> Result<()> {
     if let Some(dir) = octolux_io::files::create_output_folder(path).map_err(anyhow::Error::msg)? {
         say!("created the output folder '{}'", dir.display());
@@ -112,7 +112,7 @@ pub(crate) fn progress_every() -> Duration {
 
 /// A progress line: `rendering: 42% (1720 of 4096 pixels), 12 s`.
 fn progress_line(done: u64, total: u64, elapsed: Duration) -> String {
-    let pct = if total == 0 { 100 } else { done.min(total) * 100 / total };
+    let pct = (done.min(total) * 100).checked_div(total).unwrap_or(100);
     format!("rendering: {pct}% ({} of {total} pixels), {:.0} s", done.min(total), elapsed.as_secs_f64())
 }
 

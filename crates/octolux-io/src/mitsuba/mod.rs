@@ -61,7 +61,11 @@ pub(crate) fn did_you_mean<'a>(word: &str, candidates: impl IntoIterator<Item = 
     let mut best: Option<(usize, &str)> = None;
     for c in candidates {
         let d = edit_distance(&w, &c.chars().collect::<Vec<_>>());
-        if d <= 2 && 2 * d < w.len() && best.map_or(true, |(b, _)| d < b) {
+        let closer = match best {
+            Some((b, _)) => d < b,
+            None => true,
+        };
+        if d <= 2 && 2 * d < w.len() && closer {
             best = Some((d, c));
         }
     }
