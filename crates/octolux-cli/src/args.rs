@@ -48,10 +48,10 @@ pub enum Command {
     /// control, a split slider, error maps (relative squared error, FLIP) and a metrics table
     /// against `--reference`, and error-against-time plots of `--bench` results.
     Report {
-        /// The images to compare (EXR).
+        /// The images to compare (EXR or HDR; PNG or JPEG decoded from sRGB).
         #[arg(required = true)]
         images: Vec<PathBuf>,
-        /// The reference the errors are measured against (EXR).
+        /// The reference the errors are measured against (EXR or HDR; PNG or JPEG decoded from sRGB).
         #[arg(long)]
         reference: Option<PathBuf>,
         /// Benchmark results to plot: JSON `{"title": ..., "series": [{"name", "time_s": [..], "rel_mse": [..]}]}`.
@@ -66,10 +66,12 @@ pub enum Command {
     /// frames of static points' values (JSON on stdout; docs/guide/baking.md).
     Flicker(FlickerArgs),
     /// Compare an image with a reference: relMSE, RMSE and channel means (JSON on stdout).
+    /// Images are EXR or HDR (linear), or PNG or JPEG (8 bits, decoded from sRGB to linear:
+    /// clamped to [0, 1], so the errors of bright pixels are lost).
     Compare {
-        /// The image to judge (EXR).
+        /// The image to judge (EXR, HDR, PNG or JPEG).
         image: PathBuf,
-        /// The reference (EXR).
+        /// The reference (EXR, HDR, PNG or JPEG).
         reference: PathBuf,
     },
 }
@@ -333,7 +335,8 @@ pub struct RenderArgs {
     /// Output image path; `.exr` (and `.png`, `.json` beside it).
     #[arg(short, long, default_value = "out.exr")]
     pub output: PathBuf,
-    /// No progress bar.
+    /// Warnings and errors only: no log and no progress. Without -q the progress is a bar on a
+    /// terminal, else a line on stderr every 5 seconds (`$OCTOLUX_PROGRESS_SECONDS`).
     #[arg(long, short)]
     pub quiet: bool,
 }
@@ -392,7 +395,7 @@ pub struct BakeArgs {
     pub backend: BackendKind,
     #[command(flatten)]
     pub keys: CommonKeys,
-    /// No statistics on the log.
+    /// Warnings and errors only: no log.
     #[arg(long, short)]
     pub quiet: bool,
 }

@@ -28,7 +28,7 @@ pub fn check_run_flags(threads: Option<usize>, memory_limit: Option<&str>, max_d
         let most = cores.saturating_mul(MAX_THREADS_PER_CORE);
         if n > most {
             let w = format!("--threads {n} is more than {MAX_THREADS_PER_CORE} per core on this machine's {cores} cores; using {most}");
-            eprintln!("warning: {w}");
+            say!("warning: {w}");
             warnings.push(w);
             n = most;
         }

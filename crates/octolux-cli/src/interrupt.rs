@@ -6,8 +6,9 @@
 //!   the run exits with status [`EXIT_INTERRUPTED`].
 //! - A second signal, or the first one before the render loop has started (loading, photon
 //!   pass: nothing to save yet), exits at once with that status, after removing this process's
-//!   staged output files ([`octolux_io::files::remove_staged`]); the outputs under their final
-//!   names are those of the previous run, untouched.
+//!   staged output files ([`octolux_io::files::remove_staged`]) and the output folders it
+//!   created, if empty; the outputs under their final names are those of the previous run,
+//!   untouched.
 //! - `bake` installs the same handler and never starts a render loop: any signal exits at once
 //!   that way (its cache file is staged and renamed like the render outputs).
 
@@ -26,11 +27,12 @@ static RENDERING: AtomicBool = AtomicBool::new(false);
 pub fn install() -> Result<()> {
     ctrlc::set_handler(|| {
         if RENDERING.load(Ordering::SeqCst) && !CANCEL.swap(true, Ordering::SeqCst) {
-            eprintln!("\noctolux: interrupted; writing the passes done so far (interrupt again to exit at once)");
+            say!("\noctolux: interrupted; writing the passes done so far (interrupt again to exit at once)");
             return;
         }
         octolux_io::files::remove_staged();
-        eprintln!("\noctolux: interrupted; exiting without writing");
+        octolux_io::files::remove_created_folders();
+        say!("\noctolux: interrupted; exiting without writing");
         std::process::exit(EXIT_INTERRUPTED as i32);
     })
     .context("cannot install the interrupt handler")

@@ -18,6 +18,15 @@
 //! checked against the memory budget ([`octolux::budget`]) and the output folder is checked
 //! before any long work; `compare` refuses images holding non-finite values.
 
+/// `eprintln!` that survives a closed stderr (`octolux render ... 2>&1 | head -1`): a line that
+/// cannot be written is dropped and the run goes on (`eprintln!` panics, exit status 101).
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
+
 mod args;
 mod bake;
 mod flicker;
@@ -30,8 +39,10 @@ use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::budget;
 use octolux_io::job::{self, output, Frontend, RenderOutcome};
+use std::io::IsTerminal;
 use std::path::Path;
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 fn parse_defines(defs: &[String]) -> Result<Vec<(String, String)>> {
     defs.iter()
@@ -61,58 +72,111 @@ pub(crate) fn note_inputs<'a>(paths: impl IntoIterator<Item = &'a Path>) {
     }
 }
 
+/// Create the folder of an output where it is missing (as the render and bake jobs do), saying
+/// so; a failed run removes it again if it stayed empty (`main`).
+pub(crate) fn output_folder(path: &Path) -> Result<()> {
+    if let Some(dir) = octolux_io::files::create_output_folder(path).map_err(anyhow::Error::msg)? {
+        say!("created the output folder '{}'", dir.display());
+    }
+    Ok(())
+}
+
 /// The command line's front end of a job: warnings and notes on stderr, the log unless `-q`,
-/// a progress bar while an image renders, and the signal handler told when the loop runs.
+/// and while an image renders its progress (unless `-q`): a bar on a terminal, else a line
+/// every [`progress_every`] seconds (a log file, a batch job's output); the signal handler is
+/// told when the loop runs.
 pub(crate) struct Log {
     pub quiet: bool,
-    bar: Mutex<Option<ProgressBar>>,
+    progress: Mutex<Option<Progress>>,
+}
+
+/// The progress of the image under way.
+enum Progress {
+    Bar(ProgressBar),
+    /// Lines on stderr: when the image started, when the last line was printed.
+    Lines {
+        start: Instant,
+        last: Instant,
+        every: Duration,
+    },
+}
+
+/// Seconds between two progress lines without a terminal: 5, or `$OCTOLUX_PROGRESS_SECONDS`.
+pub(crate) fn progress_every() -> Duration {
+    std::env::var("OCTOLUX_PROGRESS_SECONDS")
+        .ok()
+        .and_then(|s| s.trim().parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s >= 0.0)
+        .map_or(Duration::from_secs(5), Duration::from_secs_f64)
+}
+
+/// A progress line: `rendering: 42% (1720 of 4096 pixels), 12 s`.
+fn progress_line(done: u64, total: u64, elapsed: Duration) -> String {
+    let pct = (done.min(total) * 100).checked_div(total).unwrap_or(100);
+    format!("rendering: {pct}% ({} of {total} pixels), {:.0} s", done.min(total), elapsed.as_secs_f64())
 }
 
 impl Log {
     pub fn new(quiet: bool) -> Self {
-        Log { quiet, bar: Mutex::new(None) }
+        Log { quiet, progress: Mutex::new(None) }
     }
 }
 
 impl Frontend for Log {
     fn info(&self, line: &str) {
         if !self.quiet {
-            eprintln!("{line}");
+            say!("{line}");
         }
     }
     fn warning(&self, w: &str) {
-        eprintln!("warning: {w}");
+        say!("warning: {w}");
     }
     fn note(&self, n: &str) {
-        eprintln!("note: {n}");
+        say!("note: {n}");
     }
     fn rendering(&self, pixels: Option<u64>) {
-        let mut bar = self.bar.lock().unwrap_or_else(|e| e.into_inner());
+        let mut progress = self.progress.lock().unwrap_or_else(|e| e.into_inner());
         match pixels {
             Some(n) => {
                 // the first signal now asks the loop to stop (and stays so until the run ends:
                 // a signal while a frame is written stops the next one cleanly)
                 interrupt::set_rendering(true);
-                if !self.quiet {
+                if self.quiet {
+                    return;
+                }
+                *progress = Some(if std::io::stderr().is_terminal() {
                     let b = ProgressBar::new(n);
                     b.set_style(
                         ProgressStyle::with_template("{spinner} rendering [{bar:40}] {percent}% {elapsed_precise} eta {eta}")
                             .unwrap_or_else(|_| ProgressStyle::default_bar()),
                     );
-                    *bar = Some(b);
-                }
+                    Progress::Bar(b)
+                } else {
+                    let now = Instant::now();
+                    Progress::Lines { start: now, last: now, every: progress_every() }
+                });
             }
             None => {
-                if let Some(b) = bar.take() {
+                if let Some(Progress::Bar(b)) = progress.take() {
                     b.finish_and_clear();
                 }
             }
         }
     }
     fn progress(&self, done: u64, total: u64) {
-        if let Some(b) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
-            b.set_length(total);
-            b.set_position(done.min(total));
+        match self.progress.lock().unwrap_or_else(|e| e.into_inner()).as_mut() {
+            Some(Progress::Bar(b)) => {
+                b.set_length(total);
+                b.set_position(done.min(total));
+            }
+            Some(Progress::Lines { start, last, every }) => {
+                let now = Instant::now();
+                if now.duration_since(*last) >= *every && done < total {
+                    *last = now;
+                    say!("{}", progress_line(done, total, now.duration_since(*start)));
+                }
+            }
+            None => {}
         }
     }
 }
@@ -136,7 +200,7 @@ fn cmd_render(args: &RenderArgs) -> Result<std::process::ExitCode> {
     match job::run_render(&render, &log, &interrupt::CANCEL)? {
         RenderOutcome::Done(_) => Ok(std::process::ExitCode::SUCCESS),
         RenderOutcome::Interrupted(msg) => {
-            eprintln!("{msg}");
+            say!("{msg}");
             Ok(std::process::ExitCode::from(interrupt::EXIT_INTERRUPTED))
         }
     }
@@ -149,6 +213,7 @@ fn cmd_export(args: &ExportArgs) -> Result<()> {
     }
     job::check_max_depth(Some(args.max_depth), "--max-depth")?;
     note_inputs([Path::new(&args.scene.scene)]);
+    output_folder(&args.output)?;
     output::check_file(&args.output)?;
     // a signal exits at once, removing the staged files (interrupt.rs)
     interrupt::install()?;
@@ -156,7 +221,7 @@ fn cmd_export(args: &ExportArgs) -> Result<()> {
     loaded.desc.validate().with_context(|| format!("scene '{}' is invalid", args.scene.scene))?;
     octolux_io::export::write_mitsuba_scene(&loaded.desc, args.spp, args.max_depth, &args.output)
         .with_context(|| format!("cannot export to {}", args.output.display()))?;
-    eprintln!("wrote {}", args.output.display());
+    say!("wrote {}", args.output.display());
     Ok(())
 }
 
@@ -165,13 +230,15 @@ fn cmd_export(args: &ExportArgs) -> Result<()> {
 /// interrupted render exits with [`interrupt::EXIT_INTERRUPTED`].
 fn main() -> std::process::ExitCode {
     if let Some(msg) = args::removed_flag(&std::env::args().collect::<Vec<_>>()) {
-        eprintln!("error: {msg}");
+        say!("error: {msg}");
         return std::process::ExitCode::FAILURE;
     }
     match run(Cli::parse()) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            // the output folders this run created, if they stayed empty
+            octolux_io::files::remove_created_folders();
+            say!("error: {e:#}");
             std::process::ExitCode::FAILURE
         }
     }
@@ -212,11 +279,12 @@ fn run(cli: Cli) -> Result<std::process::ExitCode> {
     }
 }
 
-/// `compare`: refuses images holding NaN or infinite values (a metric over them would be NaN,
+/// `compare`: reads EXR, HDR, PNG and JPEG (the last two decoded from sRGB to linear, as
+/// textures are); refuses images holding NaN or infinite values (a metric over them would be NaN,
 /// printed as `null`), saying how many each holds.
 fn cmd_compare(image: &std::path::Path, reference: &std::path::Path) -> Result<()> {
-    let a = octolux_io::image_io::read_exr(image).with_context(|| format!("cannot read {}", image.display()))?;
-    let r = octolux_io::image_io::read_exr(reference).with_context(|| format!("cannot read {}", reference.display()))?;
+    let a = octolux_io::image_io::read_image(image).context("cannot read the image")?;
+    let r = octolux_io::image_io::read_image(reference).context("cannot read the reference")?;
     let mut bad = Vec::new();
     for (path, img) in [(image, &a), (reference, &r)] {
         let n = img.data.iter().flat_map(|c| [c.x, c.y, c.z]).filter(|v| !v.is_finite()).count();

@@ -16,7 +16,7 @@
 use anyhow::{bail, Context, Result};
 use octolux::image::Image;
 use octolux::{budget, metrics};
-use octolux_io::image_io::{encode_png_rgb8, read_exr, srgb8_bytes};
+use octolux_io::image_io::{encode_png_rgb8, read_image, srgb8_bytes};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -109,12 +109,31 @@ fn false_colour(w: u32, h: u32, values: &[f32], lut: &[u8]) -> Result<String> {
 }
 
 fn read_checked(path: &Path) -> Result<Image> {
-    let img = read_exr(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let img = read_image(path).context("cannot read the image")?;
     let bad = img.data.iter().filter(|c| !c.is_finite()).count();
     if bad > 0 {
         bail!("{} holds non-finite values (NaN or infinity) in {bad} pixels", path.display());
     }
     Ok(img)
+}
+
+/// The decades `[lo, hi]` of a log axis holding every value (positive, finite): `10^lo` at or
+/// below the least, `10^hi` at or above the greatest, and `hi > lo`. The page draws the axis
+/// from them (computed here, not in the page's script: `Math.ceil(-0.3)` is `-0`, which the
+/// script's `|| lo + 1` took for "none" and drew a series peaking in (0.1, 1] off the plot).
+fn decades<'a>(values: impl IntoIterator<Item = &'a f64>) -> [i32; 2] {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values {
+        let l = v.log10();
+        lo = lo.min(l);
+        hi = hi.max(l);
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        return [0, 1];
+    }
+    // integers: the `-0` of `ceil(-0.3)` is `0` here
+    let (lo, hi) = (lo.floor() as i32, hi.ceil() as i32);
+    [lo, hi.max(lo + 1)]
 }
 
 fn name_of(p: &Path) -> String {
@@ -127,6 +146,7 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
         bail!("report: give at least one image");
     }
     crate::note_inputs(images.iter().map(PathBuf::as_path).chain(reference).chain(bench.iter().map(PathBuf::as_path)));
+    crate::output_folder(output)?;
     octolux_io::job::output::check_file(output)?;
     let reference = reference.map(|p| Ok::<_, anyhow::Error>((p, read_checked(p)?))).transpose()?;
     let mut loaded = Vec::new();
@@ -150,7 +170,10 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
             }
         }
         let title = if b.title.is_empty() { name_of(p) } else { b.title };
-        benches.push(json!({ "title": title, "series": b.series.iter().map(|s| json!({"name": s.name, "time_s": s.time_s, "rel_mse": s.rel_mse})).collect::<Vec<_>>() }));
+        let x = decades(b.series.iter().flat_map(|s| &s.time_s));
+        let y = decades(b.series.iter().flat_map(|s| &s.rel_mse));
+        let series: Vec<Value> = b.series.iter().map(|s| json!({"name": s.name, "time_s": s.time_s, "rel_mse": s.rel_mse})).collect();
+        benches.push(json!({ "title": title, "series": series, "x_decades": x, "y_decades": y }));
     }
 
     let lut = nv_flip::magma_lut().to_vec();
@@ -190,7 +213,7 @@ pub fn cmd_report(images: &[PathBuf], reference: Option<&Path>, bench: &[PathBuf
     // `</` cannot close the script element from inside the JSON
     let html = TEMPLATE.replace("\"__OCTOLUX_DATA__\"", &data.to_string().replace("</", "<\\/"));
     octolux_io::job::output::write_file_atomic(output, html.as_bytes())?;
-    eprintln!("report: {} images -> {} ({} bytes)", entries.len(), output.display(), html.len());
+    say!("report: {} images -> {} ({} bytes)", entries.len(), output.display(), html.len());
     Ok(())
 }
 
@@ -205,6 +228,29 @@ mod tests {
         {
             assert_eq!(base64(i.as_bytes()), o);
         }
+    }
+
+    #[test]
+    fn log_axes_hold_every_value() {
+        // the series the page drew off its plot: a greatest relMSE in (0.1, 1]
+        assert_eq!(decades(&[0.5, 0.05]), [-2, 0]);
+        assert_eq!(decades(&[1.0, 0.01]), [-2, 0]);
+        assert_eq!(decades(&[0.2]), [-1, 0]);
+        // one value on a decade, or all in one: still an axis one decade long
+        assert_eq!(decades(&[1.0]), [0, 1]);
+        assert_eq!(decades(&[100.0, 100.0]), [2, 3]);
+        assert_eq!(decades(&[3.0, 7.0]), [0, 1]);
+        assert_eq!(decades(&[0.001, 20.0]), [-3, 2]);
+        assert_eq!(decades(&[]), [0, 1]);
+        for vals in [vec![0.5, 0.05], vec![0.9], vec![1e-7, 0.99], vec![1.5, 9.5, 11.0], vec![0.1, 0.05]] {
+            let [lo, hi] = decades(&vals);
+            assert!(hi > lo, "{vals:?}");
+            for v in &vals {
+                assert!((lo as f64..=hi as f64).contains(&v.log10()), "{v} outside 1e{lo}..1e{hi}");
+            }
+        }
+        // the JSON of a zero decade is `0`, not `-0` (a script reading `-0` is where it went wrong)
+        assert_eq!(json!(decades(&[0.5])).to_string(), "[-1,0]");
     }
 
     #[test]

@@ -75,3 +75,96 @@ fn settings_lists_every_key_with_its_default_type_and_doc() {
     let o = run(&["settings", "bdpt"]);
     assert_eq!(o.status.code(), Some(2), "clap refuses an unknown integrator");
 }
+
+#[test]
+fn progress_shows_without_a_terminal_and_quiet_keeps_only_warnings() {
+    let dir = std::env::temp_dir().join(format!("octolux-cli-progress-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let out = dir.join("x.exr");
+    // stderr is a pipe here, not a terminal: progress lines, one per tile with a 0 s interval
+    let run = |quiet: bool| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_octolux"));
+        c.args(["render", "cornell-box", "--integrator", "path", "--photons", "2000", "--spp", "1", "--resolution", "64x64", "-o"])
+            .arg(&out)
+            .env("OCTOLUX_PROGRESS_SECONDS", "0");
+        if quiet {
+            c.arg("-q");
+        }
+        let o = c.output().expect("octolux runs");
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let err = run(false);
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("rendering: ")).collect();
+    assert!(!lines.is_empty(), "no progress line: {err}");
+    for l in &lines {
+        // `rendering: 42% (1720 of 4096 pixels), 0 s`
+        let (pct, rest) = l["rendering: ".len()..].split_once("% (").expect(l);
+        let pct: u64 = pct.parse().expect(l);
+        assert!(pct < 100 && rest.contains(" of 4096 pixels), ") && rest.ends_with(" s"), "{l}");
+    }
+    assert!(err.contains("octolux: cornell-box (32 triangles)") && err.contains("rendered 1 spp"), "{err}");
+    // the log says why `--backend auto` (the default) chose the BVH
+    assert!(err.contains("backend bvh8 (octolux) (auto: fewer than 65536 triangles, where the BVH is faster than Embree), "), "{err}");
+    // -q: the warning (--photons with path) and nothing else
+    let quiet = run(true);
+    assert_eq!(quiet.lines().count(), 1, "{quiet}");
+    assert!(quiet.starts_with("warning: --photons applies to"), "{quiet}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 30: the log speaks words, the paper's symbols only in brackets after them; `ward` prints
+/// no raw JSON; a render from a cache says no photon was traced and not a trace time; a bare
+/// mesh inserted has no light to be ignored.
+#[test]
+fn log_lines_are_words_with_the_papers_symbols_in_brackets() {
+    let dir = std::env::temp_dir().join(format!("octolux-cli-log-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let out = dir.join("x.exr");
+    let run = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_octolux"))
+            .args(args)
+            .args(["--spp", "1", "--resolution", "8x8", "-o"])
+            .arg(&out)
+            .output()
+            .expect("octolux runs");
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{args:?}: {err}");
+        err
+    };
+    let symbols = ["m_v", "n_p", "F_m", "t_c", "m_e", "m_a"];
+    for integrator in ["octree", "photonmap", "ward", "christensen"] {
+        let err = run(&["render", "--integrator", integrator, "--photons", "2000"]);
+        assert!(!err.contains('{'), "{integrator}: JSON on the log: {err}");
+        for line in err.lines() {
+            // every symbol sits in brackets right after the words it stands for
+            for s in symbols {
+                for (i, _) in line.match_indices(s) {
+                    assert!(line[..i].ends_with('[') && line[i + s.len()..].starts_with(']'), "{integrator}: bare {s}: {line}");
+                    assert!(line[..i - 1].ends_with(' ') && !line[..i - 1].trim_end().is_empty(), "{integrator}: {s} alone: {line}");
+                }
+            }
+        }
+    }
+    let octree = run(&["render", "--integrator", "octree", "--photons", "2000"]);
+    assert!(octree.contains(" valid leaves [m_v] of ") && octree.contains(" photons per leaf [n_p]"), "{octree}");
+    let ward = run(&["render", "--integrator", "ward", "--photons", "2000"]);
+    assert!(ward.contains(" cache samples [m_e]") && ward.contains(" bytes [F_m]"), "{ward}");
+
+    // from a cache: no trace time
+    let oxc = dir.join("l.oxc");
+    let o = Command::new(env!("CARGO_BIN_EXE_octolux"))
+        .args(["bake", "--photons", "2000", "-q", "-o"])
+        .arg(&oxc)
+        .output()
+        .expect("octolux runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let cached = run(&["render", "--cache", oxc.to_str().unwrap()]);
+    assert!(cached.contains("no photon traced") && !cached.contains("traced in"), "{cached}");
+    // a bare OBJ inserted: no light of its own to ignore
+    let obj = dir.join("tri.obj");
+    std::fs::write(&obj, "v 200 0 200\nv 300 0 200\nv 250 100 250\nf 1 2 3\n").expect("write obj");
+    let inserted = run(&["render", "--cache", oxc.to_str().unwrap(), "--insert", obj.to_str().unwrap()]);
+    assert!(!inserted.contains("ignored") && !inserted.contains("warning"), "{inserted}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

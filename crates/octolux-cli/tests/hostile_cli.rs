@@ -150,11 +150,13 @@ fn sizes_beyond_the_memory_budget_are_refused_before_any_work() {
 #[test]
 fn the_output_folder_is_checked_before_the_scene_is_read() {
     let dir = TempDir::new("outdir");
-    // The scene does not exist either: the output is what is reported, so it came first.
-    let missing = dir.path.join("missing").join("x.exr");
+    // A missing folder is created (issue 30), and removed again when the run fails: here on the
+    // scene, which does not exist.
+    let missing = dir.path.join("missing").join("deeper").join("x.exr");
     let o = run(&["render", "no-such-scene.xml", "-q", "-o", &path_str(&missing)]);
     assert_eq!(o.status.code(), Some(1));
-    assert_eq!(stderr(&o), format!("error: output folder '{}' does not exist\n", dir.path.join("missing").display()));
+    assert!(stderr(&o).contains("no-such-scene.xml"), "{}", stderr(&o));
+    assert!(!dir.path.join("missing").exists(), "the folders created for a failed run stay");
 
     std::fs::create_dir(dir.path.join("x.exr")).expect("mkdir");
     let out = path_str(&dir.path.join("x.exr"));
@@ -174,6 +176,44 @@ fn the_output_folder_is_checked_before_the_scene_is_read() {
         format!("error: output '{}' must end in .exr (a .png and a .json are written beside it)\n", dir.path.join("x.png").display())
     );
     assert_eq!(dir.files(), vec!["plain", "x.exr", "y.json"]);
+}
+
+#[test]
+fn a_missing_output_folder_is_created() {
+    let dir = TempDir::new("newdir");
+    // one image into two new folders: the log says so, the set is written there
+    let out = dir.path.join("a").join("b").join("x.exr");
+    let o = run(&["render", "--resolution", "4x4", "--spp", "1", "-o", &path_str(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains(&format!("created the output folder '{}'", out.parent().unwrap().display())), "{}", stderr(&o));
+    for ext in ["exr", "png", "json"] {
+        assert!(out.with_extension(ext).is_file(), "{ext}");
+    }
+    // the frames of a camera path into a new folder (the Dask farm made it; the CLI refused)
+    let path = dir.path.join("path.json");
+    std::fs::write(
+        &path,
+        r#"{"fps": 1, "keyframes": [{"time": 0, "position": [278, 273, -800], "target": [278, 273, 0], "fov": 40},
+           {"time": 1, "position": [300, 273, -800], "target": [278, 273, 0], "fov": 40}]}"#,
+    )
+    .expect("write path");
+    let frames = dir.path.join("frames").join("f.exr");
+    let o = run(&["render", "--resolution", "4x4", "--spp", "1", "--camera-path", &path_str(&path), "-q", "-o", &path_str(&frames)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.path.join("frames").join("f_0001.exr").is_file() && dir.path.join("frames").join("f_0002.exr").is_file());
+    // a bake and a report too
+    let oxc = dir.path.join("c").join("l.oxc");
+    let o = run(&["bake", "--photons", "1000", "-q", "-o", &path_str(&oxc)]);
+    assert!(o.status.success() && oxc.is_file(), "{}", stderr(&o));
+    let page = dir.path.join("d").join("r.html");
+    let o = run(&["report", &path_str(&out), "-o", &path_str(&page)]);
+    assert!(o.status.success() && page.is_file(), "{}", stderr(&o));
+    // what cannot be a folder is still refused, naming it
+    let file = dir.path.join("plain");
+    std::fs::write(&file, "").expect("write");
+    let o = run(&["render", "-q", "-o", &path_str(&file.join("sub").join("x.exr"))]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains(&format!("'{}'", file.join("sub").display())), "{}", stderr(&o));
 }
 
 #[test]
@@ -351,6 +391,22 @@ fn compare_refuses_non_finite_values_and_counts_them() {
     assert_eq!(stderr(&o), format!("error: cannot compare: {} holds 5 non-finite values (NaN or infinity) in 2 pixels\n", b.display()));
     let o = run(&["compare", &path_str(&g), &path_str(&g)]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // PNGs are read (decoded from sRGB), not refused as unreadable OpenEXR (issue 30)
+    let p = dir.path.join("good.png");
+    octolux_io::image_io::write_png(&p, &good).expect("write");
+    let o = run(&["compare", &path_str(&p), &path_str(&g)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON");
+    // 0.5 through 8-bit sRGB and back: within half a step
+    assert!(json["rel_mse"].as_f64().is_some_and(|e| e < 1e-4), "{json}");
+    let o = run(&["compare", &path_str(&dir.path.join("good.json")), &path_str(&g)]);
+    assert_eq!(
+        stderr(&o),
+        format!(
+            "error: cannot read the image: {}: unsupported image format '.json' (expected png, jpg, exr or hdr)\n",
+            dir.path.join("good.json").display()
+        )
+    );
 }
 
 #[test]
@@ -711,7 +767,7 @@ fn inputs_that_are_not_regular_files_are_refused() {
     let o = run(&["render", "cornell-box", "--cache", "/dev/zero", "-q", "-o", &out]);
     assert_eq!(stderr(&o), format!("error: {dev}\n"));
     let o = run(&["compare", "/dev/zero", &out]);
-    assert_eq!(stderr(&o), format!("error: cannot read /dev/zero: {dev}\n"));
+    assert_eq!(stderr(&o), format!("error: cannot read the image: {dev}\n"));
     let o = run(&["render", "cornell-box", "--camera-path", &path_str(&dir.path), "-q", "-o", &out]);
     assert_eq!(stderr(&o), format!("error: camera path {}: this is a folder, not a file\n", dir.path.display()));
     assert!(dir.files().is_empty());
@@ -965,6 +1021,23 @@ fn gltf_uris_outside_the_folder_need_the_flag() {
     let o = child.wait_with_output().expect("wait");
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stderr(&o), "");
+}
+
+#[test]
+fn a_closed_stderr_does_not_stop_a_render() {
+    // `octolux render ... 2>&1 | head -1`: the log's reader is gone; the render goes on and
+    // writes its set (each log line panicked, exit status 101, issue 30)
+    let dir = TempDir::new("stderr");
+    let out = dir.path.join("x.exr");
+    let mut child = octolux()
+        .args(["render", "--resolution", "8x8", "--spp", "1", "--photons", "100", "-o", &path_str(&out)])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    drop(child.stderr.take());
+    let status = child.wait().expect("wait");
+    assert!(status.success(), "{status:?}");
+    assert!(out.is_file() && out.with_extension("json").is_file());
 }
 
 /// A binary PLY grid of `nx` x `ny` quads (two triangles each), written row by row: `(nx +

@@ -63,6 +63,13 @@ fn report_holds_the_metrics_and_shows_the_images_in_chromium() {
     write_exr(&d.join("ref.exr"), &r).unwrap();
     std::fs::write(d.join("bench.json"), r#"{"title": "t", "series": [{"name": "path", "time_s": [1, 2], "rel_mse": [0.1, 0.05]}]}"#)
         .unwrap();
+    // a series whose greatest relMSE lies in (0.1, 1] (and times in (0.1, 1] s): the page once
+    // drew it off the plot (`Math.ceil(-0.3)` is `-0`, taken for "no bound")
+    std::fs::write(
+        d.join("bench2.json"),
+        r#"{"title": "u", "series": [{"name": "low", "time_s": [0.2, 0.5], "rel_mse": [0.5, 0.05]}, {"name": "one", "time_s": [0.3], "rel_mse": [1.0]}]}"#,
+    )
+    .unwrap();
     let page = d.join("report.html");
     let out = octolux(&[
         "report".as_ref(),
@@ -72,6 +79,8 @@ fn report_holds_the_metrics_and_shows_the_images_in_chromium() {
         d.join("ref.exr").as_os_str(),
         "--bench".as_ref(),
         d.join("bench.json").as_os_str(),
+        "--bench".as_ref(),
+        d.join("bench2.json").as_os_str(),
         "-o".as_ref(),
         page.as_os_str(),
     ]);
@@ -82,6 +91,9 @@ fn report_holds_the_metrics_and_shows_the_images_in_chromium() {
     assert!(html.contains(&format!("\"rel_mse\":{}", m.rel_mse)), "relMSE {} not in the page", m.rel_mse);
     assert!(html.contains("\"flip_mean\":"), "no FLIP mean");
     assert!(!html.contains("__OCTOLUX_DATA__"), "the template was not filled");
+    // the axes' decades hold every point
+    assert!(html.contains(r#""x_decades":[0,1]"#) && html.contains(r#""y_decades":[-2,-1]"#), "bench axes");
+    assert!(html.contains(r#""x_decades":[-1,0]"#) && html.contains(r#""y_decades":[-2,0]"#), "bench2 axes");
 
     let Some(browser) = chromium() else {
         assert!(std::env::var("OCTOLUX_REQUIRE_CHROMIUM").as_deref() != Ok("1"), "OCTOLUX_REQUIRE_CHROMIUM=1 but no chromium found");
@@ -91,6 +103,18 @@ fn report_holds_the_metrics_and_shows_the_images_in_chromium() {
     let dom = headless(&browser, &page, &["--dump-dom"]);
     let dom_text = String::from_utf8_lossy(&dom.stdout);
     assert!(dom_text.contains("data-status=\"ok\""), "the page's script did not run to its end: {}", &dom_text[..dom_text.len().min(300)]);
+    // every point of every series inside its plot (the SVG's frame: x in [60, 330], y in [24, 260])
+    let mut points = 0;
+    // (the page's script, which the dump holds too, writes `points="${p}"`)
+    for poly in dom_text.split("<polyline points=\"").skip(1).filter(|p| !p.starts_with('$')) {
+        for xy in poly.split('"').next().unwrap_or("").split_whitespace() {
+            let (x, y) = xy.split_once(',').expect("x,y");
+            let (x, y): (f64, f64) = (x.parse().expect("x"), y.parse().expect("y"));
+            assert!((59.9..=330.1).contains(&x) && (23.9..=260.1).contains(&y), "point {x},{y} outside the plot");
+            points += 1;
+        }
+    }
+    assert_eq!(points, 5, "the plotted points");
     let console: Vec<String> = String::from_utf8_lossy(&dom.stderr).lines().filter(|l| l.contains("CONSOLE")).map(String::from).collect();
     assert!(console.is_empty(), "console messages: {console:?}");
     let shot = d.join("shot.png");

@@ -14,6 +14,9 @@
 //!   fails here too), and what exists under the name is a regular file (or a link to one). A
 //!   device node, a FIFO, a socket or a folder is refused: renaming over `/dev/null` would
 //!   leave the whole machine a regular file there.
+//! - A missing output folder is created first ([`create_output_folder`], `mkdir -p`, as the
+//!   Dask farm does), by the front ends' jobs before they check their outputs; the folders a
+//!   run created are removed again, if still empty, when it fails ([`remove_created_folders`]).
 //! - An output is never one of the run's inputs: every file read through this module's
 //!   readers, and every path a front end names with [`note_input`], is remembered by device
 //!   and inode, so the same file under another name (a symbolic or hard link) is refused too.
@@ -34,6 +37,8 @@ pub const NAME_MAX: usize = 255;
 static INPUTS: Mutex<Vec<(u64, u64, PathBuf)>> = Mutex::new(Vec::new());
 /// Staged files and folders not yet renamed or removed.
 static STAGED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+/// Output folders this run created, outermost first.
+static CREATED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
 /// Device and inode of a file (following links); `None` where it does not exist (or on a
 /// platform without them).
@@ -212,6 +217,50 @@ pub fn check_output(path: &Path) -> Result<(), String> {
             Ok(())
         }
         Err(e) => Err(format!("output folder '{}' is not writable: {e}", dir.display())),
+    }
+}
+
+/// Create the folder of an output where it is missing, with the missing folders above it
+/// (`render -o frames/f.exr` into a new `frames`), and remember them for
+/// [`remove_created_folders`]. An existing folder, or a path whose folder cannot be looked at
+/// (a file in the way), is left to [`check_output`], which says what is wrong; a folder that
+/// cannot be created is an error naming it. Returns the folder when it was created.
+pub fn create_output_folder(path: &Path) -> Result<Option<PathBuf>, String> {
+    let dir = folder_of(path);
+    match std::fs::metadata(&dir) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        _ => return Ok(None),
+    }
+    // the missing folders, innermost first (a dangling link stops the walk: creating below it fails)
+    let mut missing = Vec::new();
+    let mut d = dir.as_path();
+    while std::fs::symlink_metadata(d).is_err() {
+        missing.push(d.to_path_buf());
+        match d.parent() {
+            Some(p) if !p.as_os_str().is_empty() => d = p,
+            _ => break,
+        }
+    }
+    for m in missing.iter().rev() {
+        match std::fs::create_dir(m) {
+            Ok(()) => CREATED.lock().unwrap_or_else(|e| e.into_inner()).push(m.clone()),
+            // another run made it meanwhile
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && m.is_dir() => {}
+            Err(e) => return Err(format!("cannot create the output folder '{}': {e}", m.display())),
+        }
+    }
+    Ok(Some(dir))
+}
+
+/// Remove the output folders this run created ([`create_output_folder`]) that are still empty,
+/// innermost first: a failed run leaves no empty folder behind.
+pub fn remove_created_folders() {
+    // try_lock: a signal's exit must not wait
+    if let Ok(mut list) = CREATED.try_lock() {
+        while let Some(d) = list.pop() {
+            // `remove_dir` removes only an empty folder
+            let _ = std::fs::remove_dir(&d);
+        }
     }
 }
 

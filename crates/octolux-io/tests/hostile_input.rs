@@ -923,3 +923,29 @@ fn a_device_named_as_a_bitmap_or_mesh_says_what_it_is() {
     std::fs::write(dir.join("t.tga"), b"not an image").unwrap();
     assert_eq!(load(&bitmap("t.tga")), format!("{}/t.tga: unsupported image format '.tga' (expected png, jpg, exr or hdr)", dir.display()));
 }
+
+/// Issue 30: a misspelt bsdf type was a warning and rendered grey 0.5; a type that is no
+/// Mitsuba bsdf is an error naming the file, the line and the type, with the closest name.
+#[test]
+fn xml_unknown_bsdf_type_is_an_error_with_the_closest_name() {
+    let scene = |ty: &str| format!("<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n<bsdf type=\"{ty}\"/>\n</shape>\n</scene>");
+    assert_eq!(xml_err(&scene("difuse")), "h.xml:3: <bsdf type=\"difuse\">: unknown bsdf type \"difuse\" (did you mean \"diffuse\"?)");
+    assert_eq!(
+        xml_err(&scene("roughconductr")),
+        "h.xml:3: <bsdf type=\"roughconductr\">: unknown bsdf type \"roughconductr\" (did you mean \"roughconductor\"?)"
+    );
+    let e = xml_err(&scene("glass"));
+    assert!(e.starts_with("h.xml:3: <bsdf type=\"glass\">: unknown bsdf type \"glass\": no bsdf of Mitsuba 3 or 0.6 has that name"), "{e}");
+    assert!(e.contains("(octolux reads diffuse, dielectric, "), "{e}");
+    // at scene level, used by nothing: Mitsuba instantiates it and refuses the file too
+    let top = "<scene version=\"3.0.0\">\n<bsdf type=\"plastik\" id=\"p\"/>\n<shape type=\"sphere\"/>\n</scene>";
+    assert!(
+        xml_err(top).starts_with("h.xml:2: <bsdf type=\"plastik\" id=\"p\">: unknown bsdf type \"plastik\" (did you mean \"plastic\"?)")
+    );
+    // a real Mitsuba plugin octolux does not read: a warning, the default diffuse
+    setup();
+    for ty in ["hair", "principled", "roughdiffuse", "coating"] {
+        let s = load_str(&scene(ty), Path::new("h.xml"), &[]).expect("loads");
+        assert!(s.warnings.iter().any(|w| w.contains(&format!("unsupported bsdf type \"{ty}\""))), "{ty}: {:?}", s.warnings);
+    }
+}

@@ -412,7 +412,25 @@ pub enum RenderOutcome {
 
 /// The whole of `octolux render`: every input and output checked before any long work, then
 /// the integrator, then one image or each frame written as its output set.
+/// A missing output folder is created (and removed again, if still empty, when the job fails
+/// or is interrupted before writing anything).
 pub fn run_render(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result<RenderOutcome> {
+    let out = render_job(job, fe, cancel);
+    if !matches!(out, Ok(RenderOutcome::Done(_))) {
+        crate::files::remove_created_folders();
+    }
+    out
+}
+
+/// Create the folder of an output where it is missing, saying so on the log.
+fn output_folder(path: &Path, fe: &dyn Frontend) -> Result<()> {
+    if let Some(dir) = crate::files::create_output_folder(path).map_err(JobError)? {
+        fe.info(&format!("created the output folder '{}'", dir.display()));
+    }
+    Ok(())
+}
+
+fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result<RenderOutcome> {
     let t0 = Instant::now();
     check_max_depth(job.max_depth, "--max-depth")?;
     if let Some(b) = job.time_budget_s {
@@ -443,6 +461,7 @@ pub fn run_render(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Re
     for p in inputs.flatten() {
         crate::files::note_input(p);
     }
+    output_folder(&job.output, fe)?;
     let outputs = output::Outputs::check(&job.output)?;
     // a lighting cache is read and checked before the scene (which may take long to load)
     let cache = job.cache.as_deref().map(|p| read_cache(p, job.allow_stale_cache)).transpose()?;
@@ -544,15 +563,17 @@ pub fn run_render(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Re
         _ if !build.is_null() => fe.info(&format!("{name}: {}", stats::summary(&build))),
         _ => {}
     }
+    let tris = scene.triangle_count();
     fe.info(&format!(
-        "octolux: {} ({} triangles), {}x{}, {} spp, integrator {}, backend {}, {} threads",
+        "octolux: {} ({tris} triangle{}), {}x{}, {} spp, integrator {}, backend {}{}, {} threads",
         job.scene.scene,
-        scene.triangle_count(),
+        if tris == 1 { "" } else { "s" },
         scene.film.width,
         scene.film.height,
         spp,
         integrator.name(),
         scene.backend_name(),
+        scene.backend_choice().map(|c| format!(" ({c})")).unwrap_or_default(),
         threads
     ));
     if let Some(view) = settings::get(&integrator_settings, "view").filter(|v| v != "render") {
@@ -679,13 +700,23 @@ pub struct BakeJob {
 
 /// The whole of `octolux bake`: the output checked first, the scene loaded and prepared, the
 /// octrees built and their volumetric values filled, the cache and its report written.
+/// A missing output folder is created (and removed again, if still empty, when the job fails).
 pub fn run_bake(job: &BakeJob, fe: &dyn Frontend) -> Result<bake::BakeReport> {
+    let out = bake_job(job, fe);
+    if out.is_err() {
+        crate::files::remove_created_folders();
+    }
+    out
+}
+
+fn bake_job(job: &BakeJob, fe: &dyn Frontend) -> Result<bake::BakeReport> {
     let t0 = Instant::now();
     check_max_depth(job.max_depth, "--max-depth")?;
     let inputs = [Some(Path::new(&job.scene.scene)), job.settings.settings_file.as_deref()];
     for p in inputs.into_iter().flatten() {
         crate::files::note_input(p);
     }
+    output_folder(&job.output, fe)?;
     crate::files::check_output(&job.output)?;
     let report_path = bake::report_path(&job.output)?;
     crate::files::check_output(&report_path)?;

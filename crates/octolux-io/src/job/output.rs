@@ -4,7 +4,7 @@
 //!
 //! - [`Outputs::check`] runs before any work: each of the three paths passes
 //!   [`files::check_output`] (a file name of at most 255 bytes, not ending in `/`; its folder
-//!   exists and takes a probe file; nothing but a regular file under the name; not an input),
+//!   exists, created first by the jobs where it is missing, and takes a probe file; nothing but a regular file under the name; not an input),
 //!   and the name ends in `.exr`. A render is never lost to a typo in `-o`.
 //! - [`Outputs::write`] writes each file to a unique staging name in the same folder
 //!   (`.NAME.PID-N-NANOS.staged`, so two runs never share one), and only when all three are

@@ -22,6 +22,52 @@ fn holds_frame_wrapper(m: &Material) -> bool {
     }
 }
 
+/// The bsdf types octolux reads.
+pub(super) const BSDF_TYPES: &[&str] = &[
+    "diffuse",
+    "dielectric",
+    "thindielectric",
+    "roughdielectric",
+    "conductor",
+    "roughconductor",
+    "plastic",
+    "roughplastic",
+    "ward",
+    "phong",
+    "twosided",
+    "blendbsdf",
+    "mask",
+    "bumpmap",
+    "normalmap",
+    "null",
+];
+
+/// Bsdf plugins of Mitsuba 3 and of 0.5/0.6 that octolux does not read: a warning, and
+/// Mitsuba's default diffuse in their place. Any other type is no Mitsuba plugin (Mitsuba
+/// refuses the file too): an error.
+const MITSUBA_ONLY_BSDF_TYPES: &[&str] = &[
+    // Mitsuba 3
+    "hair",
+    "measured",
+    "measured_polarized",
+    "polarizer",
+    "retarder",
+    "circular",
+    "pplastic",
+    "principled",
+    "principledthin",
+    // Mitsuba 0.5/0.6
+    "roughdiffuse",
+    "coating",
+    "roughcoating",
+    "difftrans",
+    "hk",
+    "irawan",
+    "mixturebsdf",
+    "dipolebrdf",
+    "sssbrdf",
+];
+
 impl<'t> Builder<'t> {
     pub(super) fn default_material(&mut self) -> u32 {
         if let Some(i) = self.default_material {
@@ -372,6 +418,17 @@ impl<'t> Builder<'t> {
             "null" => {
                 self.warn(e, "the null bsdf (invisible surface) is not supported; the surface is black diffuse");
                 Material::Diffuse { reflectance: Texture::Const(Color::ZERO) }
+            }
+            other if !MITSUBA_ONLY_BSDF_TYPES.contains(&other) => {
+                let known = BSDF_TYPES.iter().chain(MITSUBA_ONLY_BSDF_TYPES);
+                let msg = match super::did_you_mean(other, known.clone().copied()) {
+                    Some(close) => format!("unknown bsdf type \"{other}\" (did you mean \"{close}\"?)"),
+                    None => format!(
+                        "unknown bsdf type \"{other}\": no bsdf of Mitsuba 3 or 0.6 has that name (octolux reads {})",
+                        BSDF_TYPES.join(", ")
+                    ),
+                };
+                return Err(e.loc.error(format!("{}: {msg}", e.describe())));
             }
             other => {
                 self.warn(e, format!("unsupported bsdf type \"{other}\"; using Mitsuba's default diffuse (reflectance 0.5)"));

@@ -23,6 +23,9 @@
 //!   true with a warning (a sampling choice: the same image in expectation). Mitsuba 0.6's
 //!   `ward` and `phong` follow 0.6's definitions, including `ensureEnergyConservation`.
 //! - `mask`, `bumpmap` and `normalmap` use their nested bsdf; `thinlens` is a pinhole camera.
+//! - A bsdf of Mitsuba that octolux does not read (`hair`, `principled`, 0.6's `coating`...) is
+//!   a warning and Mitsuba's default diffuse; a bsdf type that no Mitsuba has (`difuse`) is an
+//!   error naming the closest type, as Mitsuba refuses the file too.
 //! - The sampler type is irrelevant (only `sample_count` is read); `ldrfilm` is read as
 //!   `hdrfilm`; tone-mapping and output parameters are ignored with a warning.
 //! - Geometry is transformed to world space here; spheres keep an analytic form when their
@@ -49,6 +52,44 @@ use props::Props;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use tree::Elem;
+
+/// The candidate closest to `word` by edit distance (insertions, deletions, substitutions and
+/// swaps of two neighbours), if it is close enough to be a typo of it: at most 2 edits, and
+/// fewer than half of `word`'s letters. The first of equally close candidates wins.
+pub(crate) fn did_you_mean<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    let w: Vec<char> = word.chars().collect();
+    let mut best: Option<(usize, &str)> = None;
+    for c in candidates {
+        let d = edit_distance(&w, &c.chars().collect::<Vec<_>>());
+        let closer = match best {
+            Some((b, _)) => d < b,
+            None => true,
+        };
+        if d <= 2 && 2 * d < w.len() && closer {
+            best = Some((d, c));
+        }
+    }
+    best.map(|(_, c)| c)
+}
+
+/// Optimal string alignment distance (Levenshtein plus swaps of neighbours).
+fn edit_distance(a: &[char], b: &[char]) -> usize {
+    // rows i-2, i-1 and i of the table
+    let mut prev2: Vec<usize> = vec![0; b.len() + 1];
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for i in 1..=a.len() {
+        let mut cur = vec![i; b.len() + 1];
+        for j in 1..=b.len() {
+            let cost = usize::from(a[i - 1] != b[j - 1]);
+            cur[j] = (prev[j] + 1).min(cur[j - 1] + 1).min(prev[j - 1] + cost);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                cur[j] = cur[j].min(prev2[j - 2] + 1);
+            }
+        }
+        prev2 = std::mem::replace(&mut prev, cur);
+    }
+    prev[b.len()]
+}
 
 /// Load a Mitsuba XML scene. `defines` override `<default>` parameters (like `mitsuba -D`).
 pub fn load(path: &Path, defines: &[(String, String)]) -> Result<LoadedScene, IoError> {
@@ -350,5 +391,26 @@ impl<'t> Builder<'t> {
         }
         p.finish(&mut self.warnings);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::did_you_mean;
+
+    #[test]
+    fn typos_find_their_word_and_strangers_find_none() {
+        let words = ["diffuse", "dielectric", "roughconductor", "plastic", "roughplastic", "hk"];
+        assert_eq!(did_you_mean("difuse", words), Some("diffuse"));
+        assert_eq!(did_you_mean("Diffuse", words), Some("diffuse"));
+        assert_eq!(did_you_mean("idffuse", words), Some("diffuse"), "a swap is one edit");
+        assert_eq!(did_you_mean("roughconductr", words), Some("roughconductor"));
+        assert_eq!(did_you_mean("plastc", words), Some("plastic"));
+        assert_eq!(did_you_mean("roughplastik", words), Some("roughplastic"));
+        assert_eq!(did_you_mean("glass", words), None);
+        assert_eq!(did_you_mean("disney", words), None);
+        // a short word needs a closer match: "hx" is 1 edit from "hk", half of its letters
+        assert_eq!(did_you_mean("hx", words), None);
+        assert_eq!(did_you_mean("", words), None);
     }
 }

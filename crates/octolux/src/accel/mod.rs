@@ -60,6 +60,8 @@ pub struct Accel {
     /// Original index of each triangle the backend holds, when identical triangles were
     /// dropped ([`dedup`]); `None` when it holds all of them, in order.
     kept: Option<Vec<u32>>,
+    /// Why `BackendKind::Auto` chose this backend, in words; `None` for a named backend.
+    choice: Option<String>,
 }
 
 /// The backend of an [`Accel`].
@@ -90,17 +92,21 @@ impl Accel {
             None => triangles,
         };
         let bvh = || Backend::Bvh(bvh::Bvh8::build(vertices, tris));
-        let backend = match kind {
-            BackendKind::Bvh => bvh(),
-            BackendKind::Embree => Backend::Embree(embree::EmbreeAccel::build(vertices, tris)?),
-            BackendKind::Auto if tris.len() < AUTO_BVH_MAX_TRIANGLES => bvh(),
+        let (backend, choice) = match kind {
+            BackendKind::Bvh => (bvh(), None),
+            BackendKind::Embree => (Backend::Embree(embree::EmbreeAccel::build(vertices, tris)?), None),
+            BackendKind::Auto if tris.len() < AUTO_BVH_MAX_TRIANGLES => {
+                (bvh(), Some(format!("auto: fewer than {AUTO_BVH_MAX_TRIANGLES} triangles, where the BVH is faster than Embree")))
+            }
             BackendKind::Auto => match embree::EmbreeAccel::build(vertices, tris) {
-                Ok(e) => Backend::Embree(e),
-                Err(AccelError::EmbreeUnavailable(_)) => bvh(),
+                Ok(e) => (Backend::Embree(e), Some(format!("auto: {AUTO_BVH_MAX_TRIANGLES} triangles or more, where Embree is faster"))),
+                Err(AccelError::EmbreeUnavailable(why)) => {
+                    (bvh(), Some(format!("auto: {AUTO_BVH_MAX_TRIANGLES} triangles or more, but Embree cannot be loaded: {why}")))
+                }
                 Err(e) => return Err(e),
             },
         };
-        Ok(Accel { backend, kept })
+        Ok(Accel { backend, kept, choice })
     }
 
     /// The backend in use.
@@ -115,6 +121,12 @@ impl Accel {
             hit.prim = k[hit.prim as usize];
         }
         hit
+    }
+
+    /// Why `BackendKind::Auto` chose the backend in use (`auto: fewer than 65536 triangles,
+    /// where the BVH is faster than Embree`); `None` when the backend was named.
+    pub fn choice(&self) -> Option<&str> {
+        self.choice.as_deref()
     }
 
     /// Whether the Embree library can be loaded on this machine.
@@ -476,13 +488,17 @@ mod tests {
         let small = meshes::cornell_box();
         let auto = Accel::build(&small.vertices, &small.triangles, BackendKind::Auto).expect("auto");
         assert!(matches!(auto.backend(), Backend::Bvh(_)), "small scenes use the BVH");
+        assert_eq!(auto.choice(), Some("auto: fewer than 65536 triangles, where the BVH is faster than Embree"));
+        assert_eq!(Accel::build(&small.vertices, &small.triangles, BackendKind::Bvh).expect("bvh").choice(), None);
         let big = meshes::triangle_soup(AUTO_BVH_MAX_TRIANGLES, 0.01, 1);
         let auto = Accel::build(&big.vertices, &big.triangles, BackendKind::Auto).expect("auto");
         if let Some(e) = embree(&small) {
             assert!(e.name().starts_with("embree 3."), "{}", e.name());
             assert!(matches!(auto.backend(), Backend::Embree(_)), "large scenes use Embree when it loads");
+            assert_eq!(auto.choice(), Some("auto: 65536 triangles or more, where Embree is faster"));
         } else {
             assert!(matches!(auto.backend(), Backend::Bvh(_)));
+            assert!(auto.choice().is_some_and(|c| c.starts_with("auto: 65536 triangles or more, but Embree cannot be loaded: ")));
         }
     }
 

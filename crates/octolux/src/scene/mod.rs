@@ -324,6 +324,11 @@ impl Scene {
         self.accel.name()
     }
 
+    /// Why `--backend auto` chose the backend in use, in words ([`Accel::choice`]).
+    pub fn backend_choice(&self) -> Option<&str> {
+        self.accel.choice()
+    }
+
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
     }
