@@ -41,6 +41,11 @@ __all__ = [
 PathLike = Union[str, "os.PathLike[str]"]
 
 
+def __dir__() -> List[str]:
+    # the public names only: not the helpers and imports (`np`, `os`, `Any`, ...)
+    return sorted(__all__)
+
+
 class OctoluxWarning(UserWarning):
     """A warning of octolux: what it renders differently from what the scene file says."""
 
