@@ -4,8 +4,9 @@
 //!
 //! The bindings call the CLI's code, not copies of it: every step is `octolux_io::job`'s (the
 //! scene's load and preparation, the settings' resolution, so that a bad key raises the CLI's
-//! message, the cache's checks, the integrator's build, the bake with its volumetric values,
-//! `OUT.json`), and `render_to_files` is `octolux render` itself (the Dask farm's frames).
+//! message in Python's words (`Spelling::Python`), the cache's checks, the integrator's build,
+//! the bake with its volumetric values, `OUT.json`), and `render_to_files` is `octolux render`
+//! itself (the Dask farm's frames).
 //!
 //! Long work (loading, the photon pass, rendering) runs on a worker thread while the calling
 //! thread waits with the GIL released, checking for signals every 20 ms: Ctrl-C stops a render
