@@ -238,6 +238,8 @@ def write_doc(args, rows) -> None:
              "through `tools/mitsuba/translate.py`, whose approximations are listed per scene below. "
              "Samples/s are measured on whatever else the machine runs at the time (both renderers in the same "
              "run, one after the other).\n")
+    L.append("Where the scenes come from, their licences and how to fetch them: "
+             "[scene-sources.md](scene-sources.md) (`python3 tools/fetch_scenes.py`).\n")
     L.append("Tests over these scenes (they skip without `../shared`): "
              "`crates/octolux-cli/tests/agreement_collection.rs` (octolux `path` against each reference: image "
              "means within 1% plus three standard errors, relMSE within 1.25x both images' noise; `box` on region "

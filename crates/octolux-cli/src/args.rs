@@ -425,6 +425,7 @@ impl RenderArgs {
                 flags: self.keys.settings(),
                 sets: self.set.clone(),
                 seed: self.seed,
+                spelling: Default::default(),
             },
             spp: self.spp,
             resolution: self.resolution,

@@ -52,6 +52,7 @@ pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
             flags: args.keys.settings(),
             sets: args.set.clone(),
             seed: args.seed,
+            spelling: Default::default(),
         },
         max_depth: args.max_depth,
         backend: args.backend,

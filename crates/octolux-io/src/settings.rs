@@ -140,6 +140,59 @@ pub fn check_values(s: &IntegratorSettings) -> std::result::Result<(), String> {
     }
 }
 
+/// How a front end spells what its user typed, for the messages of [`resolve_spelt`]: the
+/// command line's `--set KEY=VALUE` and `--integrator NAME`, or Python's settings dict and
+/// `integrator=` argument (`settings={"photons": {"bogus": 1}}`, `integrator='path'`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Spelling {
+    #[default]
+    Cli,
+    Python,
+}
+
+impl Spelling {
+    /// The write `KEY=VALUE` (a dotted key, a JSON value) as the user gave it.
+    fn set(self, s: &str) -> String {
+        match self {
+            Spelling::Cli => format!("--set {s}"),
+            Spelling::Python => {
+                let (key, raw) = s.split_once('=').unwrap_or((s, ""));
+                let mut out = python_literal(raw.trim());
+                for part in key.trim().rsplit('.') {
+                    out = format!("{{{}: {out}}}", Value::String(part.to_string()));
+                }
+                format!("settings={out}")
+            }
+        }
+    }
+
+    /// The choice of integrator `name`.
+    fn integrator(self, name: &str) -> String {
+        self.integrators(&[name])
+    }
+
+    /// The choice of one of the integrators `names` (`--integrator a, b`, `integrator 'a', 'b'`).
+    fn integrators(self, names: &[&str]) -> String {
+        match (self, names) {
+            (Spelling::Cli, []) => "--integrator none".into(),
+            (Spelling::Cli, _) => format!("--integrator {}", names.join(", ")),
+            (Spelling::Python, []) => "no integrator".into(),
+            (Spelling::Python, [one]) => format!("integrator='{one}'"),
+            (Spelling::Python, _) => format!("integrator {}", names.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")),
+        }
+    }
+}
+
+/// A JSON value as Python writes it (`true` -> `True`, `null` -> `None`; the rest reads alike).
+fn python_literal(raw: &str) -> String {
+    match raw {
+        "true" => "True".into(),
+        "false" => "False".into(),
+        "null" => "None".into(),
+        _ => raw.to_string(),
+    }
+}
+
 /// The merged settings and the warnings met on the way.
 #[derive(Debug)]
 pub struct Resolved {
@@ -157,24 +210,31 @@ struct Write {
 
 /// Merges the layers (module docs) into the settings of one integrator.
 pub fn resolve(input: &SettingsInput) -> Result<Resolved> {
+    resolve_spelt(input, Spelling::Cli)
+}
+
+/// [`resolve`], its messages naming what the user typed as `spelling` spells it.
+pub fn resolve_spelt(input: &SettingsInput, spelling: Spelling) -> Result<Resolved> {
     let file = input.file.map(read_settings_file).transpose()?;
-    resolve_with(input, file)
+    resolve_with(input, file, spelling)
 }
 
 /// The settings a settings file's text gives alone (no flag, no `--set`), as if read from
 /// `path` (whose extension gives the format): the fuzz target's entry ([`crate::fuzzing`]).
 pub fn resolve_file_text(path: &Path, text: &str) -> Result<Resolved> {
     let file = parse_settings_file(path, text)?;
-    resolve_with(&SettingsInput { integrator: None, base: None, derived: vec![], file: Some(path), flags: vec![], sets: &[] }, Some(file))
+    resolve_with(
+        &SettingsInput { integrator: None, base: None, derived: vec![], file: Some(path), flags: vec![], sets: &[] },
+        Some(file),
+        Spelling::Cli,
+    )
 }
 
-fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Resolved> {
+fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>, sp: Spelling) -> Result<Resolved> {
+    let int = |n: &str| sp.integrator(n);
     let name = match (input.integrator, file.as_ref().and_then(|f| f.integrator.as_deref())) {
         (Some(flag), Some(ty)) if flag != ty => {
-            bail!(
-                "settings file {} is for --integrator {ty}, but --integrator {flag} was given",
-                input.file.unwrap_or(Path::new("")).display()
-            )
+            bail!("settings file {} is for {}, but {} was given", input.file.unwrap_or(Path::new("")).display(), int(ty), int(flag))
         }
         (Some(flag), _) => flag.to_string(),
         (None, Some(ty)) => ty.to_string(),
@@ -209,19 +269,18 @@ fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Res
     }
     let file_writes = writes.len();
     for w in &writes[..file_writes] {
-        place_checked(&mut merged, &mut created, w, &name, &others, &mut warnings)?;
+        place_checked(&mut merged, &mut created, w, &name, &others, &mut warnings, sp)?;
     }
     // layer 3: the flags
     for f in &input.flags {
         if let Some(only) = f.only.filter(|&o| o != name) {
-            warnings.push(format!("{} applies to --integrator {only} only; ignored by --integrator {name}", f.flag));
+            warnings.push(format!("{} applies to {} only; ignored by {}", f.flag, int(only), int(&name)));
             continue;
         }
         let present: Vec<&String> = f.keys.iter().filter(|k| lookup(&merged, k).is_some()).collect();
         if present.is_empty() {
             let users: Vec<&str> = others.iter().filter(|(_, d)| f.keys.iter().any(|k| lookup(d, k).is_some())).map(|(n, _)| *n).collect();
-            let users = if users.is_empty() { "none".to_string() } else { users.join(", ") };
-            warnings.push(format!("{} applies to --integrator {users} only; ignored by --integrator {name}", f.flag));
+            warnings.push(format!("{} applies to {} only; ignored by {}", f.flag, sp.integrators(&users), int(&name)));
             continue;
         }
         for key in present {
@@ -237,28 +296,34 @@ fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Res
     let set_writes = writes.len();
     // layer 4: --set
     for s in input.sets {
-        let (key, raw) = s.split_once('=').with_context(|| format!("--set {s}: expected KEY=VALUE (e.g. photons.photons=2000000)"))?;
+        let (key, raw) = s.split_once('=').with_context(|| format!("{}: expected KEY=VALUE (e.g. photons.photons=2000000)", sp.set(s)))?;
         let key = key.trim();
         if key == "type" {
-            bail!("--set {s}: the integrator is chosen with --integrator (or the settings file's `type`)");
+            let how = match sp {
+                Spelling::Cli => "--integrator",
+                Spelling::Python => "integrator=",
+            };
+            bail!("{}: the integrator is chosen with {how} (or the settings file's `type`)", sp.set(s));
         }
         let value = match serde_json::from_str(raw) {
             Ok(v) => v,
             // JSON has no NaN or infinity: said so, not "invalid type: string"
-            Err(_) if is_non_finite_word(raw) => bail!("--set {s}: {} is not a finite number", raw.trim()),
+            Err(_) if is_non_finite_word(raw) => bail!("{}: {} is not a finite number", sp.set(s), raw.trim()),
             // `1e999` and `{"epsilon": 1e999}`: said so, not "invalid type: string" or "not an object"
-            Err(e) if e.to_string().starts_with("number out of range") => bail!("--set {s}: {} is not a finite number ({e})", raw.trim()),
-            Err(e) if raw.trim_start().starts_with(['{', '[']) => bail!("--set {s}: {} is not valid JSON: {e}", raw.trim()),
+            Err(e) if e.to_string().starts_with("number out of range") => {
+                bail!("{}: {} is not a finite number ({e})", sp.set(s), raw.trim())
+            }
+            Err(e) if raw.trim_start().starts_with(['{', '[']) => bail!("{}: {} is not valid JSON: {e}", sp.set(s), raw.trim()),
             Err(_) => Value::String(raw.to_string()),
         };
         let value = enum_spelling(lookup(&base, key), &value);
-        writes.push(Write { source: format!("--set {s}"), key: key.to_string(), value });
+        writes.push(Write { source: sp.set(s), key: key.to_string(), value });
     }
     for w in &writes[set_writes..] {
-        place_checked(&mut merged, &mut created, w, &name, &others, &mut warnings)?;
+        place_checked(&mut merged, &mut created, w, &name, &others, &mut warnings, sp)?;
     }
 
-    let settings = deserialize(&name, &merged).map_err(|e| attribute(e, &name, &base, &writes))?;
+    let settings = deserialize(&name, &merged).map_err(|e| attribute(e, &name, &base, &writes, sp))?;
     if let Err(msg) = check_values(&settings) {
         // named after the first write that fails the check alone
         for w in &writes {
@@ -269,7 +334,7 @@ fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Res
                 bail!("{}: {msg}", w.source);
             }
         }
-        bail!("the settings of --integrator {name}: {msg}");
+        bail!("the settings of {}: {msg}", int(&name));
     }
     // a key the deserialization dropped (a field of an enum variant it does not know, say)
     let round = serde_json::to_value(&settings)?;
@@ -282,7 +347,7 @@ fn resolve_with(input: &SettingsInput, file: Option<SettingsFile>) -> Result<Res
             None => missing.push(w.key.clone()),
         }
         if let Some(k) = missing.first() {
-            bail!("{}: `{k}` is not a setting of --integrator {name}; valid keys: {}", w.source, valid_keys(&base));
+            bail!("{}: `{k}` is not a setting of {}; valid keys: {}", w.source, int(&name), valid_keys(&base));
         }
     }
     Ok(Resolved { settings, warnings })
@@ -390,14 +455,14 @@ fn deserialize(name: &str, merged: &Value) -> serde_json::Result<IntegratorSetti
 }
 
 /// Names the write a deserialization error comes from: the first that fails alone.
-fn attribute(e: serde_json::Error, name: &str, base: &Value, writes: &[Write]) -> SettingsError {
+fn attribute(e: serde_json::Error, name: &str, base: &Value, writes: &[Write], sp: Spelling) -> SettingsError {
     for w in writes {
         let mut alone = base.clone();
         if place(&mut alone, &mut HashSet::new(), &w.key, w.value.clone()) && deserialize(name, &alone).is_err() {
             return SettingsError(format!("{}: {e}", w.source));
         }
     }
-    SettingsError(format!("the settings of --integrator {name} do not hold together: {e}"))
+    SettingsError(format!("the settings of {} do not hold together: {e}", sp.integrator(name)))
 }
 
 /// [`place`], with the warning or error of a key the integrator lacks.
@@ -408,6 +473,7 @@ fn place_checked(
     name: &str,
     others: &[(&str, Value)],
     warnings: &mut Vec<String>,
+    sp: Spelling,
 ) -> Result<()> {
     // A table of settings (an object of several keys) takes an object, key by key (`{}`
     // changes nothing; it reset the fields to their struct defaults, which are not the
@@ -428,7 +494,7 @@ fn place_checked(
         flatten(&Value::Object(given.clone()), String::new(), &mut leaves);
         for (k, v) in leaves.into_iter().filter(|(k, _)| !k.is_empty()) {
             let sub = Write { source: w.source.clone(), key: format!("{}.{k}", w.key), value: v };
-            place_checked(merged, created, &sub, name, others, warnings)?;
+            place_checked(merged, created, &sub, name, others, warnings, sp)?;
         }
         return Ok(());
     }
@@ -438,9 +504,13 @@ fn place_checked(
     }
     let users: Vec<&str> = others.iter().filter(|(_, d)| accepts(d, &w.key)).map(|(n, _)| *n).collect();
     if users.is_empty() {
-        bail!("{}: no integrator has the setting `{}`; the keys of --integrator {name} are: {}", w.source, w.key, valid_keys(merged));
+        bail!("{}: no integrator has the setting `{}`; the keys of {} are: {}", w.source, w.key, sp.integrator(name), valid_keys(merged));
     }
-    warnings.push(format!("{}: `{}` is a setting of --integrator {}, not of {name}; ignored", w.source, w.key, users.join(", ")));
+    let not_of = match sp {
+        Spelling::Cli => name.to_string(),
+        Spelling::Python => format!("'{name}'"),
+    };
+    warnings.push(format!("{}: `{}` is a setting of {}, not of {not_of}; ignored", w.source, w.key, sp.integrators(&users)));
     Ok(())
 }
 
@@ -654,6 +724,19 @@ mod tests {
         assert!(!place(&mut v, &mut created, "d", json!(5)));
         assert!(!place(&mut v, &mut created, "c..x", json!(5)));
         assert_eq!(v, json!({ "a": { "absolute": 3 }, "b": { "grid": { "columns": 8, "rows": 4 } }, "c": { "x": 5, "y": 2 } }));
+    }
+
+    #[test]
+    fn python_spelling_names_the_dict_key_and_the_cli_keeps_its_own() {
+        let sets = ["photons.bogus=true".to_string()];
+        let err = |sp| resolve_spelt(&input("octree", vec![], &sets), sp).unwrap_err().to_string();
+        let py = err(Spelling::Python);
+        assert!(py.starts_with(r#"settings={"photons": {"bogus": True}}: no integrator has the setting `photons.bogus`; the keys of integrator='octree' are"#), "{py}");
+        let cli = err(Spelling::Cli);
+        assert!(
+            cli.starts_with("--set photons.bogus=true: no integrator has the setting `photons.bogus`; the keys of --integrator octree are"),
+            "{cli}"
+        );
     }
 
     #[test]

@@ -1,11 +1,12 @@
-//! `octolux._octolux`: the Python bindings (issue 15, item 1), wrapped by the pure-Python
+//! `octolux._octolux`: the Python bindings, wrapped by the pure-Python
 //! package `octolux` (`python/octolux/__init__.py`), which turns settings dicts into `--set`
 //! writes, stats JSON into dicts and scene warnings into Python warnings.
 //!
 //! The bindings call the CLI's code, not copies of it: every step is `octolux_io::job`'s (the
 //! scene's load and preparation, the settings' resolution, so that a bad key raises the CLI's
-//! message, the cache's checks, the integrator's build, the bake with its volumetric values,
-//! `OUT.json`), and `render_to_files` is `octolux render` itself (the Dask farm's frames).
+//! message in Python's words (`Spelling::Python`), the cache's checks, the integrator's build,
+//! the bake with its volumetric values, `OUT.json`), and `render_to_files` is `octolux render`
+//! itself (the Dask farm's frames).
 //!
 //! Long work (loading, the photon pass, rendering) runs on a worker thread while the calling
 //! thread waits with the GIL released, checking for signals every 20 ms: Ctrl-C stops a render
@@ -18,7 +19,7 @@ use octolux::image::Image;
 use octolux::math::Color;
 use octolux::render::RenderSettings;
 use octolux_io::job::{self, bake as jbake, stats, Collect, IntegratorRequest, RenderOutcome};
-use octolux_io::settings::{keys, FlagSetting};
+use octolux_io::settings::{keys, FlagSetting, Spelling};
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use serde_json::json;
@@ -157,7 +158,7 @@ fn request(
     if let Some(d) = max_depth {
         flags.push(FlagSetting { flag: "max_depth=", only: None, keys: vec![keys::MAX_DEPTH.into()], value: json!(d), at_most: false });
     }
-    Ok(IntegratorRequest { integrator: integrator.map(String::from), settings_file: file, flags, sets, seed })
+    Ok(IntegratorRequest { integrator: integrator.map(String::from), settings_file: file, flags, sets, seed, spelling: Spelling::Python })
 }
 
 /// Render; returns the pixels (row-major rgb f32, `height*width*3`) and the stats as JSON (the
@@ -250,8 +251,19 @@ fn bake(
     threads: Option<usize>,
 ) -> PyResult<String> {
     let req = request(Some("octree"), seed, photons, max_depth, sets, settings_file)?;
-    octolux_io::files::check_output(&output).map_err(error)?;
-    let report_path = jbake::report_path(&output).map_err(error)?;
+    // a missing output folder is created, as `octolux bake` creates it, and removed again
+    // (if still empty) when the bake fails
+    let out = bake_into(py, scene, &output, req, threads);
+    if out.is_err() {
+        octolux_io::files::remove_created_folders();
+    }
+    out
+}
+
+fn bake_into(py: Python<'_>, scene: &Scene, output: &std::path::Path, req: IntegratorRequest, threads: Option<usize>) -> PyResult<String> {
+    octolux_io::files::create_output_folder(output).map_err(error)?;
+    octolux_io::files::check_output(output).map_err(error)?;
+    let report_path = jbake::report_path(output).map_err(error)?;
     octolux_io::files::check_output(&report_path).map_err(error)?;
     let never = AtomicBool::new(false);
     let t0 = Instant::now();
@@ -261,7 +273,7 @@ fn bake(
         let settings = jbake::bake_settings(&req, &scene.hints, &fe, &mut warnings)?;
         let mut baked = jbake::bake(&scene.scene, &scene.spec, settings, &fe)?;
         baked.add_front_end(&[], 0.0, 0.0, warnings);
-        jbake::write(&baked, &output, &report_path, t0, &fe)
+        jbake::write(&baked, output, &report_path, t0, &fe)
     })?
     .map_err(error)?;
     serde_json::to_string(&report).map_err(error)
@@ -349,12 +361,26 @@ fn frame_count(
         .map_err(error)
 }
 
-/// Check an output image path (`OUT.exr`, with `OUT.png` and `OUT.json` beside it) by the CLI's
-/// rule, before any work: its folder exists and takes a file, nothing but a regular file is
-/// under the names, it ends in `.exr`.
+/// Prepare an output image path (`OUT.exr`, with `OUT.png` and `OUT.json` beside it) by the
+/// CLI's rule, before any work: a missing folder is created (as `octolux render` creates it),
+/// then the folder must take a file, nothing but a regular file may be under the names, and
+/// the name must end in `.exr`. A folder created for a path that is then refused is removed
+/// again.
 #[pyfunction]
 fn check_output(path: PathBuf) -> PyResult<()> {
-    job::output::Outputs::check(&path).map(|_| ()).map_err(error)
+    let out =
+        octolux_io::files::create_output_folder(&path).map_err(job::JobError).and_then(|_| job::output::Outputs::check(&path).map(|_| ()));
+    if out.is_err() {
+        octolux_io::files::remove_created_folders();
+    }
+    out.map_err(error)
+}
+
+/// Remove the output folders this process created that are still empty (a Dask job that
+/// failed before its first frame was written).
+#[pyfunction]
+fn remove_created_folders() {
+    octolux_io::files::remove_created_folders();
 }
 
 fn to_image(a: &PyReadonlyArray3<'_, f32>, what: &str) -> PyResult<Image> {
@@ -421,6 +447,7 @@ fn _octolux(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render_to_files, m)?)?;
     m.add_function(wrap_pyfunction!(frame_count, m)?)?;
     m.add_function(wrap_pyfunction!(check_output, m)?)?;
+    m.add_function(wrap_pyfunction!(remove_created_folders, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(write_exr, m)?)?;

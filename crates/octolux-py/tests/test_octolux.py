@@ -1,4 +1,4 @@
-"""pytest suite of the `octolux` Python module (issue 15, item 1).
+"""pytest suite of the `octolux` Python module.
 
 Run by `cargo test -p octolux-py` (tests/pytest.rs builds the module into a venv first), or by
 hand: `pip install ./crates/octolux-py && pytest crates/octolux-py/tests`.
@@ -6,6 +6,7 @@ hand: `pip install ./crates/octolux-py && pytest crates/octolux-py/tests`.
 import json
 import os
 import subprocess
+import sys
 import threading
 import time
 import _thread
@@ -15,11 +16,62 @@ import numpy as np
 import pytest
 
 import octolux
+import octolux.dask
+from conftest import HOW_TO_GET_ONE, find_octolux_bin
 
 ROOT = Path(__file__).resolve().parents[3]
 REFS = ROOT / "tests" / "refs"
-BIN = os.environ.get("OCTOLUX_BIN", "")
-needs_cli = pytest.mark.skipif(not Path(BIN).is_file(), reason="OCTOLUX_BIN is not an octolux binary")
+BIN = find_octolux_bin() or ""
+needs_cli = pytest.mark.skipif(not BIN, reason=HOW_TO_GET_ONE)
+
+
+def _exe(path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("#!/bin/sh\n")
+    path.chmod(0o755)
+    return path
+
+
+def test_the_binary_is_found_by_the_variable_then_the_checkout_then_the_path(tmp_path):
+    checkout, on_path = tmp_path / "repo", tmp_path / "bin"
+    installed = _exe(on_path / "octolux")
+    named = _exe(tmp_path / "elsewhere" / "my-octolux")
+    env = {"PATH": str(on_path)}
+    assert find_octolux_bin(env, checkout) == str(installed)
+    built = _exe(checkout / "target" / "release" / "octolux")
+    assert find_octolux_bin(env, checkout) == str(built)
+    assert find_octolux_bin({**env, "OCTOLUX_BIN": str(named)}, checkout) == str(named)
+    with pytest.raises(FileNotFoundError, match="OCTOLUX_BIN=.*nothing-here is not a file"):
+        find_octolux_bin({**env, "OCTOLUX_BIN": str(tmp_path / "nothing-here")}, checkout)
+    assert find_octolux_bin({"PATH": str(tmp_path / "empty")}, tmp_path / "no-checkout") is None
+    assert "cargo install --path crates/octolux-cli" in HOW_TO_GET_ONE and "OCTOLUX_BIN" in HOW_TO_GET_ONE
+
+
+def test_dir_shows_the_public_names_only():
+    names = set(dir(octolux))
+    assert names == set(octolux.__all__), names ^ set(octolux.__all__)
+    assert not {"Any", "np", "os", "json", "warnings", "PathLike"} & names
+    for n in names:
+        assert getattr(octolux, n) is not None
+
+
+def test_the_dask_runner_without_distributed_says_which_extra_to_install(tmp_path):
+    # `distributed` made unimportable (None in sys.modules) in a fresh interpreter
+    code = "import sys; sys.modules['distributed'] = None; from octolux.dask import main; sys.exit(main(sys.argv[1:]))"
+    p = subprocess.run([sys.executable, "-c", code, "cornell-box", "-o", str(tmp_path / "f.exr"), "--sensors"],
+                       capture_output=True, text=True)
+    assert p.returncode == 2, p
+    assert "Traceback" not in p.stderr, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "[dask]" in lines[0] and "distributed" in lines[0], p.stderr
+
+
+def test_the_dask_help_describes_every_flag():
+    ap = octolux.dask._parser()
+    text = ap.format_help()
+    assert "issue" not in text.lower(), text
+    for action in ap._actions:
+        assert action.help, f"{action.option_strings or action.dest} has no description"
 
 
 def test_readme_one_liner_renders_the_default_scene():
@@ -66,9 +118,19 @@ def test_stats_and_settings_dict():
     assert stats["render"]["spp"] == 2 and stats["render"]["samples"] == 32 * 32 * 2
 
 
-def test_bad_settings_raise_the_cli_messages():
-    with pytest.raises(octolux.OctoluxError, match="no integrator has the setting `photons.bogus`"):
+def test_bad_settings_raise_the_cli_messages_in_python_words():
+    # the dict key is named as the dict spells it, not as `--set photons.bogus=1`
+    with pytest.raises(octolux.OctoluxError) as e:
         octolux.render("cornell-box", "octree", spp=1, resolution=(8, 8), settings={"photons": {"bogus": 1}})
+    msg = str(e.value)
+    assert msg.startswith('settings={"photons": {"bogus": 1}}: no integrator has the setting `photons.bogus`'), msg
+    assert "--set" not in msg and "--integrator" not in msg and "integrator='octree'" in msg, msg
+    with pytest.raises(octolux.OctoluxError, match=r'^settings=\{"photons": \{"photons": -3\}\}: '):
+        octolux.render("cornell-box", "octree", spp=1, resolution=(8, 8), settings={"photons": {"photons": -3}})
+    with pytest.raises(octolux.OctoluxError, match=r"^settings=\{\"type\": \"path\"\}: the integrator is chosen with integrator="):
+        octolux.render("cornell-box", spp=1, resolution=(8, 8), settings={"type": "path"})
+    with pytest.warns(octolux.OctoluxWarning, match=r"^photons= applies to integrator 'octree', .*; ignored by integrator='path'$"):
+        octolux.render("cornell-box", "path", spp=1, resolution=(8, 8), photons=1000)
     with pytest.raises(octolux.OctoluxError, match="unknown integrator 'bdpt'"):
         octolux.render("cornell-box", "bdpt", spp=1, resolution=(8, 8))
     with pytest.raises(octolux.OctoluxError, match="spp must be at least 1"):
@@ -97,6 +159,14 @@ def test_bake_then_render_from_the_cache_equals_the_uncached_render(tmp_path):
         octolux.render("cornell-spheres", spp=1, resolution=(8, 8), cache=tmp_path / "light.oxc")
     with pytest.warns(octolux.OctoluxWarning, match="rendering anyway"):
         octolux.render("cornell-spheres", spp=1, resolution=(8, 8), cache=tmp_path / "light.oxc", allow_stale_cache=True)
+    # a missing output folder is created, as `octolux bake` creates it ...
+    deep = tmp_path / "new" / "deeper" / "light.oxc"
+    octolux.bake(scene, deep, seed=3, settings=settings)
+    assert deep.read_bytes() == (tmp_path / "light.oxc").read_bytes() and deep.with_suffix(".json").is_file()
+    # ... and removed again when the bake fails
+    with pytest.raises(octolux.OctoluxError, match="bogus"):
+        octolux.bake(scene, tmp_path / "failed" / "light.oxc", settings={"bogus": 1})
+    assert not (tmp_path / "failed").exists()
     # a truncated file is refused, naming it
     data = (tmp_path / "light.oxc").read_bytes()
     (tmp_path / "cut.oxc").write_bytes(data[: len(data) // 2])

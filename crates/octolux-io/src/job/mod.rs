@@ -209,6 +209,8 @@ pub struct IntegratorRequest {
     pub sets: Vec<String>,
     /// The render's seed, also the photon pass's (`photons.seed`) unless the settings set it.
     pub seed: u64,
+    /// How the messages name what the user typed (the CLI's `--set`, Python's settings dict).
+    pub spelling: settings::Spelling,
 }
 
 /// The integrator settings of a render or a bake: the library's defaults, or the cache's, then
@@ -225,7 +227,14 @@ pub fn resolve_settings(
     let (name, base, derived) = match cache {
         Some(c) => {
             if let Some(n) = req.integrator.as_deref().filter(|&n| n != "octree") {
-                bail!("--cache holds the octree integrator's lighting; --integrator {n} cannot render from it");
+                match req.spelling {
+                    settings::Spelling::Cli => {
+                        bail!("--cache holds the octree integrator's lighting; --integrator {n} cannot render from it")
+                    }
+                    settings::Spelling::Python => {
+                        bail!("cache= holds the octree integrator's lighting; integrator='{n}' cannot render from it")
+                    }
+                }
             }
             // the cache's settings are the defaults; nothing is derived from the scene or the seed
             (Some("octree"), Some(settings::cache_base(&c.cache)?), vec![])
@@ -236,14 +245,10 @@ pub fn resolve_settings(
             vec![(keys::MAX_DEPTH, json!(hints.max_depth.unwrap_or(-1))), (keys::PHOTON_SEED, json!(req.seed))],
         ),
     };
-    let resolved = settings::resolve(&SettingsInput {
-        integrator: name,
-        base,
-        derived,
-        file: req.settings_file.as_deref(),
-        flags: req.flags.clone(),
-        sets: &req.sets,
-    })?;
+    let resolved = settings::resolve_spelt(
+        &SettingsInput { integrator: name, base, derived, file: req.settings_file.as_deref(), flags: req.flags.clone(), sets: &req.sets },
+        req.spelling,
+    )?;
     for w in resolved.warnings {
         fe.warning(&w);
         warnings.push(w);

@@ -6,7 +6,8 @@ caches, compare images.
     >>> img, stats = octolux.render("cornell-box", spp=4, integrator="octree",
     ...                             settings={"photons": {"photons": 200_000}}, stats=True)
 
-Errors raise :class:`OctoluxError` with the messages of the ``octolux`` command line; a scene's
+Errors raise :class:`OctoluxError` with the messages of the ``octolux`` command line, a bad
+settings key named as the dict spells it (``settings={"bogus": 1}``, not ``--set``); a scene's
 warnings are issued as :class:`OctoluxWarning`. Renders release the GIL and stop at the next
 tile on Ctrl-C (``KeyboardInterrupt``).
 """
@@ -39,6 +40,11 @@ __all__ = [
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
+
+
+def __dir__() -> List[str]:
+    # the public names only: not the helpers and imports (`np`, `os`, `Any`, ...)
+    return sorted(__all__)
 
 
 class OctoluxWarning(UserWarning):

@@ -24,9 +24,10 @@ How a job runs:
 4. A task whose worker dies is run again elsewhere (``retries``, and Dask's own rescheduling of
    lost tasks); progress is printed as frames complete.
 
-Workers need the ``octolux`` Python module and the scene files at the same path (shared
-storage). The output folder must exist, as for ``octolux render``. Frames are the unit: tiles
-of one image are not split.
+Needs Dask's ``distributed`` package: ``pip install "./crates/octolux-py[dask]"`` (the ``dask``
+extra). Workers need the ``octolux`` Python module and the scene files at the same path
+(shared storage); no ``octolux`` binary is needed anywhere. A missing output folder is created,
+as ``octolux render`` creates it. Frames are the unit: tiles of one image are not split.
 """
 from __future__ import annotations
 
@@ -40,6 +41,20 @@ from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple
 
 __all__ = ["render_frames"]
+
+_NEEDS_DISTRIBUTED = (
+    "octolux.dask needs Dask's `distributed` package, which is not installed: "
+    "pip install \"./crates/octolux-py[dask]\" (from a checkout of octolux), or pip install distributed"
+)
+
+
+def _distributed() -> Any:
+    """The ``distributed`` package, or an ImportError saying how to install it."""
+    try:
+        import distributed
+    except ImportError as e:
+        raise ImportError(_NEEDS_DISTRIBUTED) from e
+    return distributed
 
 
 def _bake_task(scene: str, defines: Mapping[str, Any], seed: int, bake: Mapping[str, Any]) -> bytes:
@@ -109,67 +124,77 @@ def render_frames(
     ``on_frame(i)`` is called on the client as each frame's files are written.
     """
     import octolux
-    from distributed import as_completed
 
+    as_completed = _distributed().as_completed
     if (camera_path is None) == (not sensors):
         raise ValueError("give exactly one of camera_path= or sensors=True")
     scene = os.path.abspath(scene) if os.path.exists(scene) else scene
     out = Path(output).resolve()
-    # the CLI's rule for the output set, before any work (the folder must exist)
+    # the CLI's rule for the output set, before any work: a missing folder is created (and
+    # removed again, if still empty, when the job fails)
     octolux._octolux.check_output(str(out))
-    defines = dict(defines or {})
-    kwargs: Dict[str, Any] = {"seed": seed, "defines": defines, **dict(render or {})}
-    if spp is not None:
-        kwargs["spp"] = spp
-    if resolution is not None:
-        kwargs["resolution"] = tuple(resolution)
-    if camera_path is not None:
-        kwargs["camera_path"] = os.path.abspath(camera_path)
-    else:
-        kwargs["sensors"] = True
-    defs = [(str(k), octolux._define_value(v)) for k, v in defines.items()]
-    count = octolux._octolux.frame_count(scene, defs, kwargs.get("camera_path"), sensors)
-    first, last = frames or (1, count)
-    if not (1 <= first <= last <= count):
-        raise ValueError(f"frames {first}..{last}: the animation has frames 1..{count}")
+    try:
+        defines = dict(defines or {})
+        kwargs: Dict[str, Any] = {"seed": seed, "defines": defines, **dict(render or {})}
+        if spp is not None:
+            kwargs["spp"] = spp
+        if resolution is not None:
+            kwargs["resolution"] = tuple(resolution)
+        if camera_path is not None:
+            kwargs["camera_path"] = os.path.abspath(camera_path)
+        else:
+            kwargs["sensors"] = True
+        defs = [(str(k), octolux._define_value(v)) for k, v in defines.items()]
+        count = octolux._octolux.frame_count(scene, defs, kwargs.get("camera_path"), sensors)
+        first, last = frames or (1, count)
+        if not (1 <= first <= last <= count):
+            raise ValueError(f"frames {first}..{last}: the animation has frames 1..{count}")
 
-    t0 = time.monotonic()
-    if cache is not None:
-        data = Path(cache).read_bytes()
-    else:
-        data = client.submit(_bake_task, scene, defines, seed, dict(bake or {}), pure=False, retries=retries).result()
-        if progress:
-            print(f"octolux.dask: baked {len(data)} bytes in {time.monotonic() - t0:.1f} s", file=sys.stderr)
-    digest = hashlib.sha256(data).hexdigest()
-    shipped = client.scatter(data, broadcast=True, hash=False)
-    tasks = {
-        client.submit(
-            _frame_task, scene, digest, shipped, i, out.name, kwargs, key=f"octolux-frame-{digest[:12]}-{seed}-{i}-{out.name}", retries=retries
-        ): i
-        for i in range(first, last + 1)
-    }
-    written: List[Path] = []
-    done = 0
-    for fut in as_completed(tasks):
-        i = tasks[fut]
-        files = fut.result()
-        # named as one machine names them (OUT_0001.exr, .png, .json)
-        exrs = [name for name in files if name.endswith(".exr")]
-        if len(exrs) != 1:
-            raise RuntimeError(f"frame {i}: the worker returned {sorted(files)}, not one EXR")
-        for name, data in files.items():
-            _write_atomic(out.parent / name, data)
-        written.append(out.parent / exrs[0])
-        done += 1
-        if on_frame is not None:
-            on_frame(i)
-        if progress:
-            print(f"octolux.dask: frame {i} done ({done}/{len(tasks)}, {time.monotonic() - t0:.1f} s)", file=sys.stderr)
-    return sorted(written)
+        t0 = time.monotonic()
+        if cache is not None:
+            data = Path(cache).read_bytes()
+        else:
+            data = client.submit(_bake_task, scene, defines, seed, dict(bake or {}), pure=False, retries=retries).result()
+            if progress:
+                print(f"octolux.dask: baked {len(data)} bytes in {time.monotonic() - t0:.1f} s", file=sys.stderr)
+        digest = hashlib.sha256(data).hexdigest()
+        shipped = client.scatter(data, broadcast=True, hash=False)
+        tasks = {
+            client.submit(
+                _frame_task, scene, digest, shipped, i, out.name, kwargs, key=f"octolux-frame-{digest[:12]}-{seed}-{i}-{out.name}", retries=retries
+            ): i
+            for i in range(first, last + 1)
+        }
+        written: List[Path] = []
+        done = 0
+        for fut in as_completed(tasks):
+            i = tasks[fut]
+            files = fut.result()
+            # named as one machine names them (OUT_0001.exr, .png, .json)
+            exrs = [name for name in files if name.endswith(".exr")]
+            if len(exrs) != 1:
+                raise RuntimeError(f"frame {i}: the worker returned {sorted(files)}, not one EXR")
+            for name, data in files.items():
+                _write_atomic(out.parent / name, data)
+            written.append(out.parent / exrs[0])
+            done += 1
+            if on_frame is not None:
+                on_frame(i)
+            if progress:
+                print(f"octolux.dask: frame {i} done ({done}/{len(tasks)}, {time.monotonic() - t0:.1f} s)", file=sys.stderr)
+        return sorted(written)
+    except BaseException:
+        octolux._octolux.remove_created_folders()
+        raise
 
 
-def main(argv: Optional[List[str]] = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m octolux.dask", description=(__doc__ or "").split("\n\n")[0])
+def _parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="python -m octolux.dask",
+        description="Render the frames of an animation on a Dask cluster: the lighting is baked once, each frame is one "
+        "task, and the frames equal those of `octolux render --cache ... --camera-path ...` with the same seed.",
+        epilog='Needs Dask\'s distributed package: pip install "./crates/octolux-py[dask]". More: docs/guide/python.md.',
+    )
     ap.add_argument("scene", help="a built-in scene name or a scene file (at the same path on every worker)")
     ap.add_argument("-o", "--output", required=True, help="frame file pattern, e.g. frames/f.exr -> frames/f_0001.exr")
     ap.add_argument("--camera-path", help="camera path file (JSON or TOML keyframes)")
@@ -182,9 +207,17 @@ def main(argv: Optional[List[str]] = None) -> int:
     ap.add_argument("--resolution", help="image size WxH (default: the scene's film)")
     ap.add_argument("-D", dest="define", action="append", default=[], metavar="NAME=VALUE", help="a Mitsuba <default> parameter")
     ap.add_argument("--scheduler", help="address of a Dask scheduler (default: a LocalCluster on this machine)")
-    a = ap.parse_args(argv)
-    from distributed import Client, LocalCluster
+    return ap
 
+
+def main(argv: Optional[List[str]] = None) -> int:
+    a = _parser().parse_args(argv)
+    try:
+        distributed = _distributed()
+    except ImportError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
     client = Client(a.scheduler) if a.scheduler else Client(LocalCluster())
     frames = tuple(int(x) for x in a.frames.split("..")) if a.frames else None
     resolution = tuple(int(x) for x in a.resolution.lower().split("x")) if a.resolution else None
