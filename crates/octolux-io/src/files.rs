@@ -252,6 +252,12 @@ pub fn create_output_folder(path: &Path) -> Result<Option<PathBuf>, String> {
     Ok(Some(dir))
 }
 
+/// Forget the output folders created so far: the job that wanted them succeeded, so a later
+/// job's failure in the same process (Python, Dask) must not remove them.
+pub fn keep_created_folders() {
+    CREATED.lock().unwrap_or_else(|e| e.into_inner()).clear();
+}
+
 /// Remove the output folders this run created ([`create_output_folder`]) that are still empty,
 /// innermost first: a failed run leaves no empty folder behind.
 pub fn remove_created_folders() {

@@ -256,6 +256,8 @@ fn bake(
     let out = bake_into(py, scene, &output, req, threads);
     if out.is_err() {
         octolux_io::files::remove_created_folders();
+    } else {
+        octolux_io::files::keep_created_folders();
     }
     out
 }
@@ -383,6 +385,13 @@ fn remove_created_folders() {
     octolux_io::files::remove_created_folders();
 }
 
+/// Forget the output folders created so far (a Dask job that succeeded): a later job's failure
+/// in this process leaves them.
+#[pyfunction]
+fn keep_created_folders() {
+    octolux_io::files::keep_created_folders();
+}
+
 fn to_image(a: &PyReadonlyArray3<'_, f32>, what: &str) -> PyResult<Image> {
     let shape = a.shape();
     if shape[2] != 3 {
@@ -448,6 +457,7 @@ fn _octolux(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(frame_count, m)?)?;
     m.add_function(wrap_pyfunction!(check_output, m)?)?;
     m.add_function(wrap_pyfunction!(remove_created_folders, m)?)?;
+    m.add_function(wrap_pyfunction!(keep_created_folders, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(write_exr, m)?)?;

@@ -163,10 +163,14 @@ def test_bake_then_render_from_the_cache_equals_the_uncached_render(tmp_path):
     deep = tmp_path / "new" / "deeper" / "light.oxc"
     octolux.bake(scene, deep, seed=3, settings=settings)
     assert deep.read_bytes() == (tmp_path / "light.oxc").read_bytes() and deep.with_suffix(".json").is_file()
-    # ... and removed again when the bake fails
+    deep.unlink()
+    deep.with_suffix(".json").unlink()
+    # ... and removed again when the bake fails; the folders of the bake that succeeded stay,
+    # though they are empty now
     with pytest.raises(octolux.OctoluxError, match="bogus"):
         octolux.bake(scene, tmp_path / "failed" / "light.oxc", settings={"bogus": 1})
     assert not (tmp_path / "failed").exists()
+    assert deep.parent.is_dir()
     # a truncated file is refused, naming it
     data = (tmp_path / "light.oxc").read_bytes()
     (tmp_path / "cut.oxc").write_bytes(data[: len(data) // 2])

@@ -421,7 +421,9 @@ pub enum RenderOutcome {
 /// or is interrupted before writing anything).
 pub fn run_render(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result<RenderOutcome> {
     let out = render_job(job, fe, cancel);
-    if !matches!(out, Ok(RenderOutcome::Done(_))) {
+    if matches!(out, Ok(RenderOutcome::Done(_))) {
+        crate::files::keep_created_folders();
+    } else {
         crate::files::remove_created_folders();
     }
     out
@@ -710,6 +712,8 @@ pub fn run_bake(job: &BakeJob, fe: &dyn Frontend) -> Result<bake::BakeReport> {
     let out = bake_job(job, fe);
     if out.is_err() {
         crate::files::remove_created_folders();
+    } else {
+        crate::files::keep_created_folders();
     }
     out
 }

@@ -182,6 +182,7 @@ def render_frames(
                 on_frame(i)
             if progress:
                 print(f"octolux.dask: frame {i} done ({done}/{len(tasks)}, {time.monotonic() - t0:.1f} s)", file=sys.stderr)
+        octolux._octolux.keep_created_folders()
         return sorted(written)
     except BaseException:
         octolux._octolux.remove_created_folders()
