@@ -3,12 +3,16 @@
 //! `octolux settings` prints and docs/guide/settings.md holds is taken from the serde structs'
 //! own doc comments, so the two never drift. The sources are parsed with `syn` (already built
 //! for the derive macros); a file that does not parse is skipped (rustc reports it).
+//!
+//! It also probes Embree for the tests that need it (`cfg(missing = "embree")`, see
+//! `crates/octolux-probe`).
 
 use quote::ToTokens;
 use std::fmt::Write as _;
 use std::path::Path;
 
 fn main() {
+    octolux_probe::build_script(&["embree"]);
     println!("cargo:rerun-if-changed=src");
     let mut files = Vec::new();
     collect(Path::new("src"), &mut files);

@@ -163,6 +163,10 @@ fn region_mean_se(img: &octolux::image::Image, (x0, x1): (u32, u32), (y0, y1): (
 /// catches a black or missing caustic, a region or channel off by about half, not 10%:
 /// resolving that would take about 100 times the samples here.
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/box",
+    ignore = "needs ../shared/scenes/bitterli-collection/box (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn path_agrees_with_mitsuba_on_box() {
     let name = "box";
     let Some(common::Reference { entry, scene_file, image: reference, max_depth }) = common::reference(name) else { return };
@@ -224,26 +228,46 @@ fn path_agrees_with_mitsuba_on_box() {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/classroom",
+    ignore = "needs ../shared/scenes/bitterli-collection/classroom (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn path_agrees_with_mitsuba_on_classroom() {
     check("classroom");
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/dining-room",
+    ignore = "needs ../shared/scenes/bitterli-collection/dining-room (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn path_agrees_with_mitsuba_on_dining_room() {
     check("dining-room");
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/sponza",
+    ignore = "needs ../shared/scenes/bitterli-collection/sponza (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn path_agrees_with_mitsuba_on_sponza() {
     check("sponza");
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/torus",
+    ignore = "needs ../shared/scenes/bitterli-collection/torus (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn path_agrees_with_mitsuba_on_torus() {
     check("torus");
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/veach-lamp",
+    ignore = "needs ../shared/scenes/bitterli-collection/veach-lamp (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn path_agrees_with_mitsuba_on_veach_lamp() {
     check("veach-lamp");
 }

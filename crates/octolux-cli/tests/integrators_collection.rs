@@ -115,31 +115,55 @@ fn check(scene_name: &str) {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/box",
+    ignore = "needs ../shared/scenes/bitterli-collection/box (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn cache_integrators_render_box() {
     check("box");
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/classroom",
+    ignore = "needs ../shared/scenes/bitterli-collection/classroom (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn cache_integrators_render_classroom() {
     check("classroom");
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/dining-room",
+    ignore = "needs ../shared/scenes/bitterli-collection/dining-room (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn cache_integrators_render_dining_room() {
     check("dining-room");
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/sponza",
+    ignore = "needs ../shared/scenes/bitterli-collection/sponza (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn cache_integrators_render_sponza() {
     check("sponza");
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/torus",
+    ignore = "needs ../shared/scenes/bitterli-collection/torus (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn cache_integrators_render_torus() {
     check("torus");
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/veach-lamp",
+    ignore = "needs ../shared/scenes/bitterli-collection/veach-lamp (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn cache_integrators_render_veach_lamp() {
     check("veach-lamp");
 }

@@ -64,6 +64,10 @@ fn traced_irradiance(scene: &Scene, integrator: &Integrator, hit: &octolux::scen
 const BOUND: f64 = 0.03;
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-cornell-box",
+    ignore = "needs ../shared/scenes/bitterli-cornell-box (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn the_light_fixture_gap_does_not_leak() {
     let Some(scene) = scene() else { return };
     // in the gap: above the light (x in [-0.24, 0.23], z in [-0.22, 0.16]), where the camera sees

@@ -3,8 +3,9 @@
 //! with no console message and its screenshot shows the images.
 //!
 //! Chromium is `$OCTOLUX_CHROMIUM`, else `chromium` or `chromium-browser` on the PATH (Debian's
-//! `chromium`, which `.ci/run` installs); without it the browser part prints one `skip:` line,
-//! unless `OCTOLUX_REQUIRE_CHROMIUM=1` (set by `.ci/run`).
+//! `chromium`, which `.ci/run` installs; `octolux_probe::chromium`); without it the browser test
+//! is ignored (probed when this crate is built), unless `OCTOLUX_REQUIRE_CHROMIUM=1` (set by
+//! `.ci/run`), where it runs and fails.
 
 use glam::Vec3;
 use octolux::image::Image;
@@ -27,15 +28,6 @@ fn tmp(name: &str) -> PathBuf {
     d
 }
 
-fn chromium() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("OCTOLUX_CHROMIUM") {
-        return Some(PathBuf::from(p));
-    }
-    ["chromium", "chromium-browser"]
-        .iter()
-        .find_map(|n| std::env::var_os("PATH").and_then(|paths| std::env::split_paths(&paths).map(|d| d.join(n)).find(|p| p.is_file())))
-}
-
 fn headless(browser: &Path, page: &Path, extra: &[&str]) -> Output {
     Command::new(browser)
         .args(["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--enable-logging=stderr", "--v=0"])
@@ -46,10 +38,14 @@ fn headless(browser: &Path, page: &Path, extra: &[&str]) -> Output {
         .expect("run chromium")
 }
 
-#[test]
-fn report_holds_the_metrics_and_shows_the_images_in_chromium() {
-    let d = tmp("ok");
-    let (w, h) = (64, 48);
+/// The size of the solid images of [`report_page`].
+const W: u32 = 64;
+const H: u32 = 48;
+
+/// Writes a report of three solid images (red, green; a blue reference) and two benchmark
+/// files into `d`, checks the numbers the page holds, and returns the page.
+fn report_page(d: &Path) -> PathBuf {
+    let (w, h) = (W, H);
     let (red, green, blue) = (Vec3::new(0.8, 0.0, 0.0), Vec3::new(0.0, 0.8, 0.0), Vec3::new(0.0, 0.0, 0.8));
     write_exr(&d.join("red.exr"), &solid(w, h, red)).unwrap();
     write_exr(&d.join("green.exr"), &solid(w, h, green)).unwrap();
@@ -94,10 +90,22 @@ fn report_holds_the_metrics_and_shows_the_images_in_chromium() {
     // the axes' decades hold every point
     assert!(html.contains(r#""x_decades":[0,1]"#) && html.contains(r#""y_decades":[-2,-1]"#), "bench axes");
     assert!(html.contains(r#""x_decades":[-1,0]"#) && html.contains(r#""y_decades":[-2,0]"#), "bench2 axes");
+    page
+}
 
-    let Some(browser) = chromium() else {
-        assert!(std::env::var("OCTOLUX_REQUIRE_CHROMIUM").as_deref() != Ok("1"), "OCTOLUX_REQUIRE_CHROMIUM=1 but no chromium found");
-        println!("skip: report in headless Chromium: no chromium (set OCTOLUX_CHROMIUM or install Debian's chromium)");
+#[test]
+fn report_holds_the_metrics() {
+    report_page(&tmp("ok"));
+}
+
+#[test]
+#[cfg_attr(missing = "chromium", ignore = "needs chromium (Debian's chromium, or $OCTOLUX_CHROMIUM)")]
+fn report_shows_the_images_in_chromium() {
+    let d = tmp("browser");
+    let (w, h) = (W, H);
+    let page = report_page(&d);
+    let Some(browser) = octolux_probe::chromium() else {
+        octolux_probe::skip("chromium", "report in headless Chromium: no chromium (set OCTOLUX_CHROMIUM or install Debian's chromium)");
         return;
     };
     let dom = headless(&browser, &page, &["--dump-dom"]);
@@ -127,6 +135,13 @@ fn report_holds_the_metrics_and_shows_the_images_in_chromium() {
     for (c, name) in [(0, "red"), (1, "green"), (2, "blue")] {
         assert!(count(c) >= n * 3 / 4, "{name}: {} pixels of the {n} of its image in the screenshot", count(c));
     }
+}
+
+/// What this crate's build probed as absent (its tests compiled as ignored) is still absent and
+/// not required (`crates/octolux-probe`).
+#[test]
+fn the_build_probe_still_holds() {
+    octolux_probe::check_build_probe(env!("OCTOLUX_PROBE_MISSING"), env!("CARGO_MANIFEST_DIR"));
 }
 
 #[test]

@@ -8,14 +8,16 @@
 //! workspace, which is how tests, benches and tools use it; no path of a particular machine is
 //! written anywhere).
 //!
-//! Tests that need a scene call [`shared_scene`]: when the scene is absent it prints exactly one
-//! line, `skip: <scene> (<path> not found; set OCTOLUX_SHARED)`, and returns `None`, so that a
-//! run that skipped everything says so instead of passing silently.
+//! Tests that need a scene are marked `#[cfg_attr(missing = "scenes/<folder>", ignore = ...)]`
+//! (the folder probed by the crate's `build.rs`, `crates/octolux-probe`), and call
+//! [`shared_scene`]: when the scene is absent it prints exactly one line, `skip: <scene>
+//! (<path> not found; set OCTOLUX_SHARED)`, and returns `None` (for a test that loops over
+//! several scenes, some of them present); with `OCTOLUX_REQUIRE_SCENES=1` it panics.
 
 use std::path::{Path, PathBuf};
 
 /// Environment variable naming the shared folder (the one containing `scenes/`).
-pub const SHARED_ENV: &str = "OCTOLUX_SHARED";
+pub use octolux_probe::SHARED_ENV;
 
 /// Root of the source tree this crate was compiled from (two levels above its manifest,
 /// `crates/octolux-io`). Meaningful for tests, benches and tools built from the repository.
@@ -24,18 +26,10 @@ pub fn repo_root() -> PathBuf {
     manifest.parent().and_then(Path::parent).map(Path::to_path_buf).unwrap_or_else(|| manifest.join("../.."))
 }
 
-/// The shared folder: `$OCTOLUX_SHARED`, else `<repository root>/../shared`.
+/// The shared folder: `$OCTOLUX_SHARED`, else `<repository root>/../shared` (the one rule,
+/// `octolux_probe::shared_dir`, that the build scripts' probes use too).
 pub fn shared_dir() -> PathBuf {
-    match std::env::var_os(SHARED_ENV) {
-        Some(v) if !v.is_empty() => PathBuf::from(v),
-        _ => {
-            let root = repo_root();
-            match root.parent() {
-                Some(parent) => parent.join("shared"),
-                None => root.join("../shared"),
-            }
-        }
-    }
+    octolux_probe::shared_dir()
 }
 
 /// The shared scenes folder, `<shared>/scenes`.
@@ -45,15 +39,22 @@ pub fn scenes_dir() -> PathBuf {
 
 /// The path of `rel` inside the shared scenes folder (`"stanford-bunny/bun_zipper.ply"`), or
 /// `None` after printing one line `skip: <rel> (<path> not found; set OCTOLUX_SHARED)` when it
-/// does not exist.
+/// does not exist. With `OCTOLUX_REQUIRE_SCENES=1` a missing scene panics instead.
 pub fn shared_scene(rel: &str) -> Option<PathBuf> {
     let path = scenes_dir().join(rel);
     if path.exists() {
         Some(path)
     } else {
-        println!("{}", skip_line(rel, &path));
+        skip_scene(rel, &path);
         None
     }
+}
+
+/// Prints the line [`skip_line`] for the missing scene `what` at `path`, or panics with it
+/// under `OCTOLUX_REQUIRE_SCENES=1`.
+pub fn skip_scene(what: &str, path: &Path) {
+    let line = skip_line(what, path);
+    octolux_probe::skip("scenes/", line.strip_prefix("skip: ").unwrap_or(&line));
 }
 
 /// The line [`shared_scene`] prints for a missing scene.
@@ -143,10 +144,19 @@ mod tests {
         }
     }
 
+    /// The scenes this crate's build probed as absent (its tests compiled as ignored) are
+    /// still absent and not required.
+    #[test]
+    fn the_build_probe_still_holds() {
+        octolux_probe::check_build_probe(env!("OCTOLUX_PROBE_MISSING"), env!("CARGO_MANIFEST_DIR"));
+    }
+
     #[test]
     fn a_missing_scene_is_none_and_names_the_path() {
         let rel = "no-such-scene-folder/none.xml";
-        assert_eq!(shared_scene(rel), None);
+        if !octolux_probe::required("scenes/") {
+            assert_eq!(shared_scene(rel), None);
+        }
         let line = skip_line(rel, &scenes_dir().join(rel));
         assert!(line.starts_with("skip: no-such-scene-folder/none.xml ("), "{line}");
         assert!(line.ends_with("not found; set OCTOLUX_SHARED)"), "{line}");

@@ -9,6 +9,17 @@ use octolux_io::shared::shared_scene;
 const SCENES: [&str; 6] = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"];
 
 #[test]
+#[cfg_attr(
+    all(
+        missing = "scenes/bitterli-collection/box",
+        missing = "scenes/bitterli-collection/classroom",
+        missing = "scenes/bitterli-collection/dining-room",
+        missing = "scenes/bitterli-collection/sponza",
+        missing = "scenes/bitterli-collection/torus",
+        missing = "scenes/bitterli-collection/veach-lamp"
+    ),
+    ignore = "needs ../shared/scenes/bitterli-collection (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn collection_scenes_load_with_their_geometry() {
     for name in SCENES {
         let Some(path) = shared_scene(&format!("bitterli-collection/{name}/scene.xml")) else { continue };

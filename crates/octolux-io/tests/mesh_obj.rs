@@ -133,6 +133,10 @@ fn checked_loading_removes_degenerate_triangles_with_a_warning() {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/mitsuba-tutorials-cbox",
+    ignore = "needs ../shared/scenes/mitsuba-tutorials-cbox (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn mitsuba_cbox_small_box_keeps_its_file_normals() {
     let Some(path) = shared_scene("mitsuba-tutorials-cbox/meshes/cbox_smallbox.obj") else { return };
     let (m, warnings) = load_mesh_checked(&path).unwrap();

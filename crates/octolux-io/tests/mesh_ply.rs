@@ -152,6 +152,10 @@ fn header_count(text: &str, element: &str) -> usize {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/stanford-bunny",
+    ignore = "needs ../shared/scenes/stanford-bunny (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn stanford_bunny_loads_with_smooth_outward_normals() {
     let Some(path) = shared_scene("stanford-bunny/bun_zipper.ply") else { return };
     let path = path.as_path();
@@ -180,6 +184,10 @@ fn stanford_bunny_loads_with_smooth_outward_normals() {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-cornell-box",
+    ignore = "needs ../shared/scenes/bitterli-cornell-box (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn bitterli_binary_meshes_match_a_direct_decoding() {
     let Some(dir) = shared_scene("bitterli-cornell-box/ply") else { return };
     for name in ["Floor", "Ceiling", "BackWall", "LeftWall", "RightWall", "Light", "ShortBox", "TallBox"] {

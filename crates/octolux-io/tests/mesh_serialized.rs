@@ -372,6 +372,10 @@ fn a_mesh_of_degenerate_triangles_is_skipped_with_one_warning() {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-collection/box",
+    ignore = "needs ../shared/scenes/bitterli-collection/box (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn collection_box_serialized_loads_every_shape() {
     let Some(path) = shared_scene("bitterli-collection/box/box.serialized") else { return };
     let count = serialized_shape_count(&path).unwrap();

@@ -163,6 +163,14 @@ fn mitsuba06_sunsky_is_y_up_with_its_parameter_names() {
 }
 
 #[test]
+#[cfg_attr(
+    all(
+        missing = "scenes/bitterli-collection/classroom",
+        missing = "scenes/bitterli-collection/dining-room",
+        missing = "scenes/bitterli-collection/torus"
+    ),
+    ignore = "needs ../shared/scenes/bitterli-collection (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn collection_sunsky_scenes_load_without_sunsky_warnings() {
     for name in ["classroom", "dining-room", "torus"] {
         let Some(path) = shared_scene(&format!("bitterli-collection/{name}/scene.xml")) else { continue };

@@ -294,6 +294,10 @@ fn area_lights_in_the_light_list_become_shape_emission() {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/mitsuba-tutorials-cbox",
+    ignore = "needs ../shared/scenes/mitsuba-tutorials-cbox (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn shared_cornell_box_survives_export() {
     let Some(src) = octolux_io::shared::shared_scene("mitsuba-tutorials-cbox/cbox.xml") else { return };
     let a = load(&src, &[]).unwrap().desc;

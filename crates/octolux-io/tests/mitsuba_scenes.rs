@@ -19,6 +19,10 @@ fn defs(pairs: &[(&str, &str)]) -> Vec<(String, String)> {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/mitsuba-tutorials-cbox",
+    ignore = "needs ../shared/scenes/mitsuba-tutorials-cbox (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn mitsuba_tutorial_cornell_box() {
     let Some(path) = shared("mitsuba-tutorials-cbox/cbox.xml") else { return };
     let s = load(&path, &[]).unwrap();
@@ -58,6 +62,10 @@ fn mitsuba_tutorial_cornell_box() {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-cornell-box",
+    ignore = "needs ../shared/scenes/bitterli-cornell-box (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn bitterli_cornell_box_mitsuba_05() {
     let Some(path) = shared("bitterli-cornell-box/scene_mitsuba.xml") else { return };
     let s = load(&path, &[]).unwrap();
@@ -89,6 +97,10 @@ fn bitterli_cornell_box_mitsuba_05() {
 }
 
 #[test]
+#[cfg_attr(
+    missing = "scenes/bitterli-cornell-box",
+    ignore = "needs ../shared/scenes/bitterli-cornell-box (or $OCTOLUX_SHARED): see docs/guide/scenes.md"
+)]
 fn bitterli_cornell_box_parametrised_variants() {
     let Some(path) = shared("bitterli-cornell-box/scene_mi3.xml") else { return };
     let s = load(&path, &[]).unwrap();

@@ -4,8 +4,9 @@
 //!
 //! The environment is `$OCTOLUX_PYTHON_VENV`, else `<repo>/.venv-py`; it needs what
 //! `crates/octolux-py/requirements-test.txt` lists (`.ci/run` creates it; by hand: `python3 -m
-//! venv .venv-py && .venv-py/bin/pip install -r crates/octolux-py/requirements-test.txt`). Without it the test prints one `skip:` line
-//! and passes, unless `OCTOLUX_REQUIRE_PYTHON=1` (set by `.ci/run`), where it fails. The module
+//! venv .venv-py && .venv-py/bin/pip install -r crates/octolux-py/requirements-test.txt`). Without it the test is ignored
+//! (probed when this crate is built, `crates/octolux-probe`), unless `OCTOLUX_REQUIRE_PYTHON=1`
+//! (set by `.ci/run`), where it runs and fails. The module
 //! is compiled by `maturin develop --release` into its own target folder (`target/python`), so
 //! that it does not wait for the lock of the folder this test runs from.
 
@@ -16,17 +17,23 @@ fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().expect("the repository root")
 }
 
+/// What this crate's build probed as absent (the test below compiled as ignored) is still
+/// absent and not required (`crates/octolux-probe`).
 #[test]
+fn the_build_probe_still_holds() {
+    octolux_probe::check_build_probe(env!("OCTOLUX_PROBE_MISSING"), env!("CARGO_MANIFEST_DIR"));
+}
+
+#[test]
+#[cfg_attr(missing = "python", ignore = "needs .venv-py with crates/octolux-py/requirements-test.txt (or $OCTOLUX_PYTHON_VENV)")]
 fn python_module_pytest_suite() {
     let root = repo();
-    let venv = std::env::var_os("OCTOLUX_PYTHON_VENV").map(PathBuf::from).unwrap_or_else(|| root.join(".venv-py"));
+    let venv = octolux_probe::python_venv();
     let python = venv.join("bin").join("python");
-    let required = std::env::var("OCTOLUX_REQUIRE_PYTHON").is_ok_and(|v| v == "1");
-    let ready = python.exists()
-        && Command::new(&python).args(["-c", "import maturin, numpy, pytest, distributed"]).status().is_ok_and(|s| s.success());
-    if !ready {
-        assert!(!required, "OCTOLUX_REQUIRE_PYTHON=1 but {} lacks maturin, numpy, pytest or distributed", venv.display());
-        println!("skip: python module tests: no virtual environment with maturin, numpy, pytest and distributed at {}", venv.display());
+    let required = octolux_probe::required("python");
+    if !octolux_probe::python_ready() {
+        let why = format!("python module tests: no virtual environment with maturin, numpy, pytest and distributed at {}", venv.display());
+        octolux_probe::skip("python", &why);
         return;
     }
     let manifest = root.join("crates/octolux-py/Cargo.toml");

@@ -15,10 +15,7 @@ pub fn repo_root() -> PathBuf {
 
 /// The shared folder (it holds `scenes/`): `$OCTOLUX_SHARED`, else `<repo>/../shared`.
 pub fn shared_dir() -> PathBuf {
-    match std::env::var_os("OCTOLUX_SHARED") {
-        Some(p) => PathBuf::from(p),
-        None => repo_root().join("../shared"),
-    }
+    octolux_io::shared::shared_dir()
 }
 
 /// The scene file a manifest entry names: `../shared/...` lies in the shared folder, anything
@@ -41,7 +38,8 @@ pub struct Reference {
 }
 
 /// The reference called `name` with its scene file, or `None` after printing one `skip:` line
-/// (no entry in the manifest yet, or the scene file absent: no `../shared`).
+/// (no entry in the manifest yet, or the scene file absent: no `../shared`; a panic with
+/// `OCTOLUX_REQUIRE_SCENES=1`).
 pub fn reference(name: &str) -> Option<Reference> {
     let root = repo_root();
     let manifest_path = root.join("tests/refs/collection/manifest.json");
@@ -54,7 +52,7 @@ pub fn reference(name: &str) -> Option<Reference> {
     }
     let scene_file = scene_path(entry["source_scene"].as_str().expect("source_scene"));
     if !scene_file.exists() {
-        println!("skip: {name}: {} is absent (needs the shared folder at ../shared or $OCTOLUX_SHARED)", scene_file.display());
+        octolux_io::shared::skip_scene(name, &scene_file);
         return None;
     }
     let image = read_exr(&root.join("tests/refs/collection").join(entry["file"].as_str().expect("file"))).expect("reference EXR");
