@@ -26,8 +26,9 @@ use octolux::caches::probes::{BrickLayout, ProbeGrid, ProbeInputs, ProbeSettings
 use octolux::caches::Octree;
 use octolux::integrators::octree::{estimator_surfaces, OctreeIntegratorSettings, ANCHOR_LIFT};
 use octolux::integrators::path::{indirect_irradiance, PathSettings};
-use octolux::math::{offset_origin, Ray};
-use octolux::photon::trace::{trace_photons, PhotonSettings};
+use octolux::math::Ray;
+use octolux::photon::trace::{map_flights, trace_photons, PhotonSettings};
+use octolux::photon::Photon;
 use octolux::sampling::{square_to_uniform_sphere, Sampler};
 use octolux::scene::Scene;
 use rayon::prelude::*;
@@ -146,11 +147,22 @@ fn main() -> Result<()> {
     let mut photons = maps.global;
     photons.extend_from_slice(&maps.caustic);
     eprintln!("{}: {} photons, {n_caustic} of them caustic ({:.1} s)", a.scene, photons.len(), t0.elapsed().as_secs_f64());
-    // the flights: from each photon back to the surface it left
-    let lengths: Vec<f32> = photons
-        .par_iter()
-        .map(|p| scene.intersect(&Ray::new(offset_origin(p.p, p.ng, p.wi), p.wi)).map_or(2.0 * extent, |h| h.t))
-        .collect();
+    // the flights of the reflected light, both methods' input: every flight of the same paths
+    // after a bounce (those that leave the scene or end on glass too), as photons at their
+    // ends (`wi` back along the flight) with their lengths (a flight leaving the scene: 2x the
+    // scene's extent, past the root cube)
+    let chunks = map_flights(&scene, &settings, |chunk| {
+        chunk
+            .iter()
+            .filter(|f| f.bounces > 0)
+            .map(|f| {
+                let t = if f.t.is_finite() { f.t } else { 2.0 * extent };
+                (Photon { p: f.o + f.d * t, wi: -f.d, power: f.power, ng: -f.d }, t)
+            })
+            .collect::<Vec<_>>()
+    })?;
+    let (flight_photons, lengths): (Vec<Photon>, Vec<f32>) = chunks.into_iter().flatten().unzip();
+    eprintln!("{} flights of reflected light", flight_photons.len());
 
     // the points: free, and on spheres in free space
     let free = free_points(&scene, a.free, 0.01 * extent, 101);
@@ -224,40 +236,48 @@ fn main() -> Result<()> {
     println!("| scene | method | bytes | free rRMSE | free relMSE | free >2x / <0.5x | object rRMSE | object relMSE | object >2x / <0.5x | build s |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for &n_max in &a.n_max {
-        let t = Instant::now();
-        let mut gs = OctreeIntegratorSettings::default().global;
-        gs.n_max = n_max;
-        gs.n_min = gs.n_min.min(n_max);
-        let mut tree = Octree::build_with_surfaces(&photons, scene.bounds, &gs, Some(Surfaces { triangles: &tris, spheres: &spheres }))?;
-        tree.fill_atmosphere(&visible);
-        let t_tree = t.elapsed().as_secs_f64();
-        let bytes = tree.stats().bytes;
-        let st = tree.stats();
-        let label = format!("octree n_max {n_max} ({} valid leaves, h_max {})", st.valid_leaves, st.h_max);
-        let leak: Vec<f64> = pts
-            .par_iter()
-            .map(|&(p, n, _)| {
-                let mut keep = |q: QueryLeaf| q.samples.iter().any(|&(s, nrm)| scene.sees(p, s + nrm * (ANCHOR_LIFT * q.cell_size), 1e-6));
-                tree.irradiance_volume(p, n, Some(&mut keep)).map_or(0.0, mean3)
-            })
-            .collect();
-        if std::env::var_os("PROBES_DEBUG").is_some() {
-            let mut worst: Vec<usize> = (0..pts.len()).collect();
-            worst.sort_by(|&i, &j| (leak[j] / t_vals[j]).abs().ln().abs().total_cmp(&(leak[i] / t_vals[i]).abs().ln().abs()));
-            for &i in worst.iter().take(12) {
-                eprintln!(
-                    "  worst: p {:.3} n {:.2} object {} truth {:.4} ± {:.4} octree {:.4}",
-                    pts[i].0, pts[i].1, pts[i].2, t_vals[i], truth[i].1, leak[i]
-                );
+        let mut bytes = 0;
+        for flights in [false, true] {
+            let t = Instant::now();
+            let mut gs = OctreeIntegratorSettings::default().global;
+            gs.n_max = n_max;
+            gs.n_min = gs.n_min.min(n_max);
+            let mut tree =
+                Octree::build_with_surfaces(&photons, scene.bounds, &gs, Some(Surfaces { triangles: &tris, spheres: &spheres }))?;
+            let fl = flights.then(|| tree.flights(&flight_photons, &lengths));
+            tree.fill_atmosphere_with(&visible, fl.as_ref());
+            let t_tree = t.elapsed().as_secs_f64();
+            bytes = tree.stats().bytes;
+            let st = tree.stats();
+            let fill =
+                if flights { format!("flights ({} leaves)", fl.as_ref().map_or(0, |f| f.leaves())) } else { "diffusion only".to_string() };
+            let label = format!("octree n_max {n_max} ({} valid leaves, h_max {}), {fill}", st.valid_leaves, st.h_max);
+            let leak: Vec<f64> = pts
+                .par_iter()
+                .map(|&(p, n, _)| {
+                    let mut keep =
+                        |q: QueryLeaf| q.samples.iter().any(|&(s, nrm)| scene.sees(p, s + nrm * (ANCHOR_LIFT * q.cell_size), 1e-6));
+                    tree.irradiance_volume(p, n, Some(&mut keep)).map_or(0.0, mean3)
+                })
+                .collect();
+            if std::env::var_os("PROBES_DEBUG").is_some() {
+                let mut worst: Vec<usize> = (0..pts.len()).collect();
+                worst.sort_by(|&i, &j| (leak[j] / t_vals[j]).abs().ln().abs().total_cmp(&(leak[i] / t_vals[i]).abs().ln().abs()));
+                for &i in worst.iter().take(12) {
+                    eprintln!(
+                        "  worst: p {:.3} n {:.2} object {} truth {:.4} ± {:.4} octree {:.4}",
+                        pts[i].0, pts[i].1, pts[i].2, t_vals[i], truth[i].1, leak[i]
+                    );
+                }
             }
+            report(format!("{label}, leak test"), bytes, leak, t_tree);
+            let plain: Vec<f64> = pts.par_iter().map(|&(p, n, _)| tree.irradiance_volume(p, n, None).map_or(0.0, mean3)).collect();
+            report(format!("{label}, no rays"), bytes, plain, t_tree);
         }
-        report(format!("{label}, leak test"), bytes, leak, t_tree);
-        let plain: Vec<f64> = pts.par_iter().map(|&(p, n, _)| tree.irradiance_volume(p, n, None).map_or(0.0, mean3)).collect();
-        report(format!("{label}, no rays"), bytes, plain, t_tree);
         for order in [ShOrder::L1, ShOrder::L2] {
             let t = Instant::now();
             let (layout, s) = match_bytes(&scene, &all_tris, &all_spheres, order, a.levels, bytes)?;
-            let grid = ProbeGrid::build(layout, ProbeInputs { photons: &photons, flight_lengths: &lengths }, &s, &backface)?;
+            let grid = ProbeGrid::build(layout, ProbeInputs { photons: &flight_photons, flight_lengths: &lengths }, &s, &backface)?;
             let st = grid.stats().clone();
             let label = format!(
                 "probes {order:?} (levels {}..{}, scale {:.3}, {} bricks, spacing {:.4}, {:.1}% invalid, {:.0} flights/probe)",

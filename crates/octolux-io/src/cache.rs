@@ -25,7 +25,10 @@
 //! rule (`mode`, `footprint`, ...; no `gather`, no `query`) in the meta JSON. Version 5 leaves
 //! the build's times out of the statistics (the `meta` and per-tree JSON): the same bake gives
 //! the same bytes, for any thread count and any run ([`TIMING_KEYS`]; the bake's JSON report
-//! holds the times).
+//! holds the times). Version 6 has version 5's bytes; its atmospheric leaves' values are
+//! mostly photon-flight estimates, which the volume query reads as an ambient cube
+//! (`caches::octree` `flights.rs`, `atmosphere.rs`): a version 5 file's diffused values read
+//! that way would be wrong, so it is refused (re-bake it).
 //!
 //! Reading checks, in this order and before any large allocation: the file size against the
 //! memory budget (twice the file: its bytes and the octrees), the length (at least a
@@ -53,7 +56,7 @@ const ANCHORS_BYTES: usize = 6 * (1 + ANCHOR_SAMPLES);
 /// The first 8 bytes of a cache file.
 pub const MAGIC: [u8; 8] = *b"OXCACHE\0";
 /// The format version this octolux writes and reads.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 /// Header bytes: magic, version, reserved, body length.
 pub const HEADER_BYTES: usize = 24;
 /// Trailer bytes: the CRC-32.

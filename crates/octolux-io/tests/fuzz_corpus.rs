@@ -34,3 +34,26 @@ fn fuzz_corpus_replays_without_panics() {
     }
     assert!(failures.is_empty(), "panics on: {failures:#?}");
 }
+
+/// The cache target's seeds are cache files of the format this octolux reads (a seed of an
+/// older version only reaches the version check: the seeds had stayed at version 3 while the
+/// format moved on to 5), except the two that must fail: a newer version and a truncated file.
+/// Rebake them with `octolux bake cornell-box --photons 2000` (`--set global.storage=full --set
+/// caustic.storage=full` for the full one, `cornell-spheres` for the caustic one).
+#[test]
+fn the_cache_seeds_are_of_the_current_format() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/cache");
+    for name in ["seed-cornell-box-compressed", "seed-cornell-box-full", "seed-cornell-spheres-caustic"] {
+        let bytes = std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        if let Err(e) = octolux_io::cache::load_bytes(&bytes, true) {
+            panic!("{name} does not load: {e} (rebake it: see this test's docs)");
+        }
+    }
+    for (name, says) in [("seed-future-version", "newer octolux"), ("seed-truncated", "truncated")] {
+        let bytes = std::fs::read(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        match octolux_io::cache::load_bytes(&bytes, true) {
+            Ok(_) => panic!("{name} loads"),
+            Err(e) => assert!(e.contains(says), "{name}: {e}"),
+        }
+    }
+}

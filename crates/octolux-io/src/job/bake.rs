@@ -141,10 +141,11 @@ pub fn bake(scene: &Scene, scene_name: &str, settings: OctreeIntegratorSettings,
         fe.info(&l);
     }
     fe.info(&format!(
-        "octree: volumetric values: {} of {} leaves filled, {} empty leaves unreached, {} edges ({} blocked by surfaces), {} bytes, \
-         {:.3} s",
+        "octree: volumetric values: {} of {} leaves filled ({} from photon flights), {} empty leaves unreached, {} edges ({} blocked by \
+         surfaces), {} bytes, {:.3} s",
         atmosphere.filled_leaves,
         atmosphere.leaves,
+        atmosphere.flight_leaves,
         atmosphere.unreached_leaves,
         atmosphere.edges,
         atmosphere.blocked_edges,

@@ -558,8 +558,9 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
         if !o.global.has_atmosphere() {
             let st = o.fill_atmosphere(&scene);
             fe.info(&format!(
-                "octree: volumetric values for --insert {}: {} leaves filled, {} unreached, {} edges ({} blocked) in {:.3} s",
-                ins.file, st.filled_leaves, st.unreached_leaves, st.edges, st.blocked_edges, st.t_s
+                "octree: volumetric values for --insert {}: {} leaves filled ({} from photon flights), {} unreached, {} edges ({} blocked) \
+                 in {:.3} s",
+                ins.file, st.filled_leaves, st.flight_leaves, st.unreached_leaves, st.edges, st.blocked_edges, st.t_s
             ));
         }
     }

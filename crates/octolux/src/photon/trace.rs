@@ -31,6 +31,7 @@ use crate::math::{facing, max_component, Ray};
 use crate::sampling::Sampler;
 use crate::scene::material::Lobe;
 use crate::scene::Scene;
+use glam::Vec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -119,15 +120,24 @@ pub fn trace_photons(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonM
             let mut global = Vec::new();
             let mut caustic = Vec::new();
             for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                trace_path(scene, settings, i, PHOTON_STREAM, inv_n, disc_guide.as_ref(), |hit| {
-                    if hit.bounces > 0 && hit.storable {
-                        if hit.all_specular {
-                            caustic.push(hit.photon);
-                        } else {
-                            global.push(hit.photon);
+                trace_path(
+                    scene,
+                    settings,
+                    i,
+                    PHOTON_STREAM,
+                    inv_n,
+                    disc_guide.as_ref(),
+                    |hit| {
+                        if hit.bounces > 0 && hit.storable {
+                            if hit.all_specular {
+                                caustic.push(hit.photon);
+                            } else {
+                                global.push(hit.photon);
+                            }
                         }
-                    }
-                });
+                    },
+                    |_| {},
+                );
             }
             (global, caustic)
         })
@@ -163,9 +173,16 @@ fn pilot_guide(scene: &Scene, settings: &PhotonSettings, cap: u64) -> (DiscGuide
                 let mut found = Vec::new();
                 for i in (c * CHUNK).max(traced)..((c + 1) * CHUNK).min(end) {
                     let mut stored = 0u32;
-                    let start = trace_path(scene, settings, i, PILOT_STREAM, 1.0, None, |hit| {
-                        stored += (hit.bounces > 0 && hit.storable) as u32;
-                    });
+                    let start = trace_path(
+                        scene,
+                        settings,
+                        i,
+                        PILOT_STREAM,
+                        1.0,
+                        None,
+                        |hit| stored += (hit.bounces > 0 && hit.storable) as u32,
+                        |_| {},
+                    );
                     if let Some((dir, u_pos)) = start.filter(|_| stored > 0) {
                         found.push(((guide::dir_bin(dir) * guide::GRID * guide::GRID + guide::cell(u_pos)) as u32, stored));
                     }
@@ -180,6 +197,63 @@ fn pilot_guide(scene: &Scene, settings: &PhotonSettings, cap: u64) -> (DiscGuide
         traced = end;
     }
     (DiscGuide::from_counts(&counts), traced)
+}
+
+/// One flight of a photon path, from a light or a surface to the next surface.
+#[derive(Clone, Copy, Debug)]
+pub struct Flight {
+    /// Where it starts (scene units).
+    pub o: Vec3,
+    /// Its direction of travel (unit).
+    pub d: Vec3,
+    /// Its length (scene units); infinite when it leaves the scene.
+    pub t: f32,
+    /// The power it carries (W, RGB, the photon's share).
+    pub power: Vec3,
+    /// Bounces before it (0: from the light).
+    pub bounces: u32,
+    /// Whether every bounce before it was specular (vacuously true from the light).
+    pub all_specular: bool,
+}
+
+impl Flight {
+    /// The light of the global map (module docs): reflected at least once, by at least one
+    /// non-delta surface.
+    pub fn is_global(&self) -> bool {
+        self.bounces > 0 && !self.all_specular
+    }
+}
+
+/// The flights of the photon pass of `settings`, the same paths as [`trace_photons`] traces
+/// (the disc guide's pilot included), every flight of them: those that end on a mirror or
+/// glass, and those that leave the scene, too. `map` sees the flights of one chunk of paths at a
+/// time, in path order; the results come back in chunk order, so anything summed from them
+/// in that order is the same for any thread count.
+pub fn map_flights<R: Send>(scene: &Scene, settings: &PhotonSettings, map: impl Fn(&[Flight]) -> R + Sync) -> Result<Vec<R>, PhotonError> {
+    if settings.photons == 0 {
+        return Err(PhotonError::NoPhotons(0));
+    }
+    if scene.lights.is_empty() {
+        return Err(PhotonError::NoLight);
+    }
+    crate::budget::check_photons(settings.photons)?;
+    let n = settings.photons;
+    let inv_n = 1.0 / n as f32;
+    let disc_guide = if settings.guide_disc && scene.lights.lights.iter().any(guide::from_disc) {
+        Some(pilot_guide(scene, settings, guide::pilot_cap(n)).0)
+    } else {
+        None
+    };
+    Ok((0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut flights = Vec::new();
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                trace_path(scene, settings, i, PHOTON_STREAM, inv_n, disc_guide.as_ref(), |_| {}, |f| flights.push(f));
+            }
+            map(&flights)
+        })
+        .collect())
 }
 
 /// One surface hit of a photon path, as [`trace_path`] reports it.
@@ -199,6 +273,8 @@ struct PathHit {
 /// see them all. A distant-light photon takes its disc position from `disc_guide` when given.
 /// Returns, for a distant-light photon emitted uniformly over the disc (no guide), its direction
 /// and its point of the unit square (the pilot's record).
+// the path's identity (index, stream), its power scale, its guide and the two sinks
+#[allow(clippy::too_many_arguments)]
 fn trace_path(
     scene: &Scene,
     settings: &PhotonSettings,
@@ -207,6 +283,7 @@ fn trace_path(
     inv_n: f32,
     disc_guide: Option<&DiscGuide>,
     mut visit: impl FnMut(PathHit),
+    mut fly: impl FnMut(Flight),
 ) -> Option<(glam::Vec3, glam::Vec2)> {
     let mut sampler = Sampler::new(settings.seed, index, stream);
     let u_sel = sampler.next_1d();
@@ -233,7 +310,10 @@ fn trace_path(
     // Bounces so far, and whether all of them were specular.
     let mut bounces = 0u32;
     let mut all_specular = true;
-    while let Some(hit) = scene.intersect(&ray) {
+    loop {
+        let found = scene.intersect(&ray);
+        fly(Flight { o: ray.o, d: ray.d, t: found.as_ref().map_or(f32::INFINITY, |h| h.t), power, bounces, all_specular });
+        let Some(hit) = found else { break };
         let wi = -ray.d;
         let material = &scene.materials[hit.material as usize];
         // Purely specular surfaces are never shaded from a photon estimate (renderers follow
@@ -286,13 +366,51 @@ mod tests {
         let inv_n = 1.0 / settings.photons as f32;
         let mut sum = 0.0f64;
         for i in 0..settings.photons {
-            trace_path(scene, settings, i, PHOTON_STREAM, inv_n, None, |h| {
-                if keep(&h) {
-                    sum += h.photon.power.element_sum() as f64 / 3.0;
-                }
-            });
+            trace_path(
+                scene,
+                settings,
+                i,
+                PHOTON_STREAM,
+                inv_n,
+                None,
+                |h| {
+                    if keep(&h) {
+                        sum += h.photon.power.element_sum() as f64 / 3.0;
+                    }
+                },
+                |_| {},
+            );
         }
         sum
+    }
+
+    /// `map_flights` replays the photon pass's own paths: every global photon is the end of a
+    /// global flight, in order, with the flight's power; every reflected flight of this closed
+    /// diffuse box ends on a surface that stores its photon.
+    #[test]
+    fn the_flights_are_the_photon_passs_paths() {
+        let scene = box_scene(4);
+        let settings = PhotonSettings { photons: 20_000, ..Default::default() };
+        let maps = trace_photons(&scene, &settings).unwrap();
+        let flights: Vec<Flight> = map_flights(&scene, &settings, |c| c.to_vec()).unwrap().into_iter().flatten().collect();
+        let mut next = maps.global.iter().peekable();
+        for f in flights.iter().filter(|f| f.is_global() && f.t.is_finite()) {
+            if let Some(p) = next.peek() {
+                if p.power == f.power && (f.o + f.d * f.t - p.p).length() < 1e-3 {
+                    next.next();
+                }
+            }
+        }
+        assert!(next.peek().is_none(), "{} global photons not found among the flights", next.count());
+        assert!(maps.global.len() > 1000);
+        let from_light = flights.iter().filter(|f| f.bounces == 0).count();
+        assert!(
+            from_light as u64 <= settings.photons && from_light as u64 > settings.photons * 9 / 10,
+            "{from_light} flights from the light"
+        );
+        let stored = maps.global.len() + maps.caustic.len();
+        let reflected = flights.iter().filter(|f| f.bounces > 0).count();
+        assert_eq!(reflected, stored, "reflected flights and stored photons");
     }
 
     #[test]
@@ -362,11 +480,20 @@ mod tests {
             let inv_n = 1.0 / s.photons as f32;
             let mut first = Vec::new();
             for i in 0..s.photons {
-                trace_path(&scene, &s, i, PHOTON_STREAM, inv_n, None, |h| {
-                    if h.bounces == 0 {
-                        first.push(h.photon);
-                    }
-                });
+                trace_path(
+                    &scene,
+                    &s,
+                    i,
+                    PHOTON_STREAM,
+                    inv_n,
+                    None,
+                    |h| {
+                        if h.bounces == 0 {
+                            first.push(h.photon);
+                        }
+                    },
+                    |_| {},
+                );
             }
             let tris = scene.mesh_triangles_where(|_| true);
             let settings = OctreeSettings { estimator: Estimator::GeometryArea, split: Split::Normal, ..Default::default() };
@@ -449,11 +576,20 @@ mod tests {
                 let inv_n = 1.0 / s.photons as f32;
                 let mut sum = 0.0f64;
                 for i in 0..s.photons {
-                    trace_path(&scene, s, i, PHOTON_STREAM, inv_n, gd, |h| {
-                        if h.bounces == 0 && h.photon.p.length() < 5.0 {
-                            sum += h.photon.power.element_sum() as f64 / 3.0;
-                        }
-                    });
+                    trace_path(
+                        &scene,
+                        s,
+                        i,
+                        PHOTON_STREAM,
+                        inv_n,
+                        gd,
+                        |h| {
+                            if h.bounces == 0 && h.photon.p.length() < 5.0 {
+                                sum += h.photon.power.element_sum() as f64 / 3.0;
+                            }
+                        },
+                        |_| {},
+                    );
                 }
                 sum
             };

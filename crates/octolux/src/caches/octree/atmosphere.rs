@@ -3,6 +3,12 @@
 //! and allow inserting and moving objects in a lit scene"); issue 13, item 4; measured in
 //! docs/guide/baking.md ("A volumetric solution").
 //!
+//! # Flights first
+//! [`Octree::fill_atmosphere_with`] takes the photon-flight estimates of the atmospheric leaves
+//! (`flights.rs`: the light that passes through a cell) as sources that stay fixed; the
+//! diffusion below fills what they leave: the leaves few flights cross and the valid leaves'
+//! missing matrices. [`Octree::fill_atmosphere`] alone diffuses from the surfaces only.
+//!
 //! # What is diffused
 //! A valid leaf's matrix `k` (one of `+X, −X, +Y, −Y, +Z, −Z`) is the irradiance vector of the
 //! hemisphere around `N_k` on the surfaces of the cell that face `N_k` (the facing bits). A
@@ -41,15 +47,19 @@
 //! # Query
 //! [`Octree::irradiance_volume`] blends like §7 (`query.rs`): every leaf meeting the query box,
 //! weighted by its overlap, per axis over the leaves that have that matrix (a leaf's own
-//! value first, its diffused one otherwise). The weights are continuous in `P`, so the result
-//! is `C0` across cell borders wherever the caller's `keep` keeps the same leaves.
+//! value first, its diffused one otherwise). A valid leaf is read the paper's way; an
+//! atmospheric leaf with all six matrices as free space ([`free_space_irradiance`]: the
+//! irradiance of the order-2 radiance that fits its moments), one with fewer per axis
+//! ([`ambient_cube`]). The weights are continuous in `P`, so the result is `C0` across cell
+//! borders wherever the caller's `keep` keeps the same leaves.
 //!
 //! # Storage
 //! Per leaf (depth-first order) one byte of filled bits, and per leaf with any filled bit the
 //! six matrices in the tree's storage (36 bytes compressed, zero where not filled). The cache
-//! file carries both (`octolux_io::cache`, format version 3).
+//! file carries both (`octolux_io::cache`, format version 6).
 
 use super::compress::{compress_leaf, decompress_matrix, FullLeaf, MATRIX_BYTES};
+use super::flights::Flights;
 use super::{LeafValues, Octree, QueryLeaf, ALL_FACING, ANCHOR_SAMPLES, NO_VALUE};
 use crate::math::Color;
 use glam::{Mat3, Vec3};
@@ -85,6 +95,9 @@ pub(super) struct Atmosphere {
 pub struct AtmosphereStats {
     /// Leaves of the tree (valid and atmospheric).
     pub leaves: usize,
+    /// Atmospheric leaves that took their photon-flight estimate (`flights.rs`).
+    #[serde(default)]
+    pub flight_leaves: usize,
     /// Face-sharing leaf pairs whose probe points see each other.
     pub edges: usize,
     /// Pairs refused by the visibility test (a surface between the probes).
@@ -112,10 +125,10 @@ fn flows(k: usize, side: u8) -> bool {
 
 /// One leaf of the tree, for the fill.
 #[derive(Clone, Copy)]
-struct Leaf {
-    node: u32,
-    depth: u32,
-    ijk: [u32; 3],
+pub(super) struct Leaf {
+    pub(super) node: u32,
+    pub(super) depth: u32,
+    pub(super) ijk: [u32; 3],
 }
 
 /// Per-node value index of the leaves with filled bits (`filled` in depth-first leaf order).
@@ -133,6 +146,63 @@ fn node_index(tree: &Octree, filled: &[u8]) -> Vec<u32> {
     index
 }
 
+/// An atmospheric leaf's matrix `m` (half-axis `k` of axis `a`, the side of `n_a`) as the
+/// volume query uses it when the leaf lacks some of its six (a partial diffusion; with all six,
+/// [`free_space_irradiance`]): its irradiance on the axis, `E_k = mᵀ (±e_a)`, as a matrix that
+/// gives `E_k` for the normal `n` (`(±e_a / |n_a|) ⊗ E_k`). The blend `Σ_a n_a² M_aᵀ n` then
+/// returns `Σ_a n_a² E_a`, the "ambient cube", exact under an isotropic field, where the
+/// paper's projection `mᵀ n` read `Σ|n_a|³` (0.58 for `(1, 1, 1)/√3`).
+#[inline]
+fn ambient_cube(m: Mat3, a: usize, n_a: f32) -> Mat3 {
+    if n_a == 0.0 {
+        return Mat3::ZERO;
+    }
+    let mut axis = Vec3::ZERO;
+    axis[a] = n_a.signum();
+    let e = m.transpose() * axis;
+    let d = axis / n_a.abs();
+    Mat3::from_cols(d * e.x, d * e.y, d * e.z)
+}
+
+/// An atmospheric leaf's six matrices as the volume query uses them for the normal `n`, as the
+/// matrix `n ⊗ E(n)`. The six matrices hold the half-space moments `V_k = ∫_{H_k} L w dω`
+/// (18 numbers per colour). Fitting them with a radiance of spherical-harmonic order 2 (9
+/// coefficients, least squares; the 18 x 9 system has full rank, singular values 0.86–2.5)
+/// and taking that radiance's irradiance (Ramamoorthi & Hanrahan's cosine convolution) gives
+/// the closed form
+/// `E(n) = Σ_a n_a² (E(+a) + E(−a))/2 + m·n/2 + ¼ Σ_{a<b} T_ab n_a n_b`,
+/// where `E(±a)` are the axis irradiances (the matrices' diagonal entries), `m = Σ_k V_k / 3`
+/// the first moment, and `T_ab = V_{+a,b} − V_{−a,b} + V_{+b,a} − V_{−b,a}`. Exact for every
+/// field of order 2 (test `free_space_query_is_exact_for_order_2_fields`); clamped at 0.
+/// The paper's projection `Σ_a n_a² M_aᵀ n` is right on a surface, where no light comes from
+/// behind it; in free space light from behind the sensor enters it with a negative weight
+/// (under an isotropic field a sensor facing `(1, 1, 1)/√3` read 0.58 of its irradiance).
+#[inline]
+pub(super) fn free_space_irradiance(six: &[Mat3; 6], n: Vec3) -> Vec3 {
+    // row b of matrix k: component b of its moment, per colour
+    let v = |k: usize, b: usize| six[k].row(b);
+    let mut m = Vec3::ZERO;
+    for mk in six {
+        m += mk.transpose() * n;
+    }
+    let mut e = m * (0.5 / 3.0);
+    for a in 0..3 {
+        e += (v(2 * a, a) - v(2 * a + 1, a)) * (0.5 * n[a] * n[a]);
+    }
+    for (a, b) in [(0, 1), (1, 2), (0, 2)] {
+        let t = v(2 * a, b) - v(2 * a + 1, b) + v(2 * b, a) - v(2 * b + 1, a);
+        e += t * (0.25 * n[a] * n[b]);
+    }
+    e.max(Vec3::ZERO)
+}
+
+/// [`free_space_irradiance`] as a matrix for the blend: `n ⊗ E`, so that `(n ⊗ E)ᵀ n = E`.
+#[inline]
+fn free_space_matrix(six: &[Mat3; 6], n: Vec3) -> Mat3 {
+    let e = free_space_irradiance(six, n);
+    Mat3::from_cols(n * e.x, n * e.y, n * e.z)
+}
+
 impl Atmosphere {
     /// From stored parts: lengths are the caller's to check (`parts.rs`).
     pub(super) fn new(tree: &Octree, filled: Vec<u8>, values: LeafValues) -> Atmosphere {
@@ -148,7 +218,7 @@ impl Atmosphere {
 
 impl Octree {
     /// The leaves in depth-first order.
-    fn leaves(&self) -> Vec<Leaf> {
+    pub(super) fn leaves(&self) -> Vec<Leaf> {
         let mut out = Vec::with_capacity(self.stats.leaves);
         let b = self.bounds();
         self.view().visit(b.min, b.max, |node, depth, ijk, _| out.push(Leaf { node, depth, ijk }));
@@ -197,6 +267,14 @@ impl Octree {
     /// says whether the segment between two points is free of surfaces (a shadow ray). Replaces
     /// any previous fill.
     pub fn fill_atmosphere(&mut self, visible: &(dyn Fn(Vec3, Vec3) -> bool + Sync)) -> AtmosphereStats {
+        self.fill_atmosphere_with(visible, None)
+    }
+
+    /// [`Octree::fill_atmosphere`] where the atmospheric leaves crossed by enough photon flights
+    /// take their flight estimate (`flights.rs`) and keep it: they are sources of the
+    /// diffusion like the valid leaves' own matrices, and the leaves without one are filled
+    /// from them and from the surfaces.
+    pub fn fill_atmosphere_with(&mut self, visible: &(dyn Fn(Vec3, Vec3) -> bool + Sync), flights: Option<&Flights>) -> AtmosphereStats {
         let t0 = std::time::Instant::now();
         self.atmosphere = None;
         let leaves = self.leaves();
@@ -302,7 +380,20 @@ impl Octree {
                 std::array::from_fn(|k| if src & (1 << k) != 0 { self.valid_matrix(v as usize, k) } else { Mat3::ZERO })
             })
             .collect();
-        let mut known = source.clone();
+        // The flight estimates: known and fixed from the start.
+        let mut fixed = source.clone();
+        let mut flight_leaves = 0usize;
+        if let Some(f) = flights.filter(|f| f.index.len() == self.nodes.len()) {
+            for (i, l) in leaves.iter().enumerate() {
+                let e = f.index[l.node as usize];
+                if e != NONE && self.nodes[l.node as usize].value() == NO_VALUE {
+                    vals[i] = f.values[e as usize];
+                    fixed[i] = ALL_FACING;
+                    flight_leaves += 1;
+                }
+            }
+        }
+        let mut known = fixed.clone();
         let neighbours = |i: usize| &adj[start[i]..start[i + 1]];
         // The weighted mean of matrix `k` over the neighbours of leaf `i` that know it and
         // from which it flows (none: `None`).
@@ -353,7 +444,7 @@ impl Octree {
             let next: Vec<FullLeaf> = (0..n)
                 .into_par_iter()
                 .map(|i| {
-                    let free = known[i] & !source[i];
+                    let free = known[i] & !fixed[i];
                     let mut m = vals[i];
                     if free == 0 {
                         return m;
@@ -394,6 +485,7 @@ impl Octree {
         self.atmosphere = Some(atmosphere);
         AtmosphereStats {
             leaves: n,
+            flight_leaves,
             edges,
             blocked_edges: blocked,
             filled_leaves,
@@ -488,10 +580,19 @@ impl Octree {
                     return;
                 }
             }
+            let free = (v == NO_VALUE && bits == ALL_FACING).then(|| {
+                let six: [Mat3; 6] = std::array::from_fn(|k| self.volume_matrix(v, e, filled, k));
+                free_space_matrix(&six, n)
+            });
             for a in 0..3 {
                 let k = sel[a];
                 if bits & (1 << k) != 0 {
-                    sum[a] += self.volume_matrix(v, e, filled, k) * g;
+                    let m = match free {
+                        Some(f) => f,
+                        None if v == NO_VALUE => ambient_cube(self.volume_matrix(v, e, filled, k), a, n[a]),
+                        None => self.volume_matrix(v, e, filled, k),
+                    };
+                    sum[a] += m * g;
                     wsum[a] += g;
                 }
             }

@@ -81,6 +81,7 @@ mod cells;
 pub mod compress;
 mod estimate;
 mod flat;
+mod flights;
 mod geometry;
 mod parts;
 mod planes;
@@ -94,6 +95,7 @@ mod tests;
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
 pub use atmosphere::{AtmosphereStats, PROBE_LIFT, SMOOTHING_SWEEPS};
+pub use flights::{FlightSums, Flights, FLIGHT_MIN};
 pub use geometry::AnalyticSphere;
 pub use parts::{AtmosphereParts, LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};

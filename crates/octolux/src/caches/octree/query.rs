@@ -228,7 +228,7 @@ impl Octree {
     }
 
     /// Descend to the leaf whose (half-open) cell holds `p`: `(node, depth, ijk)`.
-    fn find_leaf(&self, p: Vec3) -> Option<(u32, u32, [u32; 3])> {
+    pub(super) fn find_leaf(&self, p: Vec3) -> Option<(u32, u32, [u32; 3])> {
         if !p.is_finite() || !self.bounds().contains(p) {
             return None;
         }

@@ -646,3 +646,45 @@ fn the_normal_split_keeps_a_floor_and_a_wall_apart() {
     let f = paper.irradiance(Vec3::new(0.53, 0.5, 0.3), Vec3::Z).unwrap().x / floor_truth;
     assert!(f > 1.2, "the direction split mixes the wall's light into the floor's: {f}");
 }
+
+/// The flight estimate keeps every length a flight travels in the root cube (`flights.rs`): the
+/// leaves `segment_leaves` reports tile the clipped segment, in order, each a leaf of the tree
+/// holding the segment's midpoint there, and their lengths add up to the clipped length. So the
+/// track length `Φ ℓ` a flight deposits, over all leaves, is its power times its length in the
+/// cube: none lost at cell borders, none counted twice.
+#[test]
+fn segment_leaves_conserve_the_track_length() {
+    let mut photons = grid_plane(1, 0.3, [0, 0], [G, G], Vec3::Y, Vec3::splat(PHI), Vec3::Y);
+    photons.extend(grid_plane(0, 0.71, [40, 20], [200, 120], Vec3::X, Vec3::splat(PHI), Vec3::X));
+    let settings = OctreeSettings { estimator: Estimator::Cosine, ..Default::default() };
+    let tree = Octree::build(&photons, unit_cube(), &settings, None).unwrap();
+    assert!(tree.stats().leaves > 50, "{:?}", tree.stats());
+    let mut checked = 0;
+    for i in 0..500u64 {
+        let mut s = Sampler::new(5, i, 0);
+        let o = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 1.6 - Vec3::splat(0.3);
+        let d = crate::sampling::square_to_uniform_sphere(s.next_2d());
+        let t_max = if i % 5 == 0 { f32::INFINITY } else { 2.0 * s.next_1d() };
+        // the exact clipped length, by slabs
+        let b = tree.bounds();
+        let (mut t0, mut t1) = (0.0f32, t_max);
+        for a in 0..3 {
+            let (u, v) = ((b.min[a] - o[a]) / d[a], (b.max[a] - o[a]) / d[a]);
+            t0 = t0.max(u.min(v));
+            t1 = t1.min(u.max(v));
+        }
+        let want = (t1 - t0).max(0.0);
+        let (mut sum, mut t) = (0.0f32, t0);
+        tree.segment_leaves(o, d, t_max, |node, l| {
+            assert!(l > 0.0, "a zero-length piece");
+            let mid = o + d * (t + 0.5 * l);
+            let leaf = tree.find_leaf(mid).expect("the piece lies in the tree").0;
+            assert_eq!(leaf, node, "segment {i}: the piece at t {t} is not in the leaf reported");
+            t += l;
+            sum += l;
+        });
+        assert!((sum - want).abs() <= 1e-4 * want.max(1.0), "segment {i}: {sum} of {want}");
+        checked += (want > 0.0) as u32;
+    }
+    assert!(checked > 200, "{checked} segments met the cube");
+}

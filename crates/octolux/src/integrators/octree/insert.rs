@@ -24,6 +24,7 @@ use crate::caches::octree::{AtmosphereStats, QueryLeaf};
 use crate::integrators::common::RayCounters;
 use crate::integrators::pathloop::CacheVertex;
 use crate::math::{Color, Ray};
+use crate::photon::trace::map_flights;
 use crate::sampling::{around, square_to_cosine_hemisphere, Sampler};
 use crate::scene::Scene;
 use crate::scene::SurfaceHit;
@@ -49,12 +50,22 @@ pub struct Inserted {
 }
 
 impl OctreeIntegrator {
-    /// Diffuse the global octree's values into its atmospheric cells (and the valid leaves'
-    /// missing matrices), never through a surface of `scene` (the baked scene, without any
-    /// inserted object). The build statistics follow (bytes).
+    /// The global octree's volumetric values: the atmospheric cells that enough photon flights
+    /// cross take the light passing through them (`caches::octree` `flights.rs`); the values are
+    /// then diffused into the other cells (and the valid leaves' missing matrices), never
+    /// through a surface of `scene` (the baked scene, without any inserted object). The
+    /// photon paths are traced again with the build's settings (the same paths: the pass is
+    /// deterministic), and every flight of their global light counts, those that leave the
+    /// scene or end on a mirror or glass too. The build statistics follow (bytes).
     pub fn fill_atmosphere(&mut self, scene: &Scene) -> AtmosphereStats {
         let visible = |a: Vec3, b: Vec3| scene.sees(a, b, 0.0);
-        let st = self.global.fill_atmosphere(&visible);
+        let tree = &self.global;
+        let flights = map_flights(scene, &self.settings.traced_photons(), |chunk| {
+            tree.flight_sums(chunk.iter().filter(|f| f.is_global()).map(|f| (f.o, f.d, f.t, f.power)))
+        })
+        .ok()
+        .map(|chunks| tree.flights_from(chunks));
+        let st = self.global.fill_atmosphere_with(&visible, flights.as_ref());
         self.stats.global = self.global.stats().clone();
         self.stats.bytes = self.global.stats().bytes + self.caustic.as_ref().map_or(0, |c| c.stats().bytes);
         st

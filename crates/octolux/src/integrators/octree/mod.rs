@@ -230,17 +230,8 @@ impl OctreeIntegrator {
         settings.validate().map_err(BuildError::Settings)?;
         settings.global.validate().map_err(BuildError::Global)?;
         settings.caustic.validate().map_err(BuildError::Caustic)?;
-        // Honour max_depth as Mitsuba counts it, so renders stay comparable with `path` at the
-        // same value: a path camera -> x1 ... -> x_n -> y_b ... -> y_1 -> light has n + b
-        // surface vertices and must have at most max_depth - 1, so photons read at vertex n
-        // may have bounced at most max_depth - 1 - n times; the cache then serves that vertex
-        // only (`Mode::end_vertex`).
-        let mut photon_settings = settings.photons;
-        if settings.max_depth >= 0 {
-            let n = settings.mode.end_vertex() as i32;
-            photon_settings.max_bounces = photon_settings.max_bounces.min((settings.max_depth - 1 - n).max(0) as u32);
-        }
-        let maps = trace_photons(scene, &photon_settings)?;
+        // max_depth bounds the photons' bounces (`traced_photons`)
+        let maps = trace_photons(scene, &settings.traced_photons())?;
         let t0 = Instant::now();
         let needs_geometry = |s: &OctreeSettings| s.estimator == crate::caches::Estimator::GeometryArea;
         // Meshes as triangles, spheres analytic: a tessellated sphere would leave its photons

@@ -193,6 +193,20 @@ impl Default for OctreeIntegratorSettings {
 }
 
 impl OctreeIntegratorSettings {
+    /// The photon pass's settings as traced: `max_depth`, as Mitsuba counts it, bounds the
+    /// photons' bounces so that renders stay comparable with `path` at the same value. A path
+    /// camera -> x1 ... -> x_n -> y_b ... -> y_1 -> light has n + b surface vertices and must
+    /// have at most max_depth - 1, so photons read at vertex n may have bounced at most
+    /// max_depth - 1 - n times; the cache then serves that vertex only (`Mode::end_vertex`).
+    pub fn traced_photons(&self) -> crate::photon::trace::PhotonSettings {
+        let mut p = self.photons;
+        if self.max_depth >= 0 {
+            let n = self.mode.end_vertex() as i32;
+            p.max_bounces = p.max_bounces.min((self.max_depth - 1 - n).max(0) as u32);
+        }
+        p
+    }
+
     /// Check the settings that the octrees' own validation does not see.
     pub fn validate(&self) -> Result<(), String> {
         if self.max_depth < -1 {

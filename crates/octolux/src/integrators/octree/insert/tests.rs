@@ -346,3 +346,42 @@ fn inserted_cube_faces_diagnostic() {
         }
     }
 }
+
+/// The flight estimate (`caches::octree` `flights.rs`) in a furnace: a closed cube whose walls
+/// emit `Le` and reflect `ρ` diffusely. Inside, the light reflected at least once is isotropic,
+/// `L = Le ρ / (1 − ρ)`, so a sensor of any normal anywhere in the free space receives `π L`.
+/// Checked at the centres of the atmospheric leaves, for the six axis normals and two others:
+/// the leaves' mean within 2%, every leaf within 25%.
+#[test]
+fn flights_give_the_furnace_its_free_space_light() {
+    let (rho, le) = (0.5f32, 1.0f32);
+    let scene = crate::integrators::test_scenes::furnace_box_scene(rho, le);
+    let mut s = OctreeIntegratorSettings::default();
+    s.photons.photons = 200_000;
+    let mut o = OctreeIntegrator::build(&scene, s).unwrap();
+    let st = o.fill_atmosphere(&scene);
+    assert!(st.flight_leaves > 0, "{st:?}");
+    let expected = std::f64::consts::PI * (le * rho / (1.0 - rho)) as f64;
+    let (mut sum, mut n, mut worst) = (0.0f64, 0usize, 0.0f64);
+    for info in o.global.leaf_infos().iter().filter(|l| !l.valid) {
+        let c = info.bounds.center();
+        // the leaves next to the walls take the diffused values when few flights cross them
+        if (info.bounds.max - info.bounds.min).x < 0.2 {
+            continue;
+        }
+        // the six axes and two diagonals: the volume query of an atmospheric leaf is exact for
+        // every normal under an isotropic field (`ambient_cube`)
+        let diag = [Vec3::ONE.normalize(), Vec3::new(0.3, -0.8, 0.52).normalize()];
+        for nrm in NORMALS.into_iter().chain(diag) {
+            let e = o.global.irradiance_volume(c, nrm, None).map_or(0.0, mean3) / expected;
+            sum += e;
+            n += 1;
+            worst = worst.max((e - 1.0).abs());
+        }
+    }
+    let mean = sum / n as f64;
+    eprintln!("furnace flights: {} leaves from flights, {n} readings, mean {mean:.4} of π L, worst {worst:.3}", st.flight_leaves);
+    assert!(n >= 8 * 8, "too few atmospheric leaves read: {n}");
+    assert!((mean - 1.0).abs() < 0.02, "mean {mean:.4} of π L");
+    assert!(worst < 0.25, "a leaf {worst:.3} off π L");
+}
