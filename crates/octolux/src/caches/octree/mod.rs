@@ -82,6 +82,8 @@ pub mod compress;
 mod estimate;
 mod flat;
 mod flights;
+#[cfg(test)]
+mod free_space_tests;
 mod geometry;
 mod parts;
 mod planes;
