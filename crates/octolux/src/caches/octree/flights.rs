@@ -127,7 +127,9 @@ impl Octree {
     /// infinite: it left the scene, and counts until it leaves the root cube) and carries
     /// `power` (W, RGB). Sums in f64 over the chunk, in flight order per leaf.
     pub fn flight_sums(&self, flights: impl IntoIterator<Item = (Vec3, Vec3, f32, Vec3)>) -> FlightSums {
-        let mut raw: Vec<(u64, [f32; 9])> = Vec::new();
+        // summed as the flights come (flight order per leaf), so that a chunk holds one entry
+        // per leaf and octant it met, not one per crossing
+        let mut acc: std::collections::HashMap<u64, ([f64; 9], u32)> = std::collections::HashMap::new();
         let mut used = 0usize;
         for (o, d, t, c) in flights {
             if !(t > 0.0 && o.is_finite() && d.is_finite() && c.is_finite()) {
@@ -140,24 +142,15 @@ impl Octree {
             self.segment_leaves(o, d, t, |node, l| {
                 if self.nodes[node as usize].value() == super::NO_VALUE {
                     let a = w * l;
-                    raw.push((
-                        node as u64 * 8 + oct,
-                        [a.x * c.x, a.y * c.x, a.z * c.x, a.x * c.y, a.y * c.y, a.z * c.y, a.x * c.z, a.y * c.z, a.z * c.z],
-                    ));
+                    let v = [a.x * c.x, a.y * c.x, a.z * c.x, a.x * c.y, a.y * c.y, a.z * c.y, a.x * c.z, a.y * c.z, a.z * c.z];
+                    let e = acc.entry(node as u64 * 8 + oct).or_insert(([0.0; 9], 0));
+                    e.0.iter_mut().zip(v).for_each(|(s, x)| *s += x as f64);
+                    e.1 += 1;
                 }
             });
         }
-        raw.sort_by_key(|r| r.0);
-        let mut sums: Vec<(u64, [f64; 9], u32)> = Vec::new();
-        for (k, v) in raw {
-            match sums.last_mut() {
-                Some(last) if last.0 == k => {
-                    last.1.iter_mut().zip(v).for_each(|(s, x)| *s += x as f64);
-                    last.2 += 1;
-                }
-                _ => sums.push((k, v.map(f64::from), 1)),
-            }
-        }
+        let mut sums: Vec<(u64, [f64; 9], u32)> = acc.into_iter().map(|(k, (v, m))| (k, v, m)).collect();
+        sums.sort_unstable_by_key(|r| r.0);
         FlightSums { sums, used }
     }
 
