@@ -144,3 +144,21 @@ pub(crate) fn sky_plane_desc(rho: f32, sky: f32) -> SceneDesc {
         ..Default::default()
     }
 }
+
+/// The test box with a cube (centre, half side) appended as its last shape, absent from any
+/// bake of the box: the prepared scene and the cube's shape index.
+pub(crate) fn box_with_cube(centre: Vec3, half: Vec3, width: u32) -> (Scene, u32) {
+    let mut desc = box_desc();
+    desc.film.width = width;
+    desc.film.height = width;
+    let first = desc.shapes.len() as u32;
+    let cube = Mat4::from_translation(centre) * Mat4::from_scale(half);
+    desc.shapes.push(ShapeDesc {
+        name: "inserted".into(),
+        geometry: Geometry::Mesh(TriMesh::cube(&cube)),
+        material: 0,
+        emission: None,
+        flip_normals: false,
+    });
+    (Scene::prepare(desc, BackendKind::Bvh).unwrap(), first)
+}

@@ -15,6 +15,7 @@
 //! trusted.
 
 pub mod guide;
+pub mod paths;
 pub mod trace;
 
 use crate::math::Color;

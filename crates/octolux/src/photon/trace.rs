@@ -36,7 +36,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Stream index separating photon random numbers from pixel random numbers.
-const PHOTON_STREAM: u64 = 0x5048_4f54_4f4e; // "PHOTON"
+pub(super) const PHOTON_STREAM: u64 = 0x5048_4f54_4f4e; // "PHOTON"
 /// Stream of the pilot photons of the disc guide.
 const PILOT_STREAM: u64 = 0x0050_494c_4f54; // "PILOT"
 
@@ -77,6 +77,10 @@ pub enum PhotonError {
     /// would not fit in the memory budget ([`crate::budget`]).
     #[error(transparent)]
     Budget(#[from] crate::budget::BudgetError),
+    /// The path records of an update ([`super::paths::PhotonPaths`]) index photons and
+    /// flight points with 32 bits.
+    #[error("the photon paths hold more than 2^32 photons or flight points")]
+    TooManyRecords,
 }
 
 /// Output of the photon pass.
@@ -108,12 +112,7 @@ pub fn trace_photons(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonM
     let start = std::time::Instant::now();
     let n = settings.photons;
     let inv_n = 1.0 / n as f32;
-    let (disc_guide, pilot) = if settings.guide_disc && scene.lights.lights.iter().any(guide::from_disc) {
-        let (g, m) = pilot_guide(scene, settings, guide::pilot_cap(n));
-        (Some(g), m)
-    } else {
-        (None, 0)
-    };
+    let (disc_guide, pilot) = disc_guide(scene, settings);
     let chunks: Vec<(Vec<Photon>, Vec<Photon>)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
@@ -127,15 +126,7 @@ pub fn trace_photons(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonM
                     PHOTON_STREAM,
                     inv_n,
                     disc_guide.as_ref(),
-                    |hit| {
-                        if hit.bounces > 0 && hit.storable {
-                            if hit.all_specular {
-                                caustic.push(hit.photon);
-                            } else {
-                                global.push(hit.photon);
-                            }
-                        }
-                    },
+                    |hit| store(&hit, &mut global, &mut caustic),
                     |_| {},
                 );
             }
@@ -154,8 +145,32 @@ pub fn trace_photons(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonM
     Ok(maps)
 }
 
+/// The disc guide of the pass (`None` without a distant light or with `guide_disc` off) and
+/// the pilot paths it took.
+pub(super) fn disc_guide(scene: &Scene, settings: &PhotonSettings) -> (Option<DiscGuide>, u64) {
+    if settings.guide_disc && scene.lights.lights.iter().any(guide::from_disc) {
+        let (g, m) = pilot_guide(scene, settings, guide::pilot_cap(settings.photons));
+        (Some(g), m)
+    } else {
+        (None, 0)
+    }
+}
+
+/// Keep a path's hit in the map it belongs to (module docs): none for the light's own hit or
+/// a surface that stores no photon.
+#[inline]
+pub(super) fn store(hit: &PathHit, global: &mut Vec<Photon>, caustic: &mut Vec<Photon>) {
+    if hit.bounces > 0 && hit.storable {
+        if hit.all_specular {
+            caustic.push(hit.photon);
+        } else {
+            global.push(hit.photon);
+        }
+    }
+}
+
 /// Photon paths per parallel work item.
-const CHUNK: u64 = 4096;
+pub(super) const CHUNK: u64 = 4096;
 
 /// The pilot pass of the disc guide: photons emitted like the main pass's (uniform disc), in
 /// rounds of [`guide::PILOT_ROUND`] until their paths have stored [`guide::PILOT_STORED`]
@@ -239,11 +254,7 @@ pub fn map_flights<R: Send>(scene: &Scene, settings: &PhotonSettings, map: impl 
     crate::budget::check_photons(settings.photons)?;
     let n = settings.photons;
     let inv_n = 1.0 / n as f32;
-    let disc_guide = if settings.guide_disc && scene.lights.lights.iter().any(guide::from_disc) {
-        Some(pilot_guide(scene, settings, guide::pilot_cap(n)).0)
-    } else {
-        None
-    };
+    let disc_guide = disc_guide(scene, settings).0;
     Ok((0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
@@ -258,14 +269,14 @@ pub fn map_flights<R: Send>(scene: &Scene, settings: &PhotonSettings, map: impl 
 
 /// One surface hit of a photon path, as [`trace_path`] reports it.
 #[derive(Clone, Copy, Debug)]
-struct PathHit {
-    photon: Photon,
+pub(super) struct PathHit {
+    pub photon: Photon,
     /// Bounces before this hit (0: the light's own ray).
-    bounces: u32,
+    pub bounces: u32,
     /// Whether every bounce before this hit was specular (vacuously true for `bounces == 0`).
-    all_specular: bool,
+    pub all_specular: bool,
     /// The surface may hold photons (a non-delta lobe, or `store_on_specular`).
-    storable: bool,
+    pub storable: bool,
 }
 
 /// Trace photon path `index` of random stream `stream` and hand every surface hit to `visit`,
@@ -275,7 +286,7 @@ struct PathHit {
 /// and its point of the unit square (the pilot's record).
 // the path's identity (index, stream), its power scale, its guide and the two sinks
 #[allow(clippy::too_many_arguments)]
-fn trace_path(
+pub(super) fn trace_path(
     scene: &Scene,
     settings: &PhotonSettings,
     index: u64,

@@ -361,6 +361,19 @@ impl Scene {
         out
     }
 
+    /// World-space triangles and analytic spheres (centre, radius) of the shapes `shapes`.
+    pub fn shapes_geometry(&self, shapes: &std::ops::Range<u32>) -> (Vec<[Vec3; 3]>, Vec<(Vec3, f32)>) {
+        let tris = self
+            .triangles
+            .iter()
+            .zip(&self.tri_shape)
+            .filter(|(_, s)| shapes.contains(s))
+            .map(|(t, _)| t.map(|k| self.positions[k as usize]))
+            .collect();
+        let spheres = self.spheres.iter().filter(|s| shapes.contains(&s.shape)).map(|s| (s.center, s.radius)).collect();
+        (tris, spheres)
+    }
+
     /// World-space triangles of the meshes whose material passes `keep` (no sphere), wound
     /// so that their winding normal is the shape's front side (`flip_normals` honoured).
     pub fn mesh_triangles_where(&self, keep: impl Fn(&Material) -> bool) -> Vec<[Vec3; 3]> {

@@ -15,7 +15,7 @@
 //!    sequentially (8 octant sums, f32 blocks of 64 photons flushed into f64).
 
 use super::cells::{LeafBuild, TreeView};
-use super::compress::{compress_leaf, compress_leaf_for_normals};
+use super::compress::{compress_leaf, compress_leaf_for_normals, MATRIX_BYTES};
 use super::estimate::{EstimateCtx, LeafEstimate, Scratch};
 use super::settings::{auto_depth, Depth, Estimator, Split, Storage, MAX_DEPTH};
 use super::sort::{sort_photons, KeyFn, PhotonRec, Rec, RecNg, SortKey, Sorted};
@@ -150,11 +150,11 @@ fn distribute_triangles(view: &TreeView, tri_bounds: &[Bounds3], eps: f32, n_val
 }
 
 /// The built node array with its leaves.
-struct Tree {
-    nodes: Vec<Node>,
+pub(super) struct Tree {
+    pub nodes: Vec<Node>,
     start: Vec<u32>,
-    leaves: Vec<LeafBuild>,
-    valid: Vec<LeafBuild>,
+    pub leaves: Vec<LeafBuild>,
+    pub valid: Vec<LeafBuild>,
 }
 
 fn subdivide<K: SortKey>(keys: &[K], h: u32, settings: &OctreeSettings) -> Tree {
@@ -173,7 +173,56 @@ fn subdivide<K: SortKey>(keys: &[K], h: u32, settings: &OctreeSettings) -> Tree 
     Tree { nodes: tb.nodes, start: tb.start, leaves: tb.leaves, valid: tb.valid }
 }
 
-/// Steps 2-4 on sorted photons: subdivision, triangle lists, per-leaf estimates.
+/// The sorted photons assigned to the leaves of a given topology (`refit.rs`): the node array
+/// of `topology` with its links and leaves kept, the photon counts, ranges and valid leaves
+/// recomputed. The ranges are found as [`TreeBuilder::node`] finds them (binary search on the
+/// next 3 key bits), and the leaves are numbered in the same depth-first order.
+fn assign<K: SortKey>(keys: &[K], h: u32, topology: &[Node]) -> Tree {
+    fn rec<K: SortKey>(t: &mut Tree, keys: &[K], h: u32, id: usize, range: std::ops::Range<usize>, depth: u32, ijk: [u32; 3]) {
+        let (lo, hi) = (range.start, range.end);
+        t.nodes[id].photons = (hi - lo) as u32;
+        if t.nodes[id].is_leaf() {
+            let leaf = LeafBuild { node: id as u32, lo: lo as u32, hi: hi as u32, depth, ijk };
+            t.start[id] = lo as u32;
+            t.leaves.push(leaf);
+            if hi > lo {
+                t.nodes[id].link = LEAF_BIT | t.valid.len() as u32;
+                t.valid.push(leaf);
+            } else {
+                t.nodes[id].link = LEAF_BIT | NO_VALUE;
+            }
+            return;
+        }
+        let first = t.nodes[id].link as usize;
+        let mut cut = [0usize; 9];
+        cut[8] = hi - lo;
+        if depth < h {
+            let shift = 3 * (h - depth - 1);
+            let s = &keys[lo..hi];
+            for (c, cut_c) in cut.iter_mut().enumerate().take(8).skip(1) {
+                *cut_c = s.partition_point(|k| ((k.get() >> shift) & 7) < c as u64);
+            }
+        }
+        for c in 0..8u32 {
+            let cijk = [2 * ijk[0] + (c & 1), 2 * ijk[1] + ((c >> 1) & 1), 2 * ijk[2] + ((c >> 2) & 1)];
+            rec(t, keys, h, first + c as usize, lo + cut[c as usize]..lo + cut[c as usize + 1], depth + 1, cijk);
+        }
+    }
+    let mut t = Tree { nodes: topology.to_vec(), start: vec![0; topology.len()], leaves: Vec::new(), valid: Vec::new() };
+    rec(&mut t, keys, h, 0, 0..keys.len(), 0, [0; 3]);
+    t
+}
+
+/// Which leaves [`estimates`] estimates: all of them on a new subdivision, or, on a given
+/// topology, those `select` picks (the others get `None`).
+#[derive(Clone, Copy)]
+pub(super) enum Leaves<'a> {
+    Subdivide,
+    Fixed { topology: &'a [Node], select: &'a (dyn Fn(&LeafBuild) -> bool + Sync) },
+}
+
+/// Steps 2-4 on sorted photons: subdivision (or a given topology), triangle lists, per-leaf
+/// estimates.
 fn estimates<R: PhotonRec, K: SortKey>(
     sorted: Sorted<R, K>,
     origin: Vec3,
@@ -181,10 +230,14 @@ fn estimates<R: PhotonRec, K: SortKey>(
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
     surfaces: Surfaces<'_>,
-) -> (Tree, usize, Vec<LeafEstimate>) {
+    which: Leaves<'_>,
+) -> (Tree, usize, Vec<Option<LeafEstimate>>) {
     let Surfaces { triangles, spheres } = surfaces;
     let Sorted { keys, pos, recs } = sorted;
-    let tree = subdivide(&keys, h, settings);
+    let tree = match which {
+        Leaves::Subdivide => subdivide(&keys, h, settings),
+        Leaves::Fixed { topology, .. } => assign(&keys, h, topology),
+    };
     drop(keys);
     let view = TreeView { nodes: &tree.nodes, origin, cell_size };
     let tri_lists = if triangles.is_empty() {
@@ -205,13 +258,21 @@ fn estimates<R: PhotonRec, K: SortKey>(
         distribute_triangles(&view, &tri_bounds, settings.epsilon, tree.valid.len())
     };
     let ctx = EstimateCtx { view, start: &tree.start, pos: &pos, recs: &recs, settings, triangles, tri_lists: &tri_lists, spheres };
-    let est: Vec<LeafEstimate> =
-        tree.valid.par_iter().enumerate().map_init(Scratch::default, |sc, (v, leaf)| ctx.estimate(leaf, v, sc)).collect();
+    let est: Vec<Option<LeafEstimate>> = tree
+        .valid
+        .par_iter()
+        .enumerate()
+        .map_init(Scratch::default, |sc, (v, leaf)| match which {
+            Leaves::Fixed { select, .. } if !select(leaf) => None,
+            _ => Some(ctx.estimate(leaf, v, sc)),
+        })
+        .collect();
     let n = recs.len();
     (tree, n, est)
 }
 
 /// Steps 1-4 with the key storage chosen by the depth.
+#[allow(clippy::too_many_arguments)] // the build's inputs, passed through
 fn sort_and_estimate<R: PhotonRec>(
     photons: &[Photon],
     kf: KeyFn,
@@ -220,12 +281,40 @@ fn sort_and_estimate<R: PhotonRec>(
     cell_size: &[f32; MAX_DEPTH as usize + 1],
     settings: &OctreeSettings,
     surfaces: Surfaces<'_>,
-) -> (Tree, usize, Vec<LeafEstimate>) {
+    which: Leaves<'_>,
+) -> (Tree, usize, Vec<Option<LeafEstimate>>) {
     if 3 * kf.h < 32 {
-        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, kf.h, cell_size, settings, surfaces)
+        estimates(sort_photons::<R, u32>(photons, kf, size, cosine_min), kf.origin, kf.h, cell_size, settings, surfaces, which)
     } else {
-        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, kf.h, cell_size, settings, surfaces)
+        estimates(sort_photons::<R, u64>(photons, kf, size, cosine_min), kf.origin, kf.h, cell_size, settings, surfaces, which)
     }
+}
+
+/// Steps 1-4 for `settings` (the record type chosen by the estimator): `(tree, photons kept,
+/// estimates)`.
+pub(super) fn sort_assign_estimate(
+    photons: &[Photon],
+    kf: KeyFn,
+    size: f32,
+    cell_size: &[f32; MAX_DEPTH as usize + 1],
+    settings: &OctreeSettings,
+    geometry: Option<Surfaces<'_>>,
+    which: Leaves<'_>,
+) -> (Tree, usize, Vec<Option<LeafEstimate>>) {
+    let cosine_min = (settings.estimator == Estimator::Cosine).then_some(settings.min_cos);
+    let surfaces = geometry.filter(|_| settings.estimator == Estimator::GeometryArea).unwrap_or_default();
+    if settings.estimator == Estimator::GeometryArea || settings.split == Split::Normal {
+        sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, cell_size, settings, surfaces, which)
+    } else {
+        sort_and_estimate::<Rec>(photons, kf, size, cosine_min, cell_size, settings, Surfaces::default(), which)
+    }
+}
+
+/// A valid leaf's value in a tree being assembled: a new estimate, or the value of another
+/// tree of the same settings (`refit.rs`: a leaf nothing changed around).
+pub(super) enum LeafOut<'a> {
+    New(Box<LeafEstimate>),
+    Old(&'a Octree, u32),
 }
 
 pub(super) fn build(
@@ -254,25 +343,75 @@ pub(super) fn build(
     let cell_size = super::parts::cell_sizes(size);
 
     // 1.-2. sort and subdivision, 3.-4. estimates
-    let cosine_min = (settings.estimator == Estimator::Cosine).then_some(settings.min_cos);
     let kf = KeyFn { origin, inv_quant, h };
-    let surfaces = geometry.filter(|_| settings.estimator == Estimator::GeometryArea).unwrap_or_default();
-    let (tree, n_kept, est) = if settings.estimator == Estimator::GeometryArea || settings.split == Split::Normal {
-        sort_and_estimate::<RecNg>(photons, kf, size, cosine_min, &cell_size, settings, surfaces)
-    } else {
-        sort_and_estimate::<Rec>(photons, kf, size, cosine_min, &cell_size, settings, Surfaces::default())
-    };
+    let (tree, n_kept, est) = sort_assign_estimate(photons, kf, size, &cell_size, settings, geometry, Leaves::Subdivide);
+    // a new subdivision estimates every valid leaf (`estimates`): no `None`
+    let outs = est.into_iter().flatten().map(|e| LeafOut::New(Box::new(e))).collect();
+    let frame = Frame { origin, size, cell_size, inv_quant, h, surface_area, photons: photons.len() };
+    let mut tree = assemble(tree, n_kept, outs, frame, settings);
+    tree.stats.t_build_s = t0.elapsed().as_secs_f64();
+    Ok(tree)
+}
+
+/// The root cube and depth of a tree, and what its statistics report of the input.
+pub(super) struct Frame {
+    pub origin: Vec3,
+    pub size: f32,
+    pub cell_size: [f32; MAX_DEPTH as usize + 1],
+    pub inv_quant: f32,
+    pub h: u32,
+    pub surface_area: f64,
+    /// Photons given (kept and dropped).
+    pub photons: usize,
+}
+
+/// The octree from its leaves and their values: facing bits, anchors, storage, statistics.
+/// `Old` values are copied as stored; the statistics count them with their tree's mean
+/// gathered photons and no fallback (`refit.rs`).
+pub(super) fn assemble(tree: Tree, n_kept: usize, outs: Vec<LeafOut<'_>>, f: Frame, settings: &OctreeSettings) -> Octree {
     let Tree { nodes, leaves, valid, .. } = tree;
+    let Frame { origin, size, cell_size, inv_quant, h, surface_area, photons } = f;
+    let facing_of = |o: &LeafOut| match o {
+        LeafOut::New(e) => e.facing,
+        LeafOut::Old(t, j) => t.facing.get(*j as usize).copied().unwrap_or(ALL_FACING),
+    };
     // The facing bits are kept only when they say something (Split::Normal with geometry);
     // an empty list reads as "every matrix carries a value".
-    let facing: Vec<u8> = if est.iter().any(|e| e.facing != ALL_FACING) { est.iter().map(|e| e.facing).collect() } else { Vec::new() };
-    let anchors: Vec<_> = est.iter().map(|e| e.anchor).collect();
+    let facing: Vec<u8> = if outs.iter().any(|o| facing_of(o) != ALL_FACING) { outs.iter().map(facing_of).collect() } else { Vec::new() };
+    let anchors: Vec<_> = outs
+        .iter()
+        .map(|o| match o {
+            LeafOut::New(e) => e.anchor,
+            LeafOut::Old(t, j) => t.anchors[*j as usize],
+        })
+        .collect();
     let values = match settings.storage {
-        Storage::Compressed if settings.split == Split::Normal => {
-            LeafValues::Compressed(est.par_iter().map(|e| compress_leaf_for_normals(&e.m, &e.normals)).collect())
-        }
-        Storage::Compressed => LeafValues::Compressed(est.par_iter().map(|e| compress_leaf(&e.m)).collect()),
-        Storage::Full => LeafValues::Full(est.iter().map(|e| e.m).collect()),
+        Storage::Compressed => LeafValues::Compressed(
+            outs.par_iter()
+                .map(|o| match o {
+                    LeafOut::New(e) if settings.split == Split::Normal => compress_leaf_for_normals(&e.m, &e.normals),
+                    LeafOut::New(e) => compress_leaf(&e.m),
+                    LeafOut::Old(t, j) => match &t.values {
+                        LeafValues::Compressed(v) => v[*j as usize],
+                        LeafValues::Full(v) => compress_leaf(&v[*j as usize]),
+                    },
+                })
+                .collect(),
+        ),
+        Storage::Full => LeafValues::Full(
+            outs.iter()
+                .map(|o| match o {
+                    LeafOut::New(e) => e.m,
+                    LeafOut::Old(t, j) => match &t.values {
+                        LeafValues::Full(v) => v[*j as usize],
+                        LeafValues::Compressed(v) => {
+                            let b = &v[*j as usize];
+                            std::array::from_fn(|k| super::compress::decompress_matrix(&b[k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]))
+                        }
+                    },
+                })
+                .collect(),
+        ),
     };
 
     // statistics
@@ -280,10 +419,17 @@ pub(super) fn build(
     let min_leaf_size = cell_size[max_depth as usize];
     let mut depth_histogram = vec![0u32; h as usize + 1];
     let (mut own, mut gath, mut cells) = (0.0f64, 0.0f64, 0.0f64);
-    for (l, e) in valid.iter().zip(&est) {
+    let mut fallback = 0usize;
+    for (l, o) in valid.iter().zip(&outs) {
         depth_histogram[l.depth as usize] += 1;
         own += (l.hi - l.lo) as f64;
-        gath += e.gathered as f64;
+        match o {
+            LeafOut::New(e) => {
+                gath += e.gathered as f64;
+                fallback += e.fallback as usize;
+            }
+            LeafOut::Old(t, _) => gath += t.stats.mean_gathered_photons,
+        }
         cells += cell_size[l.depth as usize] as f64;
     }
     let nv = valid.len();
@@ -300,15 +446,15 @@ pub(super) fn build(
         mean_cell_size: mean(cells),
         depth_histogram,
         photons: n_kept,
-        photons_dropped: photons.len() - n_kept,
+        photons_dropped: photons - n_kept,
         nodes: nodes.len(),
         max_depth,
         min_leaf_size,
-        geometry_fallback_leaves: est.iter().filter(|e| e.fallback).count(),
+        geometry_fallback_leaves: fallback,
         h_max: h,
         surface_area,
     };
-    let mut tree = Octree {
+    Octree {
         origin,
         size,
         cell_size,
@@ -323,9 +469,7 @@ pub(super) fn build(
         flat: Default::default(),
         settings: settings.clone(),
         stats,
-    };
-    tree.stats.t_build_s = t0.elapsed().as_secs_f64();
-    Ok(tree)
+    }
 }
 
 #[cfg(test)]

@@ -88,6 +88,7 @@ mod geometry;
 mod parts;
 mod planes;
 mod query;
+mod refit;
 mod settings;
 mod sort;
 #[cfg(test)]
@@ -101,6 +102,7 @@ pub use flights::{FlightSums, Flights, FLIGHT_MIN};
 pub use geometry::AnalyticSphere;
 pub use parts::{AtmosphereParts, LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
+pub use refit::{Changes, RefitStats};
 pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
 
 /// The surfaces the geometry-area estimator clips to each gathering box (world space).

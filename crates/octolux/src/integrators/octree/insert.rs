@@ -13,9 +13,10 @@
 //! `leak = "none"` turns it off). The caustic octree is not read on the object (caustic light
 //! is not diffused).
 //!
-//! Not captured: the object's shadow in the baked indirect light of the scene (the floor under
-//! it keeps its baked value), the light it reflects onto the scene, and the change of the
-//! scene's light on the object from its own presence. The cheap correction measured
+//! Not captured here: the object's shadow in the baked indirect light of the scene (the floor
+//! under it keeps its baked value), the light it reflects onto the scene, and the change of the
+//! scene's light on the object from its own presence. The incremental re-bake (`rebake.rs`,
+//! the front ends' default) captures them by making the object part of the photon solution. The cheap correction measured
 //! ([`InsertAo`]): scale the scene's baked indirect light by the fraction of a cosine-weighted
 //! set of short rays that the object does not block (its ambient occlusion on the scene).
 

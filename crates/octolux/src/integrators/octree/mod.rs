@@ -32,6 +32,7 @@ pub mod insert;
 mod leak;
 #[cfg(test)]
 pub(crate) mod leak_tests;
+pub mod rebake;
 mod settings;
 mod shade;
 #[cfg(test)]

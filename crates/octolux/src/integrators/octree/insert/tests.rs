@@ -8,7 +8,7 @@ use super::{InsertAo, Inserted};
 use crate::caches::octree::{Depth, QueryLeaf};
 use crate::caches::Octree;
 use crate::integrators::path::{li, PathSettings};
-use crate::integrators::test_scenes::box_scene;
+use crate::integrators::test_scenes::{box_scene, box_with_cube};
 use crate::math::Ray;
 use crate::sampling::{around, square_to_cosine_hemisphere, Sampler};
 use crate::scene::Scene;
@@ -59,25 +59,6 @@ fn baked_box(photons: u64) -> (Scene, OctreeIntegrator) {
     eprintln!("atmosphere of the box: {st:?}");
     assert!(st.filled_leaves > 0 && st.edges > 0, "{st:?}");
     (scene, o)
-}
-
-/// The test box with a cube (centre, half side) appended as its last shape, absent from any
-/// bake of the box: the prepared scene and the cube's shape index.
-fn box_with_cube(centre: Vec3, half: Vec3, width: u32) -> (Scene, u32) {
-    use crate::scene::{Geometry, ShapeDesc, TriMesh};
-    let mut desc = crate::integrators::test_scenes::box_desc();
-    desc.film.width = width;
-    desc.film.height = width;
-    let first = desc.shapes.len() as u32;
-    let cube = glam::Mat4::from_translation(centre) * glam::Mat4::from_scale(half);
-    desc.shapes.push(ShapeDesc {
-        name: "inserted".into(),
-        geometry: Geometry::Mesh(TriMesh::cube(&cube)),
-        material: 0,
-        emission: None,
-        flip_normals: false,
-    });
-    (Scene::prepare(desc, crate::accel::BackendKind::Bvh).unwrap(), first)
 }
 
 /// Free-space points of the closed Cornell-like box (size 2, light under the ceiling), each of

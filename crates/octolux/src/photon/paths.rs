@@ -1,0 +1,276 @@
+//! The photon pass kept path by path, so that the paths an object meets can be traced again
+//! (issue 26, item 2: an object inserted into or moved in a baked solution;
+//! `integrators/octree/insert.rs`, docs/guide/baking.md "Inserted objects").
+//!
+//! Photon path `i` draws its random numbers from `(seed, i)` alone (`trace.rs`), so tracing
+//! path `i` again in a changed scene gives exactly the path a full pass in that scene would
+//! trace: the same up to its first meeting with the change, its own continuation after. A path
+//! that meets no change is the same path. [`PhotonPaths`] keeps, per path, its stored photons
+//! (global and caustic, in path order) and the points of its flights (the light's point, each
+//! surface hit, and for a flight leaving the scene a point [`PhotonPaths::escape`] away). The
+//! paths whose flights meet a box ([`PhotonPaths::paths_meeting`]) are traced again and their
+//! photons replaced in place ([`PhotonPaths::retrace`]): the maps then equal, photon for
+//! photon and in the same order, those of a full pass in the changed scene with the disc
+//! guide of the first one (a distant light's guide is a pilot pass of the scene it was made
+//! in; it is kept, so that every path keeps its identity).
+
+use super::guide::DiscGuide;
+use super::trace::{disc_guide, store, trace_path, PhotonError, PhotonSettings, CHUNK, PHOTON_STREAM};
+use super::Photon;
+use crate::math::Bounds3;
+use crate::scene::Scene;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// The photons and flight points of one path.
+#[derive(Default)]
+struct PathRecord {
+    global: Vec<Photon>,
+    caustic: Vec<Photon>,
+    points: Vec<Vec3>,
+}
+
+/// The photon pass, path by path (module docs). Memory: the photons (48 bytes each), 12
+/// bytes per flight point and 12 bytes per path.
+pub struct PhotonPaths {
+    settings: PhotonSettings,
+    guide: Option<DiscGuide>,
+    global: Vec<Photon>,
+    /// Per path `i`: `global[g_start[i]..g_start[i + 1]]`.
+    g_start: Vec<u32>,
+    caustic: Vec<Photon>,
+    c_start: Vec<u32>,
+    points: Vec<Vec3>,
+    p_start: Vec<u32>,
+    /// Length given to a flight that leaves the scene (scene units): twice the diameter of the
+    /// bounding sphere of the scene the pass was traced in.
+    escape: f32,
+}
+
+/// What [`PhotonPaths::retrace`] changed.
+#[derive(Clone, Debug, Default)]
+pub struct Retraced {
+    /// Paths traced again.
+    pub paths: usize,
+    /// Positions of the photons removed and of those added (both maps): per path, those after
+    /// the photons its old and new traces share.
+    pub moved: Vec<Vec3>,
+}
+
+/// Offsets of the per-path lists, from their lengths.
+fn offsets(lens: impl Iterator<Item = usize>) -> Option<Vec<u32>> {
+    let mut out = vec![0u32];
+    let mut total = 0u64;
+    for l in lens {
+        total += l as u64;
+        out.push(u32::try_from(total).ok()?);
+    }
+    Some(out)
+}
+
+/// Whether the segment `a`–`b` meets the box (slab test on the closed segment).
+#[inline]
+fn segment_meets(a: Vec3, b: Vec3, bx: &Bounds3) -> bool {
+    let d = b - a;
+    let (mut t0, mut t1) = (0.0f32, 1.0f32);
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if a[k] < bx.min[k] || a[k] > bx.max[k] {
+                return false;
+            }
+            continue;
+        }
+        let inv = 1.0 / d[k];
+        let (mut lo, mut hi) = ((bx.min[k] - a[k]) * inv, (bx.max[k] - a[k]) * inv);
+        if lo > hi {
+            std::mem::swap(&mut lo, &mut hi);
+        }
+        t0 = t0.max(lo);
+        t1 = t1.min(hi);
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
+}
+
+impl PhotonPaths {
+    /// Trace the pass of `settings` in `scene`, keeping every path's photons and flight points.
+    pub fn trace(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonPaths, PhotonError> {
+        if settings.photons == 0 {
+            return Err(PhotonError::NoPhotons(0));
+        }
+        if scene.lights.is_empty() {
+            return Err(PhotonError::NoLight);
+        }
+        crate::budget::check_photons(settings.photons)?;
+        let guide = disc_guide(scene, settings).0;
+        let (_, radius) = scene.lights.scene_sphere();
+        let escape = (4.0 * radius).max(1e-3);
+        let mut paths = PhotonPaths {
+            settings: *settings,
+            guide,
+            global: Vec::new(),
+            g_start: vec![0],
+            caustic: Vec::new(),
+            c_start: vec![0],
+            points: Vec::new(),
+            p_start: vec![0],
+            escape,
+        };
+        let n = settings.photons;
+        let chunks: Vec<Vec<PathRecord>> = (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| (c * CHUNK..((c + 1) * CHUNK).min(n)).map(|i| paths.trace_one(scene, i)).collect())
+            .collect();
+        let records: Vec<PathRecord> = chunks.into_iter().flatten().collect();
+        paths.set(&records)?;
+        Ok(paths)
+    }
+
+    /// Path `i` traced in `scene`.
+    fn trace_one(&self, scene: &Scene, i: u64) -> PathRecord {
+        let mut r = PathRecord::default();
+        let inv_n = 1.0 / self.settings.photons as f32;
+        let escape = self.escape;
+        let PathRecord { global, caustic, points } = &mut r;
+        trace_path(
+            scene,
+            &self.settings,
+            i,
+            PHOTON_STREAM,
+            inv_n,
+            self.guide.as_ref(),
+            |hit| store(&hit, global, caustic),
+            |f| {
+                if points.is_empty() {
+                    points.push(f.o);
+                }
+                points.push(f.o + f.d * if f.t.is_finite() { f.t } else { escape });
+            },
+        );
+        r
+    }
+
+    /// Replace every list by `records` (one per path, in order).
+    fn set(&mut self, records: &[PathRecord]) -> Result<(), PhotonError> {
+        self.g_start = offsets(records.iter().map(|r| r.global.len())).ok_or(PhotonError::TooManyRecords)?;
+        self.c_start = offsets(records.iter().map(|r| r.caustic.len())).ok_or(PhotonError::TooManyRecords)?;
+        self.p_start = offsets(records.iter().map(|r| r.points.len())).ok_or(PhotonError::TooManyRecords)?;
+        self.global = records.iter().flat_map(|r| r.global.iter().copied()).collect();
+        self.caustic = records.iter().flat_map(|r| r.caustic.iter().copied()).collect();
+        self.points = records.iter().flat_map(|r| r.points.iter().copied()).collect();
+        Ok(())
+    }
+
+    /// The pass's settings.
+    pub fn settings(&self) -> &PhotonSettings {
+        &self.settings
+    }
+
+    /// The global photons, in path order (what [`super::trace::trace_photons`] returns).
+    pub fn global(&self) -> &[Photon] {
+        &self.global
+    }
+
+    /// The caustic photons, in path order.
+    pub fn caustic(&self) -> &[Photon] {
+        &self.caustic
+    }
+
+    /// Paths kept.
+    pub fn len(&self) -> usize {
+        self.g_start.len() - 1
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Flight points kept (the memory of the path records).
+    pub fn flight_points(&self) -> usize {
+        self.points.len()
+    }
+
+    /// The length of a flight that leaves the scene (module docs).
+    pub fn escape(&self) -> f32 {
+        self.escape
+    }
+
+    /// The paths (ascending) that a change of the scene may alter: those one of whose flights
+    /// ends in a box of `ends_in` (where a surface was removed: it may have stopped the flight),
+    /// or crosses a box of `crosses` along a segment that `blocked(a, b)` says a new surface
+    /// meets (it may stop the flight now). Any other path is the same path in the changed scene.
+    /// `blocked` may say yes where in doubt; a path it passes over must be unchanged.
+    pub fn paths_changed(&self, ends_in: &[Bounds3], crosses: &[Bounds3], blocked: &(dyn Fn(Vec3, Vec3) -> bool + Sync)) -> Vec<u32> {
+        let keep = |b: &&Bounds3| !b.is_empty();
+        let ends_in: Vec<Bounds3> = ends_in.iter().filter(keep).copied().collect();
+        let crosses: Vec<Bounds3> = crosses.iter().filter(keep).copied().collect();
+        if ends_in.is_empty() && crosses.is_empty() {
+            return Vec::new();
+        }
+        let inside = |p: Vec3, b: &Bounds3| p.cmpge(b.min).all() && p.cmple(b.max).all();
+        let n = self.len() as u32;
+        let chunk = CHUNK as u32;
+        (0..n.div_ceil(chunk))
+            .into_par_iter()
+            .flat_map_iter(|c| {
+                let (ends_in, crosses) = (&ends_in, &crosses);
+                (c * chunk..((c + 1) * chunk).min(n)).filter(move |&i| {
+                    let pts = &self.points[self.p_start[i as usize] as usize..self.p_start[i as usize + 1] as usize];
+                    pts.iter().skip(1).any(|&p| ends_in.iter().any(|b| inside(p, b)))
+                        || pts.windows(2).any(|s| crosses.iter().any(|b| segment_meets(s[0], s[1], b)) && blocked(s[0], s[1]))
+                })
+            })
+            .collect()
+    }
+
+    /// Trace the paths `ids` (ascending) again in `scene` and put their photons and flights in
+    /// place of the old ones (module docs).
+    pub fn retrace(&mut self, scene: &Scene, ids: &[u32]) -> Result<Retraced, PhotonError> {
+        debug_assert!(ids.windows(2).all(|w| w[0] < w[1]), "path ids ascending");
+        let new: Vec<PathRecord> = ids.par_iter().map(|&i| self.trace_one(scene, i as u64)).collect();
+        let mut moved = Vec::new();
+        for (&i, r) in ids.iter().zip(&new) {
+            let i = i as usize;
+            // a path is the same up to its first meeting with the change: only the photons
+            // after the common prefix moved
+            let old_g = &self.global[self.g_start[i] as usize..self.g_start[i + 1] as usize];
+            let old_c = &self.caustic[self.c_start[i] as usize..self.c_start[i + 1] as usize];
+            for (old, new) in [(old_g, &r.global[..]), (old_c, &r.caustic[..])] {
+                let same = old.iter().zip(new).take_while(|(a, b)| a == b).count();
+                moved.extend(old[same..].iter().chain(&new[same..]).map(|p| p.p));
+            }
+        }
+        self.global = splice(&self.global, &self.g_start, ids, new.iter().map(|r| r.global.as_slice()));
+        self.caustic = splice(&self.caustic, &self.c_start, ids, new.iter().map(|r| r.caustic.as_slice()));
+        self.points = splice(&self.points, &self.p_start, ids, new.iter().map(|r| r.points.as_slice()));
+        self.g_start = new_offsets(&self.g_start, ids, new.iter().map(|r| r.global.len())).ok_or(PhotonError::TooManyRecords)?;
+        self.c_start = new_offsets(&self.c_start, ids, new.iter().map(|r| r.caustic.len())).ok_or(PhotonError::TooManyRecords)?;
+        self.p_start = new_offsets(&self.p_start, ids, new.iter().map(|r| r.points.len())).ok_or(PhotonError::TooManyRecords)?;
+        Ok(Retraced { paths: ids.len(), moved })
+    }
+}
+
+/// `list` (per-path ranges `start`) with the ranges of paths `ids` replaced by `new`.
+fn splice<'a, T: Copy + 'a>(list: &[T], start: &[u32], ids: &[u32], new: impl Iterator<Item = &'a [T]>) -> Vec<T> {
+    let mut out = Vec::with_capacity(list.len());
+    let mut from = 0usize;
+    for (&i, n) in ids.iter().zip(new) {
+        let i = i as usize;
+        out.extend_from_slice(&list[from..start[i] as usize]);
+        out.extend_from_slice(n);
+        from = start[i + 1] as usize;
+    }
+    out.extend_from_slice(&list[from..]);
+    out
+}
+
+/// Per-path offsets after [`splice`]: the lengths of paths `ids` replaced by `new_lens`.
+fn new_offsets(start: &[u32], ids: &[u32], new_lens: impl Iterator<Item = usize>) -> Option<Vec<u32>> {
+    let mut lens: Vec<usize> = start.windows(2).map(|w| (w[1] - w[0]) as usize).collect();
+    for (&i, l) in ids.iter().zip(new_lens) {
+        lens[i as usize] = l;
+    }
+    offsets(lens.into_iter())
+}
