@@ -325,6 +325,12 @@ pub struct RenderArgs {
     /// fps). Without --camera-path or --sensors it makes the frames (the scene's camera).
     #[arg(long, value_name = "PATH.json", requires = "insert")]
     pub insert_path: Option<PathBuf>,
+    /// Where the inserted object's light comes from with the octree integrator: `rebake`
+    /// (default: the photon paths it meets are traced again each frame, so it casts its
+    /// indirect shadow and bleeds its colour) or `volume` (the baked volumetric values, read on
+    /// the object; the scene's light stays as baked).
+    #[arg(long, value_name = "rebake|volume", requires = "insert", value_parser = ["rebake", "volume"])]
+    pub insert_light: Option<String>,
     /// Ambient-occlusion correction of the baked indirect light around the inserted object:
     /// rays per shading point (default 0: none).
     #[arg(long, value_name = "RAYS", requires = "insert")]
@@ -409,10 +415,18 @@ impl RenderArgs {
                 path: self.insert_path.clone(),
                 ao: self.insert_ao,
                 ao_distance: self.insert_ao_distance,
+                light: match self.insert_light.as_deref() {
+                    Some("volume") => job::insert::InsertLight::Volume,
+                    _ => job::insert::InsertLight::Rebake,
+                },
             }),
             None => {
-                if self.insert_path.is_some() || self.insert_ao.is_some() || self.insert_ao_distance.is_some() {
-                    anyhow::bail!("--insert-path and --insert-ao need --insert OBJECT");
+                if self.insert_path.is_some()
+                    || self.insert_ao.is_some()
+                    || self.insert_ao_distance.is_some()
+                    || self.insert_light.is_some()
+                {
+                    anyhow::bail!("--insert-path, --insert-light and --insert-ao need --insert OBJECT");
                 }
                 None
             }

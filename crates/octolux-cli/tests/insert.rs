@@ -62,6 +62,9 @@ fn inserted_object_renders_from_a_cache_over_its_path() {
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p(&format!("f_{i:04}.json"))).unwrap()).unwrap();
         assert_eq!(json["frame"]["count"], 3, "{json}");
         assert!(json["cache"]["stale"].is_null(), "the object made the cache stale: {json}");
+        assert_eq!(json["insert"]["light"], "rebake", "the default");
+        let retraced = json["insert"]["rebake"]["paths_retraced"].as_u64().unwrap_or(0);
+        assert!(retraced > 0 && retraced < 20_000, "frame {i}: {retraced} photon paths traced again");
         let px = json["insert"]["pixels"].as_array().unwrap().len();
         assert!(px > 5, "frame {i}: the object covers {px} pixels");
         pixels.push(json["insert"]["pixels"].clone());
@@ -76,6 +79,10 @@ fn inserted_object_renders_from_a_cache_over_its_path() {
     let bad =
         octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert", &p("cube.obj"), "--insert-path", &p("bad.json")]);
     assert!(!bad.status.success() && last_line(&bad).contains("bad.json") && last_line(&bad).contains("scale"), "{}", last_line(&bad));
+    let ao = octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert", &p("cube.obj"), "--insert-ao", "4"]);
+    assert!(!ao.status.success() && last_line(&ao).contains("--insert-light volume"), "{}", last_line(&ao));
+    let light = octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert-light", "volume"]);
+    assert!(!light.status.success() && String::from_utf8_lossy(&light.stderr).contains("--insert"), "{}", last_line(&light));
     let missing = octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert", &p("none.obj")]);
     assert!(!missing.status.success() && last_line(&missing).contains("none.obj"), "{}", last_line(&missing));
     let _ = std::fs::remove_dir_all(PathBuf::from(&dir));
@@ -104,25 +111,28 @@ fn ok(args: &[&str]) {
 
 #[test]
 fn an_insert_render_from_a_cache_equals_the_uncached_insert_render() {
-    // The leak test that reads leaf planes (`visible_sample`) and the object's volumetric
-    // values: from the cache, the planes are derived from the scene without the object and
-    // the values were filled by the bake; uncached, the integrator builds both from that same
-    // scene. Every frame must be the same bytes.
+    // The leak test that reads leaf planes (`visible_sample`), and the object's light: re-baked
+    // (the photon paths traced again in the baked scene, then the ones the object changes), or
+    // the volumetric values (from the cache, filled by the bake; uncached, by the integrator
+    // from that same scene). Every frame must be the same bytes.
     let (dir, p) = scratch("cached");
     std::fs::write(p("scene.xml"), SCENE).unwrap();
     std::fs::write(p("cube.obj"), CUBE).unwrap();
     std::fs::write(p("path.json"), PATH).unwrap();
     let common = ["--spp", "2", "--seed", "3", "--set", "leak=visible_sample", "-q"];
-    let ins = ["--insert", &p("cube.obj"), "--insert-path", &p("path.json")];
     ok(&["bake", &p("scene.xml"), "-o", &p("l.oxc"), "--photons", "20000", "--seed", "3", "-q"]);
-    ok(&[&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-o", &p("c.exr")][..], &common[..], &ins[..]].concat());
-    ok(&[&["render", &p("scene.xml"), "--integrator", "octree", "--photons", "20000", "-o", &p("u.exr")][..], &common[..], &ins[..]]
-        .concat());
-    for i in 1..=3 {
-        let (c, u) = (std::fs::read(p(&format!("c_{i:04}.exr"))).unwrap(), std::fs::read(p(&format!("u_{i:04}.exr"))).unwrap());
-        assert!(c == u, "frame {i}: the insert render from the cache differs from the uncached one");
-        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p(&format!("c_{i:04}.json"))).unwrap()).unwrap();
-        assert!(json["render_report"]["leak_planes_global"]["valid"].as_u64().is_some_and(|n| n > 0), "{}", json["render_report"]);
+    // the re-bake traces the cache's photon paths again: from the cache or not, the same ones
+    for light in ["rebake", "volume"] {
+        let ins = ["--insert", &p("cube.obj"), "--insert-path", &p("path.json"), "--insert-light", light];
+        ok(&[&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-o", &p("c.exr")][..], &common[..], &ins[..]].concat());
+        ok(&[&["render", &p("scene.xml"), "--integrator", "octree", "--photons", "20000", "-o", &p("u.exr")][..], &common[..], &ins[..]]
+            .concat());
+        for i in 1..=3 {
+            let (c, u) = (std::fs::read(p(&format!("c_{i:04}.exr"))).unwrap(), std::fs::read(p(&format!("u_{i:04}.exr"))).unwrap());
+            assert!(c == u, "{light}, frame {i}: the insert render from the cache differs from the uncached one");
+            let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p(&format!("c_{i:04}.json"))).unwrap()).unwrap();
+            assert!(json["render_report"]["leak_planes_global"]["valid"].as_u64().is_some_and(|n| n > 0), "{}", json["render_report"]);
+        }
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -7,6 +7,13 @@
 //! (`octolux::integrators::octree::insert`). Any other integrator renders the scene with the
 //! object as it is (`--integrator path` gives the truth to compare with).
 //!
+//! With the `octree` integrator the object's light comes, by default, from an incremental
+//! re-bake ([`InsertLight::Rebake`], `octolux::integrators::octree::rebake`): the photon paths
+//! the object meets are traced again and the leaves around the photons they move re-estimated,
+//! so that the object casts its indirect shadow, bleeds its colour and is lit by the scene with
+//! it; [`InsertLight::Volume`] reads the baked volumetric values on the object instead and
+//! leaves the scene's light as baked.
+//!
 //! The object's shapes are appended after the scene's, its materials after the scene's (their
 //! indices shifted); its lights, camera and film are ignored (a note says so). Refused: an
 //! emitting object (the bake holds no light from it) and textured materials (their images are
@@ -15,7 +22,8 @@
 use super::{bail, Context, Frontend, Result};
 use glam::{Mat4, Vec3};
 use octolux::integrators::octree::insert::{InsertAo, Inserted};
-use octolux::math::Ray;
+use octolux::integrators::octree::rebake::RebakeStats;
+use octolux::math::{Bounds3, Ray};
 use octolux::scene::material::Material;
 use octolux::scene::object_path::ObjectPath;
 use octolux::scene::{Geometry, Scene, SceneDesc, ShapeDesc};
@@ -25,8 +33,29 @@ use std::path::{Path, PathBuf};
 /// inside one sample, where an interrupt cannot stop them (4294967295 ran for minutes).
 pub const MAX_AO_RAYS: u32 = 4096;
 
+/// Where an inserted object's light comes from with the `octree` integrator (`--insert-light`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InsertLight {
+    /// An incremental re-bake per frame: the object is part of the photon solution.
+    #[default]
+    Rebake,
+    /// The baked volumetric values, read on the object; the scene's light stays as baked.
+    Volume,
+}
+
+impl InsertLight {
+    pub fn name(self) -> &'static str {
+        match self {
+            InsertLight::Rebake => "rebake",
+            InsertLight::Volume => "volume",
+        }
+    }
+}
+
 /// An object to insert, read and checked.
 pub struct Insertion {
+    /// Where its light comes from with the `octree` integrator.
+    pub light: InsertLight,
     /// As named on the command line.
     pub file: String,
     shapes: Vec<ShapeDesc>,
@@ -56,6 +85,8 @@ pub struct InsertRequest {
     pub ao: Option<u32>,
     /// Their length (`--insert-ao-distance`; none: the object's bounding-box diagonal).
     pub ao_distance: Option<f32>,
+    /// Where its light comes from (`--insert-light`).
+    pub light: InsertLight,
 }
 
 /// The insertion `args` ask for, read and checked before any long work.
@@ -69,6 +100,12 @@ pub fn read(args: &InsertRequest, fe: &dyn Frontend) -> Result<Insertion> {
         if !(d.is_finite() && d > 0.0) {
             bail!("--insert-ao-distance must be a positive length, got {d}");
         }
+    }
+    if args.light == InsertLight::Rebake && (args.ao.is_some_and(|n| n > 0) || args.ao_distance.is_some()) {
+        bail!(
+            "--insert-ao corrects the baked light around the object with --insert-light volume; the default re-bake \
+             casts the object's shadow itself (add --insert-light volume, or leave out --insert-ao)"
+        );
     }
     let loaded = crate::load_scene(file, &[]).with_context(|| format!("cannot load the object to insert '{file}'"))?;
     for w in &loaded.warnings {
@@ -95,6 +132,7 @@ pub fn read(args: &InsertRequest, fe: &dyn Frontend) -> Result<Insertion> {
         n => fe.note(&format!("--insert {file}: its {n} lights are ignored (only its shapes are inserted)")),
     }
     Ok(Insertion {
+        light: args.light,
         file: file.clone(),
         shapes: d.shapes,
         materials: d.materials,
@@ -145,27 +183,27 @@ impl Insertion {
         Inserted { shapes: first..first + self.shapes.len() as u32, ao }
     }
 
-    /// Diagonal of the object's bounding box, moved by `m`.
-    fn diagonal(&self, m: &Mat4) -> f32 {
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    /// The object's bounding box, moved by `m`.
+    pub fn bounds(&self, m: &Mat4) -> Bounds3 {
+        let mut b = Bounds3::EMPTY;
         for s in &self.shapes {
             match &s.geometry {
-                Geometry::Mesh(mesh) => {
-                    for p in &mesh.positions {
-                        let q = m.transform_point3(*p);
-                        lo = lo.min(q);
-                        hi = hi.max(q);
-                    }
-                }
+                Geometry::Mesh(mesh) => mesh.positions.iter().for_each(|p| b.extend(m.transform_point3(*p))),
                 Geometry::Sphere { center, radius } => {
                     let c = m.transform_point3(*center);
                     let r = *radius * m.transform_vector3(Vec3::X).length();
-                    lo = lo.min(c - Vec3::splat(r));
-                    hi = hi.max(c + Vec3::splat(r));
+                    b.extend(c - Vec3::splat(r));
+                    b.extend(c + Vec3::splat(r));
                 }
             }
         }
-        let d = (hi - lo).length();
+        b
+    }
+
+    /// Diagonal of the object's bounding box, moved by `m`.
+    fn diagonal(&self, m: &Mat4) -> f32 {
+        let b = self.bounds(m);
+        let d = (b.max - b.min).length();
         if d.is_finite() && d > 0.0 {
             d
         } else {
@@ -176,8 +214,9 @@ impl Insertion {
 
 /// What `OUT.json` says of the inserted object in a frame: the file, the transform (4x4,
 /// column-major) and the pixels (`y * width + x`) whose centre's camera ray first meets it,
-/// so that errors can be measured on the object's pixels.
-pub fn report(ins: &Insertion, scene: &Scene, m: &Mat4, shapes: &std::ops::Range<u32>) -> serde_json::Value {
+/// so that errors can be measured on the object's pixels; with `--insert-light rebake` what the
+/// frame's re-bake did (paths traced again, leaves estimated, seconds).
+pub fn report(ins: &Insertion, scene: &Scene, m: &Mat4, shapes: &std::ops::Range<u32>, rebake: Option<&RebakeStats>) -> serde_json::Value {
     let (w, h) = (scene.film.width, scene.film.height);
     let pixels: Vec<u32> = (0..w * h)
         .filter(|&i| {
@@ -187,5 +226,5 @@ pub fn report(ins: &Insertion, scene: &Scene, m: &Mat4, shapes: &std::ops::Range
             scene.intersect(&ray).is_some_and(|hit| shapes.contains(&hit.shape))
         })
         .collect();
-    serde_json::json!({ "file": ins.file, "transform": m.to_cols_array(), "pixels": pixels })
+    serde_json::json!({ "file": ins.file, "light": ins.light.name(), "transform": m.to_cols_array(), "pixels": pixels, "rebake": rebake })
 }

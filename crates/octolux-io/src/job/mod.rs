@@ -34,6 +34,7 @@ use octolux::accel::BackendKind;
 use octolux::budget;
 use octolux::film::Reconstruction;
 use octolux::image::Image;
+use octolux::integrators::octree::rebake::ObjectMove;
 use octolux::integrators::{build, Integrator, IntegratorSettings};
 use octolux::render::{render_cancellable, RenderSettings, RenderStats};
 use octolux::sampling::SamplerKind;
@@ -554,8 +555,20 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
         integrator.prepare(&scene);
     }
     let t_fill = Instant::now();
+    // the photon pass kept path by path, for the inserted object's re-bake per frame
+    let mut photon_paths = None;
     if let (Some(ins), Integrator::Octree(o)) = (&insertion, &mut integrator) {
-        if !o.global.has_atmosphere() {
+        if ins.light == insert::InsertLight::Rebake {
+            let paths = o.photon_paths(&scene).with_context(|| format!("--insert {}: the photon pass to re-bake", ins.file))?;
+            fe.info(&format!(
+                "octree: {} photon paths kept for --insert {} ({} flight points) in {:.3} s",
+                paths.len(),
+                ins.file,
+                paths.flight_points(),
+                t_fill.elapsed().as_secs_f64()
+            ));
+            photon_paths = Some((paths, None::<octolux::math::Bounds3>));
+        } else if !o.global.has_atmosphere() {
             let st = o.fill_atmosphere(&scene);
             fe.info(&format!(
                 "octree: volumetric values for --insert {}: {} leaves filled ({} from photon flights), {} unreached, {} edges ({} blocked) \
@@ -604,6 +617,7 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
     for (outputs, frame) in images {
         let t_frame = Instant::now();
         let mut placed = None;
+        let mut rebake_report = None;
         if let (Some(ins), Some(base)) = (&insertion, &base_desc) {
             let m = ins.transform_at(frame.as_ref().and_then(|(f, _)| f.time_s));
             scene = Scene::prepare(ins.scene_desc(base, &m), job.backend)
@@ -611,14 +625,30 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
             let inserted = ins.inserted(base.shapes.len(), &m);
             placed = Some((m, inserted.shapes.clone()));
             if let Integrator::Octree(o) = &mut integrator {
-                o.inserted = inserted;
+                match &mut photon_paths {
+                    // the object is part of the photon solution: shaded as any surface
+                    Some((paths, last)) => {
+                        let now = [ins.bounds(&m)];
+                        let was: Vec<_> = last.iter().copied().collect();
+                        let change = ObjectMove { was: &was, now: &now, shapes: inserted.shapes.clone() };
+                        let st = o.rebake(paths, &scene, &change).with_context(|| format!("--insert {}: the re-bake", ins.file))?;
+                        fe.info(&format!(
+                            "octree: re-bake for --insert {}: {} of {} photon paths traced again, {} photons moved, {} leaves \
+                             estimated ({} kept) in {:.3} s",
+                            ins.file, st.paths_retraced, st.paths, st.photons_moved, st.leaves_estimated, st.leaves_copied, st.t_s
+                        ));
+                        *last = Some(now[0]);
+                        rebake_report = Some(st);
+                    }
+                    None => o.inserted = inserted,
+                }
             }
         }
         if let Some((f, _)) = &frame {
             scene.camera = Camera::new(&f.camera, scene.film.width, scene.film.height);
         }
         let insert_report = match (&insertion, &placed) {
-            (Some(ins), Some((m, shapes))) => Some(insert::report(ins, &scene, m, shapes)),
+            (Some(ins), Some((m, shapes))) => Some(insert::report(ins, &scene, m, shapes, rebake_report.as_ref())),
             _ => None,
         };
         let (image, rstats) = render_image(&scene, &integrator, &render_settings, fe, cancel);
