@@ -8,14 +8,14 @@
 //! that meets no change is the same path. [`PhotonPaths`] keeps, per path, its stored photons
 //! (global and caustic, in path order) and the points of its flights (the light's point, each
 //! surface hit, and for a flight leaving the scene a point [`PhotonPaths::escape`] away). The
-//! paths whose flights meet a box ([`PhotonPaths::paths_meeting`]) are traced again and their
+//! paths a change can alter ([`PhotonPaths::paths_changed`]) are traced again and their
 //! photons replaced in place ([`PhotonPaths::retrace`]): the maps then equal, photon for
 //! photon and in the same order, those of a full pass in the changed scene with the disc
 //! guide of the first one (a distant light's guide is a pilot pass of the scene it was made
 //! in; it is kept, so that every path keeps its identity).
 
 use super::guide::DiscGuide;
-use super::trace::{disc_guide, store, trace_path, PhotonError, PhotonSettings, CHUNK, PHOTON_STREAM};
+use super::trace::{check_pass, disc_guide, store, trace_path, PhotonError, PhotonSettings, CHUNK, PHOTON_STREAM};
 use super::Photon;
 use crate::math::Bounds3;
 use crate::scene::Scene;
@@ -97,13 +97,7 @@ fn segment_meets(a: Vec3, b: Vec3, bx: &Bounds3) -> bool {
 impl PhotonPaths {
     /// Trace the pass of `settings` in `scene`, keeping every path's photons and flight points.
     pub fn trace(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonPaths, PhotonError> {
-        if settings.photons == 0 {
-            return Err(PhotonError::NoPhotons(0));
-        }
-        if scene.lights.is_empty() {
-            return Err(PhotonError::NoLight);
-        }
-        crate::budget::check_photons(settings.photons)?;
+        check_pass(scene, settings)?;
         let guide = disc_guide(scene, settings).0;
         let (_, radius) = scene.lights.scene_sphere();
         let escape = (4.0 * radius).max(1e-3);

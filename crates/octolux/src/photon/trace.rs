@@ -102,13 +102,7 @@ pub struct PhotonMaps {
 
 /// Trace `settings.photons` photon paths through `scene`.
 pub fn trace_photons(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonMaps, PhotonError> {
-    if settings.photons == 0 {
-        return Err(PhotonError::NoPhotons(0));
-    }
-    if scene.lights.is_empty() {
-        return Err(PhotonError::NoLight);
-    }
-    crate::budget::check_photons(settings.photons)?;
+    check_pass(scene, settings)?;
     let start = std::time::Instant::now();
     let n = settings.photons;
     let inv_n = 1.0 / n as f32;
@@ -143,6 +137,18 @@ pub fn trace_photons(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonM
     }
     maps.time_s = start.elapsed().as_secs_f64();
     Ok(maps)
+}
+
+/// What a photon pass needs: at least one photon, a light, and room for the photons.
+pub(super) fn check_pass(scene: &Scene, settings: &PhotonSettings) -> Result<(), PhotonError> {
+    if settings.photons == 0 {
+        return Err(PhotonError::NoPhotons(0));
+    }
+    if scene.lights.is_empty() {
+        return Err(PhotonError::NoLight);
+    }
+    crate::budget::check_photons(settings.photons)?;
+    Ok(())
 }
 
 /// The disc guide of the pass (`None` without a distant light or with `guide_disc` off) and
@@ -245,13 +251,7 @@ impl Flight {
 /// time, in path order; the results come back in chunk order, so anything summed from them
 /// in that order is the same for any thread count.
 pub fn map_flights<R: Send>(scene: &Scene, settings: &PhotonSettings, map: impl Fn(&[Flight]) -> R + Sync) -> Result<Vec<R>, PhotonError> {
-    if settings.photons == 0 {
-        return Err(PhotonError::NoPhotons(0));
-    }
-    if scene.lights.is_empty() {
-        return Err(PhotonError::NoLight);
-    }
-    crate::budget::check_photons(settings.photons)?;
+    check_pass(scene, settings)?;
     let n = settings.photons;
     let inv_n = 1.0 / n as f32;
     let disc_guide = disc_guide(scene, settings).0;

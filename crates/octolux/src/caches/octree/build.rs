@@ -52,6 +52,20 @@ fn surface_area(s: &Surfaces<'_>) -> f64 {
     tri + sph
 }
 
+/// Make node `leaf.node` a leaf over its photon range: valid (numbered next) when it has
+/// photons, atmospheric otherwise.
+fn push_leaf(nodes: &mut [Node], start: &mut [u32], leaves: &mut Vec<LeafBuild>, valid: &mut Vec<LeafBuild>, leaf: LeafBuild) {
+    let id = leaf.node as usize;
+    start[id] = leaf.lo;
+    leaves.push(leaf);
+    if leaf.hi > leaf.lo {
+        nodes[id].link = LEAF_BIT | valid.len() as u32;
+        valid.push(leaf);
+    } else {
+        nodes[id].link = LEAF_BIT | NO_VALUE;
+    }
+}
+
 struct TreeBuilder<'a, K> {
     keys: &'a [K],
     h: u32,
@@ -67,15 +81,13 @@ struct TreeBuilder<'a, K> {
 
 impl<K: SortKey> TreeBuilder<'_, K> {
     fn make_leaf(&mut self, id: usize, lo: usize, hi: usize, depth: u32, ijk: [u32; 3]) {
-        let leaf = LeafBuild { node: id as u32, lo: lo as u32, hi: hi as u32, depth, ijk };
-        self.start[id] = lo as u32;
-        self.leaves.push(leaf);
-        if hi > lo {
-            self.nodes[id].link = LEAF_BIT | self.valid.len() as u32;
-            self.valid.push(leaf);
-        } else {
-            self.nodes[id].link = LEAF_BIT | NO_VALUE;
-        }
+        push_leaf(
+            &mut self.nodes,
+            &mut self.start,
+            &mut self.leaves,
+            &mut self.valid,
+            LeafBuild { node: id as u32, lo: lo as u32, hi: hi as u32, depth, ijk },
+        );
     }
 
     fn node(&mut self, id: usize, lo: usize, hi: usize, depth: u32, ijk: [u32; 3]) {
@@ -183,15 +195,7 @@ fn assign<K: SortKey>(keys: &[K], h: u32, topology: &[Node]) -> Tree {
         t.nodes[id].photons = (hi - lo) as u32;
         if t.nodes[id].is_leaf() {
             let leaf = LeafBuild { node: id as u32, lo: lo as u32, hi: hi as u32, depth, ijk };
-            t.start[id] = lo as u32;
-            t.leaves.push(leaf);
-            if hi > lo {
-                t.nodes[id].link = LEAF_BIT | t.valid.len() as u32;
-                t.valid.push(leaf);
-            } else {
-                t.nodes[id].link = LEAF_BIT | NO_VALUE;
-            }
-            return;
+            return push_leaf(&mut t.nodes, &mut t.start, &mut t.leaves, &mut t.valid, leaf);
         }
         let first = t.nodes[id].link as usize;
         let mut cut = [0usize; 9];

@@ -10,7 +10,7 @@
 //!    those with a flight ending where the object was (it may have stopped them) and those
 //!    with a flight its new shapes meet (they stop it now); any other path is the same in
 //!    the new scene. It traces exactly those again, and replaces their photons.
-//! 3. Each octree is re-estimated on its own topology ([`Octree::refit`]), only in the leaves
+//! 3. Each octree is re-estimated on its own topology ([`crate::caches::Octree::refit`]), only in the leaves
 //!    whose gathering boxes meet a moved photon or the object's boxes; the others keep their
 //!    values.
 //!
