@@ -20,7 +20,9 @@
 //! sort a pass over the photons). The object is then shaded like any surface of the scene: its
 //! leaves hold its own photons. What a re-bake on the same topology cannot give: finer leaves on
 //! the object than the empty cells it sits in had (a small object in a large cell gets one
-//! cell's six matrices), and volumetric values (the refitted trees hold none).
+//! cell's six matrices), volumetric values (the refitted trees hold none), and a caustic
+//! octree where the bake had none (caustic photons the object makes are then kept in the path
+//! records but not rendered).
 
 use super::{estimator_surfaces, BuildError, OctreeIntegrator};
 use crate::caches::octree::{Changes, Estimator, Surfaces};
