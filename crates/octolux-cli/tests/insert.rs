@@ -83,6 +83,20 @@ fn inserted_object_renders_from_a_cache_over_its_path() {
     assert!(!ao.status.success() && last_line(&ao).contains("--insert-light volume"), "{}", last_line(&ao));
     let light = octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert-light", "volume"]);
     assert!(!light.status.success() && String::from_utf8_lossy(&light.stderr).contains("--insert"), "{}", last_line(&light));
+    let cs = octolux(&[
+        "render",
+        &p("scene.xml"),
+        "--integrator",
+        "octree",
+        "--photons",
+        "1000",
+        "--cache-scene",
+        &p("scene.xml"),
+        "-q",
+        "--insert",
+        &p("cube.obj"),
+    ]);
+    assert!(!cs.status.success() && last_line(&cs).contains("--cache-scene"), "{}", last_line(&cs));
     let missing = octolux(&["render", &p("scene.xml"), "--cache", &p("l.oxc"), "-q", "--insert", &p("none.obj")]);
     assert!(!missing.status.success() && last_line(&missing).contains("none.obj"), "{}", last_line(&missing));
     let _ = std::fs::remove_dir_all(PathBuf::from(&dir));

@@ -525,6 +525,11 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
     req.flags.extend(job.max_depth.map(settings::max_depth_flag));
     let integrator_settings = resolve_settings(&req, &desc.hints, cache.as_ref(), fe, &mut warnings)?;
     let name = integrator_settings.name();
+    if let (Some(ins), Some(_), "octree") = (&insertion, &job.cache_scene, name) {
+        if ins.light == insert::InsertLight::Rebake {
+            bail!("--insert {} re-bakes the photons of the rendered scene, not of --cache-scene: add --insert-light volume", ins.file);
+        }
+    }
     let chosen = job.integrator.integrator.is_some() || job.integrator.settings_file.is_some() || cache.is_some();
     scene_integrator_remark(&desc.hints, &job.scene.scene, name, chosen, fe, &mut warnings);
     let traces = settings::get(&integrator_settings, keys::PHOTON_COUNT).is_some();
