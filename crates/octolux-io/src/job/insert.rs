@@ -22,8 +22,10 @@
 use super::{bail, Context, Frontend, Result};
 use glam::{Mat4, Vec3};
 use octolux::integrators::octree::insert::{InsertAo, Inserted};
-use octolux::integrators::octree::rebake::RebakeStats;
+use octolux::integrators::octree::rebake::{ObjectMove, RebakeStats};
+use octolux::integrators::octree::OctreeIntegrator;
 use octolux::math::{Bounds3, Ray};
+use octolux::photon::paths::PhotonPaths;
 use octolux::scene::material::Material;
 use octolux::scene::object_path::ObjectPath;
 use octolux::scene::{Geometry, Scene, SceneDesc, ShapeDesc};
@@ -209,6 +211,52 @@ impl Insertion {
         } else {
             1.0
         }
+    }
+}
+
+/// The re-bake of an inserted object over the frames (`--insert-light rebake`): the photon
+/// pass kept path by path, and where the object was in the last frame.
+pub struct Rebaking {
+    paths: PhotonPaths,
+    last: Option<Bounds3>,
+}
+
+impl Rebaking {
+    /// Trace the photon pass of `o` again in `scene` (the baked one, without the object).
+    pub fn start(o: &OctreeIntegrator, scene: &Scene, ins: &Insertion, fe: &dyn Frontend) -> Result<Rebaking> {
+        let t = std::time::Instant::now();
+        let paths = o.photon_paths(scene).with_context(|| format!("--insert {}: the photon pass to re-bake", ins.file))?;
+        fe.info(&format!(
+            "octree: {} photon paths kept for --insert {} ({} flight points) in {:.3} s",
+            paths.len(),
+            ins.file,
+            paths.flight_points(),
+            t.elapsed().as_secs_f64()
+        ));
+        Ok(Rebaking { paths, last: None })
+    }
+
+    /// Update `o` for `scene`, the baked scene with the object moved by `m` (its shapes
+    /// `shapes`).
+    pub fn frame(
+        &mut self,
+        o: &mut OctreeIntegrator,
+        scene: &Scene,
+        ins: &Insertion,
+        m: &Mat4,
+        shapes: std::ops::Range<u32>,
+        fe: &dyn Frontend,
+    ) -> Result<RebakeStats> {
+        let now = [ins.bounds(m)];
+        let was: Vec<Bounds3> = self.last.iter().copied().collect();
+        let change = ObjectMove { was: &was, now: &now, shapes };
+        let st = o.rebake(&mut self.paths, scene, &change).with_context(|| format!("--insert {}: the re-bake", ins.file))?;
+        fe.info(&format!(
+            "octree: re-bake for --insert {}: {} of {} photon paths traced again, {} photons moved, {} leaves estimated ({} kept) in {:.3} s",
+            ins.file, st.paths_retraced, st.paths, st.photons_moved, st.leaves_estimated, st.leaves_copied, st.t_s
+        ));
+        self.last = Some(now[0]);
+        Ok(st)
     }
 }
 

@@ -47,16 +47,6 @@ pub struct PhotonPaths {
     escape: f32,
 }
 
-/// What [`PhotonPaths::retrace`] changed.
-#[derive(Clone, Debug, Default)]
-pub struct Retraced {
-    /// Paths traced again.
-    pub paths: usize,
-    /// Positions of the photons removed and of those added (both maps): per path, those after
-    /// the photons its old and new traces share.
-    pub moved: Vec<Vec3>,
-}
-
 /// Offsets of the per-path lists, from their lengths.
 fn offsets(lens: impl Iterator<Item = usize>) -> Option<Vec<u32>> {
     let mut out = vec![0u32];
@@ -220,8 +210,9 @@ impl PhotonPaths {
     }
 
     /// Trace the paths `ids` (ascending) again in `scene` and put their photons and flights in
-    /// place of the old ones (module docs).
-    pub fn retrace(&mut self, scene: &Scene, ids: &[u32]) -> Result<Retraced, PhotonError> {
+    /// place of the old ones (module docs). Returns the positions of the photons removed and of
+    /// those added (both maps): per path, those after the photons its old and new traces share.
+    pub fn retrace(&mut self, scene: &Scene, ids: &[u32]) -> Result<Vec<Vec3>, PhotonError> {
         debug_assert!(ids.windows(2).all(|w| w[0] < w[1]), "path ids ascending");
         let new: Vec<PathRecord> = ids.par_iter().map(|&i| self.trace_one(scene, i as u64)).collect();
         let mut moved = Vec::new();
@@ -242,7 +233,7 @@ impl PhotonPaths {
         self.g_start = new_offsets(&self.g_start, ids, new.iter().map(|r| r.global.len())).ok_or(PhotonError::TooManyRecords)?;
         self.c_start = new_offsets(&self.c_start, ids, new.iter().map(|r| r.caustic.len())).ok_or(PhotonError::TooManyRecords)?;
         self.p_start = new_offsets(&self.p_start, ids, new.iter().map(|r| r.points.len())).ok_or(PhotonError::TooManyRecords)?;
-        Ok(Retraced { paths: ids.len(), moved })
+        Ok(moved)
     }
 }
 

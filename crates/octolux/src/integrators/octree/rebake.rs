@@ -194,12 +194,12 @@ impl OctreeIntegrator {
             (Vec::new(), Vec::new())
         };
         let surfaces = Some(Surfaces { triangles: &tris, spheres: &spheres });
-        let changes = Changes { boxes, points: &moved.moved };
+        let changes = Changes { boxes, points: &moved };
         let (global, g) = self.global.refit(paths.global(), surfaces, Some(changes)).map_err(BuildError::Global)?;
         let mut st = RebakeStats {
             paths_retraced: ids.len(),
             paths: paths.len(),
-            photons_moved: moved.moved.len(),
+            photons_moved: moved.len(),
             leaves_estimated: g.estimated,
             leaves_copied: g.copied,
             t_find_s,
