@@ -70,7 +70,8 @@ def main() -> int:
     obj, path = str(HERE / "ball.obj"), str(HERE / "path.json")
     common = ["render", "cornell-box", "--resolution", a.resolution, "--quiet"]
     ins = ["--insert", obj, "--insert-path", path]
-    t_bake = run([a.bin, "bake", "cornell-box", "-o", str(tmp / "l.oxc"), "--photons", str(a.photons), "--quiet"])
+    # --volume: the volumetric values and the leak-test samples the volume light reads
+    t_bake = run([a.bin, "bake", "cornell-box", "-o", str(tmp / "l.oxc"), "--photons", str(a.photons), "--volume", "--quiet"])
     t_reb = run([a.bin, *common, "--cache", str(tmp / "l.oxc"), *ins, "--spp", str(a.spp), "-o", str(tmp / "reb.exr")])
     vol = [*ins, "--insert-light", "volume"]
     t_oct = run([a.bin, *common, "--cache", str(tmp / "l.oxc"), *vol, "--spp", str(a.spp), "-o", str(tmp / "oct.exr")])

@@ -378,6 +378,11 @@ pub struct BakeArgs {
     /// The lighting cache to write (e.g. lighting.oxc).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Also store the volumetric values that `render --insert-light volume` reads, and the leak
+    /// test's sampled photons its leak test needs (without them such a render computes the
+    /// values at its start). About twice the bytes on the cornell-box.
+    #[arg(long)]
+    pub volume: bool,
     /// `octree` settings as JSON or TOML (as for `render --settings`).
     #[arg(long, value_name = "FILE")]
     pub settings: Option<PathBuf>,

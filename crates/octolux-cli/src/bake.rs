@@ -57,6 +57,7 @@ pub fn cmd_bake(args: &BakeArgs) -> Result<std::process::ExitCode> {
         max_depth: args.max_depth,
         backend: args.backend,
         output: args.output.clone(),
+        volume: args.volume,
         command_line: std::env::args().collect(),
     };
     interrupt::install()?;

@@ -646,6 +646,11 @@ pub fn cache_base(c: &LoadedCache) -> Result<Value> {
 /// Refuse resolved settings that differ from the cache's in a key that shaped its octrees
 /// (`IntegratorSettings::baked_keys`), naming each dotted key with both values.
 pub fn check_cache_settings(path: &Path, c: &LoadedCache, resolved: &IntegratorSettings) -> Result<()> {
+    if let (octolux::integrators::Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&c.integrator, resolved) {
+        if let Some(why) = o.missing_leak_samples(s, false) {
+            bail!("lighting cache {}: {why}", path.display());
+        }
+    }
     let settings = c.integrator.settings();
     let keys = settings.baked_keys();
     let (baked, now) = (serde_json::to_value(&settings)?, serde_json::to_value(resolved)?);

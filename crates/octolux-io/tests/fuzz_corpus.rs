@@ -39,7 +39,10 @@ fn fuzz_corpus_replays_without_panics() {
 /// older version only reaches the version check: the seeds had stayed at version 3 while the
 /// format moved on to 5), except the two that must fail: a newer version and a truncated file.
 /// Rebake them with `octolux bake cornell-box --photons 2000` (`--set global.storage=full --set
-/// caustic.storage=full` for the full one, `cornell-spheres` for the caustic one).
+/// caustic.storage=full` for the full one, `cornell-spheres --volume` for the caustic one, which
+/// then holds the leak test's samples and the volumetric values too); the newer version is the
+/// compressed seed with the version field raised by one (checksum fixed), the truncated one its
+/// first half.
 #[test]
 fn the_cache_seeds_are_of_the_current_format() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/corpus/cache");

@@ -237,7 +237,7 @@ fn render<'py>(
 /// Bake the `octree` integrator's lighting of `scene` into the cache file `output` (its JSON
 /// report beside it); returns the report as JSON.
 #[pyfunction]
-#[pyo3(signature = (scene, output, seed = 0, max_depth = None, photons = None, sets = Vec::new(), settings_file = None, threads = None))]
+#[pyo3(signature = (scene, output, seed = 0, max_depth = None, photons = None, sets = Vec::new(), settings_file = None, threads = None, volume = false))]
 #[allow(clippy::too_many_arguments)]
 fn bake(
     py: Python<'_>,
@@ -249,11 +249,12 @@ fn bake(
     sets: Vec<String>,
     settings_file: Option<PathBuf>,
     threads: Option<usize>,
+    volume: bool,
 ) -> PyResult<String> {
     let req = request(Some("octree"), seed, photons, max_depth, sets, settings_file)?;
     // a missing output folder is created, as `octolux bake` creates it, and removed again
     // (if still empty) when the bake fails
-    let out = bake_into(py, scene, &output, req, threads);
+    let out = bake_into(py, scene, &output, req, threads, volume);
     if out.is_err() {
         octolux_io::files::remove_created_folders();
     } else {
@@ -262,7 +263,14 @@ fn bake(
     out
 }
 
-fn bake_into(py: Python<'_>, scene: &Scene, output: &std::path::Path, req: IntegratorRequest, threads: Option<usize>) -> PyResult<String> {
+fn bake_into(
+    py: Python<'_>,
+    scene: &Scene,
+    output: &std::path::Path,
+    req: IntegratorRequest,
+    threads: Option<usize>,
+    volume: bool,
+) -> PyResult<String> {
     octolux_io::files::create_output_folder(output).map_err(error)?;
     octolux_io::files::check_output(output).map_err(error)?;
     let report_path = jbake::report_path(output).map_err(error)?;
@@ -273,7 +281,7 @@ fn bake_into(py: Python<'_>, scene: &Scene, output: &std::path::Path, req: Integ
         let fe = Collect::default();
         let mut warnings = scene.warnings.clone();
         let settings = jbake::bake_settings(&req, &scene.hints, &fe, &mut warnings)?;
-        let mut baked = jbake::bake(&scene.scene, &scene.spec, settings, &fe)?;
+        let mut baked = jbake::bake(&scene.scene, &scene.spec, settings, volume, &fe)?;
         baked.add_front_end(&[], 0.0, 0.0, warnings);
         jbake::write(&baked, output, &report_path, t0, &fe)
     })?

@@ -183,8 +183,8 @@ def test_the_cli_and_python_give_the_same_cache_and_the_same_images(tmp_path):
     """One layer (octolux_io::job) under both: a bake through the CLI and one through Python
     give identical bytes, volumetric values included, and so do their renders."""
     cli = lambda *a: subprocess.run([BIN, *a, "-q"], check=True, capture_output=True)  # noqa: E731
-    cli("bake", "cornell-spheres", "-o", str(tmp_path / "cli.oxc"), "--photons", "20000", "--seed", "3")
-    report = octolux.bake(octolux.load_scene("cornell-spheres"), tmp_path / "py.oxc", seed=3, photons=20000)
+    cli("bake", "cornell-spheres", "-o", str(tmp_path / "cli.oxc"), "--photons", "20000", "--seed", "3", "--volume")
+    report = octolux.bake(octolux.load_scene("cornell-spheres"), tmp_path / "py.oxc", seed=3, photons=20000, volume=True)
     a, b = (tmp_path / "cli.oxc").read_bytes(), (tmp_path / "py.oxc").read_bytes()
     assert a == b, "the CLI's bake and Python's differ"
     # the times are in the reports beside the caches, not in the files

@@ -1,19 +1,27 @@
 //! A bake (docs/guide/baking.md): the `octree` integrator's settings resolved as a render
 //! resolves them (defaults, the scene's `max_depth`, the seed for the photons, the settings
-//! file, the flags, `--set`), the photons traced, both octrees built, the global one's values
-//! diffused into its empty leaves (the volumetric values `render --insert` reads,
-//! `octolux::caches::octree` `atmosphere.rs`), and the whole written with the scene's lighting
-//! fingerprint ([`crate::cache`]; staged and renamed like every output, so an interrupt never
-//! leaves a half-written cache under the final name).
+//! file, the flags, `--set`), the photons traced, both octrees built, with `--volume` the
+//! global one's volumetric values (those `render --insert-light volume` reads,
+//! `octolux::caches::octree` `atmosphere.rs`; without them such a render computes them at its
+//! start), and the whole written with the scene's lighting fingerprint ([`crate::cache`];
+//! staged and renamed like every output, so an interrupt never leaves a half-written cache
+//! under the final name).
+//!
+//! What a leaf keeps on disk (issue 26, item 3): its 36-byte value, its facing bits and its
+//! mean anchor (where its photons lie, which the volumetric values' diffusion reads); the
+//! leak test's sampled photons (24 bytes more) only when the bake's settings run the
+//! `visible_sample` leak test or `--volume` is given (an inserted object's volume query tests
+//! leaks with them). A render that needs them from a cache without them is refused by name
+//! (`OctreeIntegrator::missing_leak_samples`).
 //!
 //! The cache holds no time, so the same bake gives the same bytes; the times, the statistics
 //! and the warnings go to the bake's JSON report, written beside the cache
 //! (`lighting.oxc` -> `lighting.json`, [`report_path`]) and returned to Python as a dict.
 
 use super::{bail, Context, Frontend, IntegratorRequest, JobError, Result};
-use crate::cache::{self, CacheFile, CacheInfo};
+use crate::cache::{self, CacheFile, CacheInfo, CacheLayout};
 use octolux::caches::octree::AtmosphereStats;
-use octolux::integrators::octree::{OctreeIntegrator, OctreeIntegratorSettings};
+use octolux::integrators::octree::{LeakTest, OctreeIntegrator, OctreeIntegratorSettings};
 use octolux::integrators::IntegratorSettings;
 use octolux::scene::{Scene, SceneHints};
 use serde::Serialize;
@@ -71,7 +79,7 @@ pub struct BakeTimings {
     pub fingerprint_s: f64,
     /// Photon pass and both octrees (`build.t_c_s` is their part without the integrator's setup).
     pub build_s: f64,
-    /// The volumetric values.
+    /// The volumetric values (`--volume`; 0 without).
     pub atmosphere_s: f64,
     /// Encoding the cache (and writing it and the report, [`write()`]).
     pub write_s: f64,
@@ -91,12 +99,18 @@ pub struct BakeReport {
     pub timings: BakeTimings,
     /// The build statistics with their times (the paper's tables 1 and 3).
     pub build: Value,
-    /// The volumetric values' fill.
-    pub atmosphere: AtmosphereStats,
+    /// The volumetric values' fill (`--volume`; none without).
+    pub atmosphere: Option<AtmosphereStats>,
+    /// Whether the cache keeps the leak test's sampled photons (module docs).
+    pub leak_samples: bool,
     /// Bytes of the cache file.
     pub file_bytes: usize,
+    /// Where they go.
+    pub file_layout: CacheLayout,
     /// Valid leaves of both octrees.
     pub valid_leaves: usize,
+    /// Nodes of both octrees.
+    pub nodes: usize,
     /// Bytes of both octrees in memory.
     pub memory_bytes: usize,
     /// The cache file written (set by [`write()`]).
@@ -123,9 +137,10 @@ impl Baked {
     }
 }
 
-/// Bake `scene` (prepared) with `settings`: the octrees, their volumetric values and the cache
-/// file's bytes. `scene_name` is recorded in the file as the scene was named.
-pub fn bake(scene: &Scene, scene_name: &str, settings: OctreeIntegratorSettings, fe: &dyn Frontend) -> Result<Baked> {
+/// Bake `scene` (prepared) with `settings`: the octrees, with `volume` their volumetric values,
+/// and the cache file's bytes (module docs). `scene_name` is recorded in the file as the scene
+/// was named.
+pub fn bake(scene: &Scene, scene_name: &str, settings: OctreeIntegratorSettings, volume: bool, fe: &dyn Frontend) -> Result<Baked> {
     let t0 = Instant::now();
     octolux::budget::check_photons(settings.photons.photons).context("the photon count (--photons or photons.photons)")?;
     let fingerprint = scene.lighting_fingerprint();
@@ -135,29 +150,30 @@ pub fn bake(scene: &Scene, scene_name: &str, settings: OctreeIntegratorSettings,
     let mut o = OctreeIntegrator::build(scene, settings).context("cannot build the octrees")?;
     let build_s = t1.elapsed().as_secs_f64();
     let t2 = Instant::now();
-    let atmosphere = o.fill_atmosphere(scene);
+    let atmosphere = volume.then(|| o.fill_atmosphere(scene));
     let atmosphere_s = t2.elapsed().as_secs_f64();
     for l in super::stats::octree_stats_lines(&o.stats, false) {
         fe.info(&l);
     }
-    fe.info(&format!(
-        "octree: volumetric values: {} of {} leaves filled ({} from photon flights), {} empty leaves unreached, {} edges ({} blocked by \
-         surfaces), {} bytes, {:.3} s",
-        atmosphere.filled_leaves,
-        atmosphere.leaves,
-        atmosphere.flight_leaves,
-        atmosphere.unreached_leaves,
-        atmosphere.edges,
-        atmosphere.blocked_edges,
-        atmosphere.bytes,
-        atmosphere.t_s
-    ));
+    if let Some(a) = &atmosphere {
+        fe.info(&format!(
+            "octree: volumetric values: {} of {} leaves filled ({} from photon flights), {} empty leaves unreached, {} edges ({} \
+             blocked by surfaces), {} bytes, {:.3} s",
+            a.filled_leaves, a.leaves, a.flight_leaves, a.unreached_leaves, a.edges, a.blocked_edges, a.bytes, a.t_s
+        ));
+    }
     let t3 = Instant::now();
     let info =
         CacheInfo { octolux_version: env!("CARGO_PKG_VERSION").into(), scene: scene_name.to_string(), backend: scene.backend_name() };
-    let parts = o.to_parts();
-    let bytes = cache::encode(&CacheFile { fingerprint, info, parts });
+    let mut parts = o.to_parts();
+    let leak_samples = volume || o.leak() == LeakTest::VisibleSample;
+    if !leak_samples {
+        parts.global = parts.global.without_leak_samples();
+        parts.caustic = parts.caustic.map(|c| c.without_leak_samples());
+    }
+    let (bytes, file_layout) = cache::encode_with_layout(&CacheFile { fingerprint, info, parts });
     let valid = o.stats.global.valid_leaves + o.stats.caustic.as_ref().map_or(0, |c| c.valid_leaves);
+    let nodes = o.stats.global.nodes + o.stats.caustic.as_ref().map_or(0, |c| c.nodes);
     let report = BakeReport {
         octolux_version: env!("CARGO_PKG_VERSION"),
         command_line: Vec::new(),
@@ -168,8 +184,11 @@ pub fn bake(scene: &Scene, scene_name: &str, settings: OctreeIntegratorSettings,
         timings: BakeTimings { fingerprint_s, build_s, atmosphere_s, write_s: t3.elapsed().as_secs_f64(), ..Default::default() },
         build: serde_json::to_value(&o.stats).map_err(|e| JobError(e.to_string()))?,
         atmosphere,
+        leak_samples,
         file_bytes: bytes.len(),
+        file_layout,
         valid_leaves: valid,
+        nodes,
         memory_bytes: o.stats.bytes,
         file: None,
         warnings: Vec::new(),
@@ -190,17 +209,31 @@ pub fn write(baked: &Baked, cache_path: &Path, report_path: &Path, t0: Instant, 
     report.timings.total_s = t0.elapsed().as_secs_f64();
     let text = serde_json::to_string_pretty(&report).map_err(|e| JobError(e.to_string()))?;
     super::output::write_file_atomic(report_path, text.as_bytes())?;
+    let volume = match report.atmosphere {
+        Some(_) => format!(", volumetric values {:.3} s", report.timings.atmosphere_s),
+        None => String::new(),
+    };
+    let l = &report.file_layout;
     fe.info(&format!(
-        "baked {} -> {}: {} bytes on disk ({:.1} B per valid leaf, {} valid leaves), {} bytes in memory; photons + octrees {:.3} s, \
-         volumetric values {:.3} s (total {:.3} s); report {}",
+        "baked {} -> {}: {} bytes on disk ({:.1} B per valid leaf, {} valid leaves; {:.2} B per node, {} nodes; values {}, \
+         anchors {}{}, nodes {}, facing {}, volumetric {}, header {}), {} bytes in memory; photons + octrees {:.3} s{volume} \
+         (total {:.3} s); report {}",
         report.scene,
         cache_path.display(),
         report.file_bytes,
         report.file_bytes as f64 / report.valid_leaves.max(1) as f64,
         report.valid_leaves,
+        l.nodes as f64 / report.nodes.max(1) as f64,
+        report.nodes,
+        l.values,
+        l.anchors,
+        if report.leak_samples { " with the leak test's samples" } else { " (means)" },
+        l.nodes,
+        l.facing,
+        l.atmosphere,
+        l.header,
         report.memory_bytes,
         report.timings.build_s,
-        report.timings.atmosphere_s,
         report.timings.total_s,
         report_path.display()
     ));

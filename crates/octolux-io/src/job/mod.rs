@@ -394,11 +394,14 @@ pub struct BakeJob {
     pub backend: BackendKind,
     /// The cache file (its JSON report is written beside it, [`bake::report_path`]).
     pub output: PathBuf,
+    /// Fill and store the volumetric values (`bake --volume`, [`bake::bake`]).
+    pub volume: bool,
     pub command_line: Vec<String>,
 }
 
 /// The whole of `octolux bake`: the output checked first, the scene loaded and prepared, the
-/// octrees built and their volumetric values filled, the cache and its report written.
+/// octrees built (and with `volume` their volumetric values filled), the cache and its report
+/// written.
 /// A missing output folder is created (and removed again, if still empty, when the job fails).
 pub fn run_bake(job: &BakeJob, fe: &dyn Frontend) -> Result<bake::BakeReport> {
     let out = bake_job(job, fe);
@@ -433,7 +436,7 @@ fn bake_job(job: &BakeJob, fe: &dyn Frontend) -> Result<bake::BakeReport> {
     let t1 = Instant::now();
     let scene = prepare(loaded.desc, job.backend, &job.scene.scene, fe, &mut warnings)?;
     let prepare_s = t1.elapsed().as_secs_f64();
-    let mut baked = bake::bake(&scene, &job.scene.scene, settings, fe)?;
+    let mut baked = bake::bake(&scene, &job.scene.scene, settings, job.volume, fe)?;
     baked.add_front_end(&job.command_line, load_s, prepare_s, warnings);
     bake::write(&baked, &job.output, &report_path, t0, fe)
 }

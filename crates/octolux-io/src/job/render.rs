@@ -147,6 +147,13 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
     req.flags.extend(job.max_depth.map(settings::max_depth_flag));
     let integrator_settings = resolve_settings(&req, &desc.hints, cache.as_ref(), fe, &mut warnings)?;
     let name = integrator_settings.name();
+    if let (Some(ins), Some(c), IntegratorSettings::Octree(s)) = (&insertion, &cache, &integrator_settings) {
+        if let (insert::InsertLight::Volume, Integrator::Octree(o)) = (ins.light, &c.cache.integrator) {
+            if let Some(why) = o.missing_leak_samples(s, true) {
+                bail!("lighting cache {} with --insert {} --insert-light volume: {why}", c.path.display(), ins.file);
+            }
+        }
+    }
     if let (Some(ins), Some(_), "octree") = (&insertion, &job.cache_scene, name) {
         if ins.light == insert::InsertLight::Rebake {
             bail!("--insert {} re-bakes the photons of the rendered scene, not of --cache-scene: add --insert-light volume", ins.file);

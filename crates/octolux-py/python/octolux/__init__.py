@@ -162,11 +162,13 @@ def bake(
     settings: Optional[Mapping[str, Any]] = None,
     settings_file: Optional[PathLike] = None,
     threads: Optional[int] = None,
+    volume: bool = False,
 ) -> Dict[str, Any]:
     """Trace the photons and build the ``octree`` integrator's octrees of ``scene``, and write
     them to the lighting cache ``output`` (``octolux bake``: the same bytes for the same scene,
     settings and seed); returns the bake's report (also written beside the cache as
-    ``NAME.json``: statistics, times, warnings)."""
+    ``NAME.json``: statistics, times, warnings). ``volume=True`` also stores the volumetric
+    values (``octolux bake --volume``)."""
     sc = _scene(scene, None)
     info = json.loads(
         _octolux.bake(
@@ -178,6 +180,7 @@ def bake(
             _sets(settings),
             None if settings_file is None else os.fspath(settings_file),
             threads,
+            volume,
         )
     )
     _warn(info["warnings"])

@@ -56,7 +56,7 @@
 //! # Storage
 //! Per leaf (depth-first order) one byte of filled bits, and per leaf with any filled bit the
 //! six matrices in the tree's storage (36 bytes compressed, zero where not filled). The cache
-//! file carries both (`octolux_io::cache`, format version 6).
+//! file carries both when the bake is asked for them (`bake --volume`; `octolux_io::cache`).
 
 use super::compress::{compress_leaf, decompress_matrix, FullLeaf, MATRIX_BYTES};
 use super::flights::Flights;

@@ -468,6 +468,7 @@ pub(super) fn assemble(tree: Tree, n_kept: usize, outs: Vec<LeafOut<'_>>, f: Fra
         values,
         facing,
         anchors,
+        leak_samples: true,
         query_half: 0.5 * settings.alpha * min_leaf_size,
         atmosphere: None,
         flat: Default::default(),

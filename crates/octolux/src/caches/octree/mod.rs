@@ -56,7 +56,8 @@
 //! weights are continuous in `P`.
 //!
 //! Storage (§5.3): see `compress.rs` (36 bytes per valid leaf) or full f32 matrices; plus
-//! 1 byte of facing bits and 30 bytes of [`LeafAnchors`] per valid leaf. As plain data for
+//! 1 byte of facing bits and 30 bytes of [`LeafAnchors`] per valid leaf (a cache file keeps
+//! the 24 bytes of sampled photons only when the leak test needs them). As plain data for
 //! cache files: `parts.rs` ([`Octree::to_parts`], [`Octree::from_parts`], docs/guide/baking.md).
 //!
 //! # Depth from the scene's scale
@@ -315,6 +316,9 @@ pub struct Octree {
     facing: Vec<u8>,
     /// Per valid leaf: where its photons lie (the leak test of [`Octree::irradiance_where`]).
     anchors: Vec<LeafAnchors>,
+    /// Whether `anchors` hold the sampled photons ([`LeafAnchors::samples`]); a tree read from
+    /// a cache that kept only the means ([`OctreeParts::leak_samples`]) has each mean there.
+    leak_samples: bool,
     /// Half side of the query box: `alpha * min_leaf_size / 2`.
     query_half: f32,
     /// Values diffused into the leaves that lack them (`atmosphere.rs`); none until
@@ -378,6 +382,13 @@ impl Octree {
     /// The depth limit the tree was built with (resolved when `h_max` is `auto`).
     pub fn h_max(&self) -> u32 {
         self.h_max
+    }
+
+    /// Whether the valid leaves hold their sampled photons ([`LeafAnchors::samples`]), which
+    /// the `visible_sample` leak test casts its rays to. A built tree does; one read from a cache
+    /// that kept only the mean anchors ([`OctreeParts::leak_samples`]) does not.
+    pub fn has_leak_samples(&self) -> bool {
+        self.leak_samples
     }
 
     /// The anchors of every valid leaf in world space, in value order (`QueryLeaf::index`

@@ -15,7 +15,8 @@
 //! gathers the same photons in the same order and clips the same surfaces, so its estimate
 //! would be the same bits: the incremental result equals the full refit bit for bit (test
 //! `an_incremental_update_equals_a_rebake_on_the_same_topology`). The atmospheric values
-//! (`atmosphere.rs`) are not carried: a refitted tree has none.
+//! (`atmosphere.rs`) are not carried: a refitted tree has none. A tree without its leak test's
+//! sampled photons ([`Octree::has_leak_samples`]) gives a refitted tree without them.
 
 use super::build::{assemble, sort_assign_estimate, Frame, LeafOut, Leaves};
 use super::cells::{quantize, LeafBuild};
@@ -134,6 +135,9 @@ impl Octree {
             surface_area: self.stats.surface_area,
             photons: photons.len(),
         };
-        Ok((assemble(tree, n_kept, outs, frame, settings), stats))
+        let mut out = assemble(tree, n_kept, outs, frame, settings);
+        // the copied leaves keep what this tree holds (only the means, when read so from a cache)
+        out.leak_samples = self.leak_samples;
+        Ok((out, stats))
     }
 }

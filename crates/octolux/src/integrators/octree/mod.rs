@@ -162,8 +162,33 @@ impl OctreeIntegrator {
         stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
         stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
         let o = OctreeIntegrator { settings, global, caustic, stats, planes: [None, None], inserted: Default::default() };
+        if let Some(why) = o.missing_leak_samples(&o.settings, false) {
+            return Err(BuildError::Settings(why));
+        }
         o.prepare_query();
         Ok(o)
+    }
+
+    /// Why the queries of `settings` cannot run on these octrees, if they cannot: the
+    /// `visible_sample` leak test (`leak`, or `mode = paper`'s own) casts its rays to the
+    /// leaves' sampled photons, and so does an inserted object's volume query
+    /// (`insert_volume`) unless `leak = none`; a tree read from a cache that kept only the
+    /// mean anchors lacks them ([`Octree::has_leak_samples`]).
+    pub fn missing_leak_samples(&self, settings: &OctreeIntegratorSettings, insert_volume: bool) -> Option<String> {
+        let visible_sample = settings.leak.resolved(settings.mode) == LeakTest::VisibleSample;
+        let needs = visible_sample || (insert_volume && settings.leak != LeakTest::None);
+        let lacking = !self.global.has_leak_samples() || self.caustic.as_ref().is_some_and(|c| !c.has_leak_samples());
+        (needs && lacking).then(|| {
+            let what = if !visible_sample {
+                "the leak test of an inserted object's volume query"
+            } else {
+                "the visible_sample leak test (leak = visible_sample, or mode = paper's own)"
+            };
+            format!(
+                "{what} casts rays to the leaves' sampled photons, and these octrees hold only their means (a cache baked for \
+                 another leak test): bake with the leak test used here (or with --volume), or render with leak = none"
+            )
+        })
     }
 
     /// Build the octrees' flat query lists now (render-time data, `caches/octree/flat.rs`)

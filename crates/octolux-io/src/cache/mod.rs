@@ -8,36 +8,40 @@
 //!          meta: u32 length + JSON {octolux_version, scene, backend, settings, stats}
 //!          tree count u8 (1: global; 2: global, caustic), then per tree:
 //!            u32 length + JSON {stats}; origin 3 x f32; size f32; depth limit u32;
-//!            node count u32, nodes (link u32, photons u32);
+//!            nodes: node count u32, 2-bit kinds, u32 length + the valid leaves' photon
+//!              counts as varints (`nodes.rs`);
 //!            storage u8 (0 compressed, 1 full), value count u32, values
 //!              (36 bytes, or 54 f32: six column-major 3x3 matrices);
 //!            facing count u32, facing bytes;
-//!            anchor count u32, anchors (per valid leaf: the mean (position 3 x u8, normal
-//!              3 x i8), then 4 x (position 3 x u8, incident direction 3 x i8); version 2
-//!              stored the sampled photons' normals instead of their directions);
-//!            atmosphere u8 (0: none, 1: diffused values follow, version 3):
+//!            anchors u8 (0: means only, 1: means and samples), anchor count u32, anchors
+//!              (per valid leaf: the mean (position 3 x u8, normal 3 x i8), then with 1
+//!              4 x (position 3 x u8, incident direction 3 x i8));
+//!            atmosphere u8 (0: none, 1: diffused values follow):
 //!              filled count u32, filled bits (one byte per leaf, depth-first),
 //!              storage u8 (the tree's), value count u32, values (as the leaves')
 //! trailer  CRC-32 (IEEE, zlib's) of every byte before it, u32
 //! ```
 //!
-//! Version 4 has version 3's bytes with the `octree` integrator's settings of the termination
-//! rule (`mode`, `footprint`, ...; no `gather`, no `query`) in the meta JSON. Version 5 leaves
-//! the build's times out of the statistics (the `meta` and per-tree JSON): the same bake gives
-//! the same bytes, for any thread count and any run ([`TIMING_KEYS`]; the bake's JSON report
-//! holds the times). Version 6 has version 5's bytes; its atmospheric leaves' values are
-//! mostly photon-flight estimates, which the volume query reads as an ambient cube
-//! (`caches::octree` `flights.rs`, `atmosphere.rs`): a version 5 file's diffused values read
-//! that way would be wrong, so it is refused (re-bake it).
+//! Version 7 (issue 26, item 3: compact leaves) stores the nodes as their kinds and the valid
+//! leaves' photon counts (8 bytes per node before), the leak test's sampled photons only when
+//! the bake's leak test or its volumetric values need them (`bake --volume`; 30 bytes per valid
+//! leaf before, 6 without them), and a bake writes the volumetric values only with
+//! `--volume`. The cache holds no time: the same bake gives the same bytes, for any thread
+//! count and any run ([`TIMING_KEYS`]; the bake's JSON report holds the times); the meta JSON
+//! holds the `octree` integrator's settings, those of the termination rule included. An older
+//! version is refused by name (re-bake it).
 //!
 //! Reading checks, in this order and before any large allocation: the file size against the
-//! memory budget (twice the file: its bytes and the octrees), the length (at least a
-//! header and a trailer), the magic, the version (an older or a newer one is refused by name), the length
-//! the header announces (truncated or trailing bytes), the checksum, then every count against
-//! the bytes left, the JSON, and last the octrees' invariants (`Octree::from_parts`). Every
-//! error names the file. The checksum is `flate2::Crc` (already a dependency for EXR and PNG):
-//! CRC-32 catches every burst error up to 32 bits and any truncation the length check missed;
-//! it is not a defence against a forged file, and the invariants checked after it are.
+//! memory budget, the length (at least a header and a trailer), the magic, the version (an
+//! older or a newer one is refused by name), the length the header announces (truncated or
+//! trailing bytes), the checksum, then every count against the bytes left (and the nodes
+//! against the memory budget: 8 bytes each in memory from 2 bits on disk), the JSON, and last
+//! the octrees' invariants (`Octree::from_parts`). Every error names the file. The checksum is
+//! `flate2::Crc` (already a dependency for EXR and PNG): CRC-32 catches every burst error up to
+//! 32 bits and any truncation the length check missed; it is not a defence against a forged
+//! file, and the invariants checked after it are.
+
+mod nodes;
 
 use crate::IoError;
 use glam::{Mat3, Vec3};
@@ -50,13 +54,15 @@ use octolux::scene::LightingFingerprint;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Bytes of one valid leaf's anchors on disk: the mean and the samples, 6 bytes each.
-const ANCHORS_BYTES: usize = 6 * (1 + ANCHOR_SAMPLES);
+/// Bytes of one anchor on disk (position 3 x u8, normal or direction 3 x i8).
+const ANCHOR_BYTES: usize = 6;
+/// Bytes of one valid leaf's anchors on disk with the samples: the mean and the samples.
+const ANCHORS_BYTES: usize = ANCHOR_BYTES * (1 + ANCHOR_SAMPLES);
 
 /// The first 8 bytes of a cache file.
 pub const MAGIC: [u8; 8] = *b"OXCACHE\0";
 /// The format version this octolux writes and reads.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 /// Header bytes: magic, version, reserved, body length.
 pub const HEADER_BYTES: usize = 24;
 /// Trailer bytes: the CRC-32.
@@ -187,28 +193,53 @@ fn put_json(out: &mut Vec<u8>, v: &impl Serialize) {
     out.extend_from_slice(&text);
 }
 
-fn put_tree(out: &mut Vec<u8>, t: &OctreeParts) {
+/// Bytes of a cache file by part (both trees together), for the bake's report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct CacheLayout {
+    /// Header, trailer, fingerprint, metadata and the trees' statistics, cube and depth.
+    pub header: usize,
+    /// Node kinds and photon counts.
+    pub nodes: usize,
+    /// The leaves' values (36 bytes each compressed).
+    pub values: usize,
+    /// The facing bits.
+    pub facing: usize,
+    /// The leak test's anchors (6 bytes per valid leaf, 30 with the sampled photons).
+    pub anchors: usize,
+    /// The volumetric values (`bake --volume`).
+    pub atmosphere: usize,
+}
+
+fn put_tree(out: &mut Vec<u8>, t: &OctreeParts, layout: &mut CacheLayout) {
+    let mut mark = out.len();
+    let mut part = |out: &Vec<u8>, into: &mut usize| {
+        *into += out.len() - mark;
+        mark = out.len();
+    };
     put_json(out, &TreeMeta { stats: without_times(&t.stats, &TREE_TIMING_KEYS) });
     for v in t.origin.to_array() {
         put_f32(out, v);
     }
     put_f32(out, t.size);
     put_u32(out, t.h_max);
-    put_u32(out, count(t.nodes.len()));
-    for [link, photons] in &t.nodes {
-        put_u32(out, *link);
-        put_u32(out, *photons);
-    }
+    part(out, &mut layout.header);
+    nodes::put_nodes(out, &t.nodes);
+    part(out, &mut layout.nodes);
     put_values(out, &t.values);
+    part(out, &mut layout.values);
     put_u32(out, count(t.facing.len()));
     out.extend_from_slice(&t.facing);
+    part(out, &mut layout.facing);
+    out.push(t.leak_samples as u8);
     put_u32(out, count(t.anchors.len()));
     for a in &t.anchors {
-        for x in std::iter::once(&a.mean).chain(&a.samples) {
+        let samples = if t.leak_samples { &a.samples[..] } else { &[] };
+        for x in std::iter::once(&a.mean).chain(samples) {
             out.extend_from_slice(&x.pos);
             out.extend(x.normal.map(|c| c as u8));
         }
     }
+    part(out, &mut layout.anchors);
     match &t.atmosphere {
         None => out.push(0),
         Some(a) => {
@@ -218,6 +249,7 @@ fn put_tree(out: &mut Vec<u8>, t: &OctreeParts) {
             put_values(out, &a.values);
         }
     }
+    part(out, &mut layout.atmosphere);
 }
 
 fn put_values(out: &mut Vec<u8>, values: &LeafValueParts) {
@@ -239,6 +271,12 @@ fn put_values(out: &mut Vec<u8>, values: &LeafValueParts) {
 
 /// The bytes of a cache file.
 pub fn encode(c: &CacheFile) -> Vec<u8> {
+    encode_with_layout(c).0
+}
+
+/// The bytes of a cache file and where they go.
+pub fn encode_with_layout(c: &CacheFile) -> (Vec<u8>, CacheLayout) {
+    let mut layout = CacheLayout::default();
     let mut body = Vec::new();
     for v in [c.fingerprint.geometry, c.fingerprint.materials, c.fingerprint.emitters] {
         body.extend_from_slice(&v.to_le_bytes());
@@ -252,9 +290,10 @@ pub fn encode(c: &CacheFile) -> Vec<u8> {
     };
     put_json(&mut body, &meta);
     body.push(1 + c.parts.caustic.is_some() as u8);
-    put_tree(&mut body, &c.parts.global);
+    layout.header = body.len();
+    put_tree(&mut body, &c.parts.global, &mut layout);
     if let Some(t) = &c.parts.caustic {
-        put_tree(&mut body, t);
+        put_tree(&mut body, t, &mut layout);
     }
     let mut out = Vec::with_capacity(HEADER_BYTES + body.len() + TRAILER_BYTES);
     out.extend_from_slice(&MAGIC);
@@ -264,7 +303,8 @@ pub fn encode(c: &CacheFile) -> Vec<u8> {
     out.extend_from_slice(&body);
     let crc = crc32(&out);
     put_u32(&mut out, crc);
-    out
+    layout.header += HEADER_BYTES + TRAILER_BYTES;
+    (out, layout)
 }
 
 /// CRC-32 (IEEE 802.3, as zlib and PNG compute it).
@@ -342,16 +382,33 @@ fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSetti
     let origin = Vec3::new(r.f32(&what("origin"))?, r.f32(&what("origin"))?, r.f32(&what("origin"))?);
     let size = r.f32(&what("size"))?;
     let h_max = r.u32(&what("depth limit"))?;
-    let (_, nb) = r.array(8, &what("nodes"))?;
-    let w: Vec<u32> = words(nb).collect();
-    let nodes = w.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let nodes = nodes::get_nodes(r, &what)?;
     let values = read_values(r, &what("storage"), &what("compressed leaves"), &what("full leaves"))?;
     let (_, facing) = r.array(1, &what("facing bits"))?;
-    let (_, ab) = r.array(ANCHORS_BYTES, &what("leaf anchors"))?;
+    let leak_samples = match r.u8(&what("anchors"))? {
+        0 => false,
+        1 => true,
+        a => return Err(what(&format!("anchors flag {a} (0: means only, 1: means and samples)"))),
+    };
+    let size_on_disk = if leak_samples { ANCHORS_BYTES } else { ANCHOR_BYTES };
+    let (n_anchors, ab) = r.array(size_on_disk, &what("leaf anchors"))?;
+    octolux::budget::check_items(
+        || what(&format!("{n_anchors} leaf anchors")),
+        n_anchors as u64,
+        std::mem::size_of::<LeafAnchors>() as u64,
+    )
+    .map_err(|e| e.to_string())?;
     let anchor = |b: &[u8]| Anchor { pos: [b[0], b[1], b[2]], normal: [b[3] as i8, b[4] as i8, b[5] as i8] };
     let anchors = ab
-        .chunks_exact(ANCHORS_BYTES)
-        .map(|l| LeafAnchors { mean: anchor(&l[..6]), samples: std::array::from_fn(|k| anchor(&l[6 * (k + 1)..6 * (k + 2)])) })
+        .chunks_exact(size_on_disk)
+        .map(|l| {
+            let mean = anchor(&l[..ANCHOR_BYTES]);
+            let samples = match leak_samples {
+                true => std::array::from_fn(|k| anchor(&l[ANCHOR_BYTES * (k + 1)..ANCHOR_BYTES * (k + 2)])),
+                false => [mean; ANCHOR_SAMPLES],
+            };
+            LeafAnchors { mean, samples }
+        })
         .collect();
     let atmosphere = match r.u8(&what("atmosphere"))? {
         0 => None,
@@ -363,7 +420,19 @@ fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSetti
         }
         a => return Err(what(&format!("atmosphere flag {a} (0: none, 1: present)"))),
     };
-    Ok(OctreeParts { origin, size, h_max, settings: settings.clone(), nodes, values, facing: facing.to_vec(), anchors, stats, atmosphere })
+    Ok(OctreeParts {
+        origin,
+        size,
+        h_max,
+        settings: settings.clone(),
+        nodes,
+        values,
+        facing: facing.to_vec(),
+        anchors,
+        leak_samples,
+        stats,
+        atmosphere,
+    })
 }
 
 fn read_values(r: &mut Reader, storage: &str, compressed: &str, full: &str) -> Result<LeafValueParts, String> {
