@@ -30,6 +30,9 @@ pub enum Command {
     /// Trace the photons and build the `octree` integrator's global and caustic octrees, and
     /// write them to a lighting cache file (`render --cache` renders any camera from it).
     Bake(Box<BakeArgs>),
+    /// Serve a page that draws the scene in a browser (WebGL2), lit by the octree's indirect
+    /// light evaluated on the GPU, the octree streamed coarse to fine (docs/guide/viewer.md).
+    View(Box<ViewArgs>),
     /// Write a scene as Mitsuba 3 XML (meshes as PLY files in a `meshes/` folder beside it).
     Export(ExportArgs),
     /// List the built-in scenes.
@@ -501,4 +504,55 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
         return Err(format!("resolution {w}x{h} is out of range 1..32768"));
     }
     Ok((w, h))
+}
+
+#[derive(clap::Args)]
+pub struct ViewArgs {
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// The lighting cache to show (`octolux bake`); without it the photons are traced and the
+    /// octrees built first, as a bake would.
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// Show a cache whose scene's lighting changed since the bake (a warning).
+    #[arg(long)]
+    pub allow_stale_cache: bool,
+    /// The port to listen on (0: any free port, printed).
+    #[arg(long, default_value_t = 8377)]
+    pub port: u16,
+    /// The address to listen on: 127.0.0.1 unless given (another address lets other machines
+    /// load the page and the scene's data).
+    #[arg(long, default_value = "127.0.0.1")]
+    pub bind: std::net::IpAddr,
+    /// Do not open the page in the default browser.
+    #[arg(long)]
+    pub no_open: bool,
+    /// Canvas width in pixels (default: the film's, at most 640); the height keeps its aspect.
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Also serve the CPU query's irradiance image, which the page compares its own with (the
+    /// result goes to `data-*` attributes of its body and to the log).
+    #[arg(long)]
+    pub compare_cpu: bool,
+    /// Stop once the page has drawn the last level and reported (tests, scripts).
+    #[arg(long)]
+    pub exit_when_done: bool,
+    /// `octree` settings as JSON or TOML (without --cache).
+    #[arg(long, value_name = "FILE")]
+    pub settings: Option<PathBuf>,
+    /// Set one `octree` setting (without --cache).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Seed of the photon pass (without --cache).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Photon paths emitted from the lights (without --cache; default 1000000).
+    #[arg(long)]
+    pub photons: Option<u64>,
+    /// Ray-intersection backend.
+    #[arg(long, value_parser = serde_enum::<BackendKind>(), default_value = "auto")]
+    pub backend: BackendKind,
+    /// Warnings and errors only: no log.
+    #[arg(long, short)]
+    pub quiet: bool,
 }

@@ -32,6 +32,7 @@ mod bake;
 mod flicker;
 mod interrupt;
 mod report;
+mod view;
 
 use anyhow::{bail, Context, Result};
 use args::{Cli, Command, ExportArgs, RenderArgs, SceneArgs};
@@ -250,6 +251,7 @@ fn run(cli: Cli) -> Result<std::process::ExitCode> {
     match cli.command {
         Command::Render(a) => cmd_render(&a),
         Command::Bake(a) => bake::cmd_bake(&a),
+        Command::View(a) => view::cmd_view(&a),
         Command::Export(a) => cmd_export(&a).map(|()| std::process::ExitCode::SUCCESS),
         Command::Compare { image, reference } => cmd_compare(&image, &reference).map(|()| std::process::ExitCode::SUCCESS),
         Command::Report { images, reference, bench, output } => {

@@ -18,6 +18,7 @@ pub mod mitsuba;
 pub mod paths;
 pub mod settings;
 pub mod shared;
+pub mod view;
 
 use octolux::scene::SceneDesc;
 use std::path::{Path, PathBuf};

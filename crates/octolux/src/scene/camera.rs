@@ -99,6 +99,18 @@ pub struct Camera {
     near_clip: f32,
 }
 
+/// A camera's frame ([`Camera::frame`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CameraFrame {
+    pub origin: Vec3,
+    pub left: Vec3,
+    pub up: Vec3,
+    pub forward: Vec3,
+    pub tan_half_x: f32,
+    pub tan_half_y: f32,
+    pub near_clip: f32,
+}
+
 impl Camera {
     pub fn new(desc: &CameraDesc, width: u32, height: u32) -> Camera {
         let aspect = width as f32 / height as f32;
@@ -136,6 +148,22 @@ impl Camera {
             inv_width: 1.0 / width as f32,
             inv_height: 1.0 / height as f32,
             near_clip: desc.near_clip,
+        }
+    }
+
+    /// The camera's frame and the tangents of its half fields of view, as a rasteriser needs
+    /// them to project as [`Camera::generate_ray`] traces: a point at `(l, u, f)` along
+    /// (`left`, `up`, `forward`) from `origin` lands at film `x = W (1 − l / (f tan_half_x)) / 2`,
+    /// `y = H (1 − u / (f tan_half_y)) / 2` (pixels from the top-left corner).
+    pub fn frame(&self) -> CameraFrame {
+        CameraFrame {
+            origin: self.origin,
+            left: self.left,
+            up: self.up,
+            forward: self.forward,
+            tan_half_x: self.tan_half_x,
+            tan_half_y: self.tan_half_y,
+            near_clip: self.near_clip,
         }
     }
 

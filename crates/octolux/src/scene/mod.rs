@@ -19,6 +19,7 @@
 pub mod camera;
 pub mod camera_path;
 pub mod desc;
+pub mod display;
 pub mod environment;
 pub mod envmap;
 pub mod fingerprint;

@@ -86,6 +86,7 @@ mod flights;
 #[cfg(test)]
 mod free_space_tests;
 mod geometry;
+mod levels;
 mod parts;
 mod planes;
 mod query;
@@ -101,6 +102,7 @@ pub(crate) const ALL_FACING: u8 = 0b11_1111;
 pub use atmosphere::{AtmosphereStats, PROBE_LIFT, SMOOTHING_SWEEPS};
 pub use flights::{FlightSums, Flights, FLIGHT_MIN};
 pub use geometry::AnalyticSphere;
+pub use levels::{Level, LevelKind, LevelNode};
 pub use parts::{AtmosphereParts, LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
 pub use refit::{Changes, RefitStats};

@@ -1,0 +1,221 @@
+//! `octolux view` (issue 28): the scene drawn in a browser and lit by the octree evaluated on
+//! the GPU, the octree streamed coarse to fine. docs/guide/viewer.md says how to use it.
+//!
+//! The job loads the scene, reads the lighting cache (or traces the photons and builds the
+//! octrees as a bake would), and serves on one address (127.0.0.1 by default, `http.rs`):
+//!
+//! | path | what |
+//! |---|---|
+//! | `/`, `/viewer.js` | the page (`page.html`, `viewer.js`: WebGL2) |
+//! | `/meta.json` | the camera, the canvas size, the root cube, the levels and their bytes |
+//! | `/scene.bin` | per vertex position, normal, albedo: 9 little-endian f32 ([`Scene::display_mesh`]) |
+//! | `/level/D.bin` | the global octree's nodes at depth `D` (`octolux::caches::octree` `levels.rs`): per node its kind (u8: 0 internal, 1 valid, 2 atmospheric), its facing bits (u8), and unless atmospheric its 36 bytes |
+//! | `/cpu.bin` | with `--compare-cpu`: the CPU query's irradiance at every pixel centre and the distance to the surface there, 4 f32 per pixel, top row first |
+//! | `/done?...` | the page's report once it drew the last level (logged; `--exit-when-done` stops the server) |
+//! | `/mark?begin`, `/mark?end&frames=N` | the page's marks around N frames: the server times them (a headless browser's clock may be virtual) |
+//!
+//! The page draws with the direct light left out: the octree's global (indirect) irradiance
+//! times the albedo over π, or the irradiance itself, or the leaves; what it draws is what the
+//! CPU's `--view irradiance` computes, with the same camera (test `the_viewer_matches_the_cpu`).
+
+pub mod http;
+
+use crate::job::{self, bail, Context, Frontend, Result};
+use http::Resource;
+use octolux::accel::BackendKind;
+use octolux::caches::octree::{LevelKind, Octree};
+use octolux::integrators::octree::OctreeIntegrator;
+use octolux::integrators::Integrator;
+use octolux::math::Ray;
+use octolux::scene::Scene;
+use serde_json::json;
+use std::collections::HashMap;
+use std::net::{SocketAddr, TcpListener};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// The page and its script, served as they are.
+const PAGE: &str = include_str!("page.html");
+const SCRIPT: &str = include_str!("viewer.js");
+
+/// Widest canvas (pixels); the scene's film is scaled down to it, keeping its aspect.
+pub const MAX_CANVAS_WIDTH: u32 = 640;
+
+/// `octolux view`.
+#[derive(Clone, Debug)]
+pub struct ViewJob {
+    pub scene: job::SceneSpec,
+    /// The `octree` settings when no cache is given (resolved as a bake resolves them).
+    pub settings: job::IntegratorRequest,
+    pub cache: Option<PathBuf>,
+    pub allow_stale_cache: bool,
+    pub backend: BackendKind,
+    /// Where to listen (port 0: any free port).
+    pub bind: SocketAddr,
+    /// Also serve the CPU query's irradiance image for the page to compare with.
+    pub compare_cpu: bool,
+    /// Stop once the page reported its last level (`/done`).
+    pub exit_when_done: bool,
+    /// Canvas width (default: the film's, at most [`MAX_CANVAS_WIDTH`]).
+    pub width: Option<u32>,
+}
+
+/// The served data of a scene and its octree (module docs).
+pub fn resources(scene: &Scene, tree: &Octree, width: u32, compare_cpu: bool) -> (HashMap<String, Resource>, serde_json::Value) {
+    let height = ((width as f64 * scene.film.height as f64 / scene.film.width as f64).round() as u32).max(1);
+    let mut routes = HashMap::new();
+    let mut put = |path: &str, content_type: &'static str, body: Vec<u8>| {
+        routes.insert(path.to_string(), Resource { content_type, body: Arc::new(body) });
+    };
+    put("/", "text/html; charset=utf-8", PAGE.as_bytes().to_vec());
+    put("/index.html", "text/html; charset=utf-8", PAGE.as_bytes().to_vec());
+    put("/viewer.js", "text/javascript; charset=utf-8", SCRIPT.as_bytes().to_vec());
+    let mesh = scene.display_mesh();
+    let mut bin = Vec::with_capacity(mesh.positions.len() * 36);
+    for ((p, n), a) in mesh.positions.iter().zip(&mesh.normals).zip(&mesh.albedo) {
+        for x in p.to_array().into_iter().chain(n.to_array()).chain(a.to_array()) {
+            bin.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    put("/scene.bin", "application/octet-stream", bin);
+    let mut levels = Vec::new();
+    for l in tree.levels() {
+        let mut b = Vec::new();
+        for n in &l.nodes {
+            b.push(n.kind as u8);
+            b.push(n.facing);
+            if n.kind != LevelKind::Atmospheric {
+                b.extend_from_slice(&n.value);
+            }
+        }
+        levels.push(json!({ "depth": l.depth, "nodes": l.nodes.len(), "bytes": b.len(), "edge": tree.cell_edge(l.depth) }));
+        put(&format!("/level/{}.bin", l.depth), "application/octet-stream", b);
+    }
+    if compare_cpu {
+        put("/cpu.bin", "application/octet-stream", cpu_irradiance(scene, tree, width, height));
+    }
+    let cam = scene.camera.frame();
+    let meta = json!({
+        "camera": cam,
+        "width": width,
+        "height": height,
+        "vertices": mesh.positions.len(),
+        "grey_materials": mesh.grey_materials.len(),
+        "bounds": { "min": scene.bounds.min, "max": scene.bounds.max },
+        "tree": { "origin": tree.origin(), "size": tree.cell_edge(0), "alpha": tree.alpha(), "levels": levels },
+        "compare_cpu": compare_cpu,
+    });
+    put("/meta.json", "application/json", serde_json::to_vec(&meta).unwrap_or_default());
+    (routes, meta)
+}
+
+/// The CPU query's irradiance (W/m², RGB) at the centre of every pixel of a `width` x `height`
+/// image of the scene's camera, and the distance to the surface there: the surface the pixel's
+/// ray meets, its shading normal turned to the camera, [`Octree::irradiance`] (0 where no valid
+/// leaf answers or nothing is hit; distance 0 where nothing is hit). The page compares its own
+/// where it drew the same surface point (its tessellated spheres' silhouettes differ).
+pub fn cpu_irradiance(scene: &Scene, tree: &Octree, width: u32, height: u32) -> Vec<u8> {
+    let (sx, sy) = (scene.film.width as f32 / width as f32, scene.film.height as f32 / height as f32);
+    let mut out = Vec::with_capacity((width * height * 16) as usize);
+    for y in 0..height {
+        for x in 0..width {
+            let (o, d, tmin) = scene.camera.generate_ray(glam::Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy));
+            let (e, t) = match scene.intersect(&Ray { tmin, ..Ray::new(o, d) }) {
+                Some(h) => {
+                    let n = if h.frame.n.dot(d) > 0.0 { -h.frame.n } else { h.frame.n };
+                    (tree.irradiance(h.p, n).unwrap_or(glam::Vec3::ZERO), (h.p - o).length())
+                }
+                None => (glam::Vec3::ZERO, 0.0),
+            };
+            for c in e.extend(t).to_array() {
+                out.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    out
+}
+
+/// Run `octolux view` (module docs): returns the page's report, if it sent one.
+pub fn run_view(job: &ViewJob, fe: &dyn Frontend, on_listen: &dyn Fn(SocketAddr)) -> Result<Option<String>> {
+    let cache = job.cache.as_deref().map(|p| job::read_cache(p, job.allow_stale_cache)).transpose()?;
+    let loaded = job::load(&job.scene, fe)?;
+    let mut warnings = loaded.warnings.clone();
+    let settings = match &cache {
+        None => Some(job::bake::bake_settings(&job.settings, &loaded.desc.hints, fe, &mut warnings)?),
+        Some(_) => None,
+    };
+    let scene = job::prepare(loaded.desc, job.backend, &job.scene.scene, fe, &mut warnings)?;
+    let integrator = match (cache, settings) {
+        (Some(c), _) => {
+            let stale =
+                crate::cache::check_fingerprint(&c.path, &c.cache, &scene.lighting_fingerprint(), &job.scene.scene, job.allow_stale_cache)
+                    .map_err(job::JobError)?;
+            if let Some(w) = stale {
+                fe.warning(&w);
+            }
+            match c.cache.integrator {
+                Integrator::Octree(o) => *o,
+                _ => bail!("lighting cache {}: not the octree integrator's", c.path.display()),
+            }
+        }
+        (None, Some(s)) => {
+            fe.info(&format!("octree: tracing {} photons and building the octrees ...", s.photons.photons));
+            OctreeIntegrator::build(&scene, s).context("cannot build the octrees")?
+        }
+        (None, None) => unreachable!("settings are resolved without a cache"),
+    };
+    let width = job.width.unwrap_or(scene.film.width.min(MAX_CANVAS_WIDTH)).clamp(1, 4096);
+    let (routes, meta) = resources(&scene, &integrator.global, width, job.compare_cpu);
+    let bytes: u64 = meta["tree"]["levels"].as_array().map_or(0, |l| l.iter().filter_map(|x| x["bytes"].as_u64()).sum());
+    let listener = TcpListener::bind(job.bind).with_context(|| format!("cannot listen on {}", job.bind))?;
+    let addr = listener.local_addr().context("the address listened on")?;
+    fe.info(&format!(
+        "view: http://{addr}/ ({} triangles, {} octree levels, {bytes} bytes of octree); Ctrl-C stops",
+        meta["vertices"].as_u64().unwrap_or(0) / 3,
+        meta["tree"]["levels"].as_array().map_or(0, |l| l.len()),
+    ));
+    on_listen(addr);
+    let stop = Arc::new(AtomicBool::new(false));
+    let state: Arc<Mutex<PageState>> = Arc::default();
+    let (stop2, state2, exit) = (stop.clone(), state.clone(), job.exit_when_done);
+    let on_request = Arc::new(move |target: &str| {
+        let Ok(mut st) = state2.lock() else { return };
+        if target == "/mark?begin" {
+            st.begin = Some(std::time::Instant::now());
+        } else if let Some(n) = target.strip_prefix("/mark?end&frames=") {
+            let frames = n.parse::<u32>().unwrap_or(1).max(1);
+            st.frame_ms = st.begin.map(|b| b.elapsed().as_secs_f64() * 1e3 / frames as f64);
+        } else if let Some(q) = target.strip_prefix("/done?") {
+            st.report = Some(q.to_string());
+            if exit {
+                stop2.store(true, Ordering::SeqCst);
+            }
+        }
+    });
+    let mut routes = routes;
+    for path in ["/done", "/mark"] {
+        routes.insert(path.into(), Resource { content_type: "text/plain", body: Arc::new(b"ok".to_vec()) });
+    }
+    http::serve(listener, routes, stop, on_request).context("the viewer's server")?;
+    let st = state.lock().map(|s| s.clone()).unwrap_or_default();
+    if let Some(ms) = st.frame_ms {
+        fe.info(&format!("view: {ms:.2} ms per frame (full shading, {width}x{}, wall time between the page's marks)", meta["height"]));
+    }
+    let r = st.report.map(|r| match st.frame_ms {
+        Some(ms) => format!("{r}&frame_ms_wall={ms:.3}"),
+        None => r,
+    });
+    if let Some(r) = &r {
+        fe.info(&format!("view: the page reported {r}"));
+    }
+    Ok(r)
+}
+
+/// What the page sent: its frame-time marks and its report.
+#[derive(Clone, Debug, Default)]
+struct PageState {
+    begin: Option<std::time::Instant>,
+    frame_ms: Option<f64>,
+    report: Option<String>,
+}

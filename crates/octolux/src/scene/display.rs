@@ -1,0 +1,82 @@
+//! The scene as triangles for a rasteriser (issue 28: `octolux view` draws the scene in a
+//! browser and lights it with the octree evaluated on the GPU).
+//!
+//! Every triangle of the meshes, and the analytic spheres tessellated (48 x 24 quads), with
+//! per-vertex shading normals (the mesh's interpolated normals where it has them, the
+//! triangle's winding normal otherwise; spheres: the exact normal) and per-vertex Lambertian
+//! albedo (the material's diffuse reflectance at the vertex's texture coordinates; a material
+//! without a Lambertian part draws as 0.5 grey, and says so in [`DisplayMesh::grey_materials`]).
+
+use super::Scene;
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Triangles for a rasteriser, not indexed: vertex `3 t + k` is corner `k` of triangle `t`.
+#[derive(Clone, Debug, Default)]
+pub struct DisplayMesh {
+    /// World positions.
+    pub positions: Vec<Vec3>,
+    /// Unit shading normals (the front side of the shape).
+    pub normals: Vec<Vec3>,
+    /// Lambertian albedo (RGB, in [0, 1]).
+    pub albedo: Vec<Vec3>,
+    /// Materials drawn grey (no Lambertian reflectance), by index.
+    pub grey_materials: Vec<u32>,
+}
+
+/// The grey of a material without a Lambertian part.
+const GREY: Vec3 = Vec3::splat(0.5);
+
+impl Scene {
+    /// The scene as triangles (module docs).
+    pub fn display_mesh(&self) -> DisplayMesh {
+        let mut out = DisplayMesh::default();
+        let albedo = |material: u32, uv: Vec2, out_grey: &mut Vec<u32>| -> Vec3 {
+            match self.materials[material as usize].lambertian_albedo(&self.images, uv, Vec3::Z) {
+                Some(c) if c.is_finite() => c.clamp(Vec3::ZERO, Vec3::ONE),
+                _ => {
+                    if !out_grey.contains(&material) {
+                        out_grey.push(material);
+                    }
+                    GREY
+                }
+            }
+        };
+        for (t, &s) in self.triangles.iter().zip(&self.tri_shape) {
+            let info = &self.shapes[s as usize];
+            let p = t.map(|k| self.positions[k as usize]);
+            let mut ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            if info.flip {
+                ng = -ng;
+            }
+            for (c, &k) in t.iter().enumerate() {
+                out.positions.push(p[c]);
+                let n = if info.has_normals { self.normals[k as usize].normalize_or_zero() } else { ng };
+                out.normals.push(if info.flip && info.has_normals { -n } else { n });
+                let uv = if info.has_uvs { self.uvs[k as usize] } else { Vec2::ZERO };
+                out.albedo.push(albedo(info.material, uv, &mut out.grey_materials));
+            }
+        }
+        for sphere in &self.spheres {
+            let info = &self.shapes[sphere.shape as usize];
+            let sign = if info.flip { -1.0 } else { 1.0 };
+            let (nt, np) = (24usize, 48usize);
+            let dir = |i: usize, j: usize| {
+                let (th, ph) = (PI * i as f32 / nt as f32, 2.0 * PI * j as f32 / np as f32);
+                Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
+            };
+            let a = albedo(info.material, Vec2::splat(0.5), &mut out.grey_materials);
+            for i in 0..nt {
+                for j in 0..np {
+                    for (di, dj) in [(0, 0), (1, 0), (1, 1), (0, 0), (1, 1), (0, 1)] {
+                        let d = dir(i + di, j + dj);
+                        out.positions.push(sphere.center + sphere.radius * d);
+                        out.normals.push(sign * d);
+                        out.albedo.push(a);
+                    }
+                }
+            }
+        }
+        out
+    }
+}
