@@ -10,13 +10,16 @@
 //! | `/meta.json` | the camera, the canvas size, the root cube, the levels and their bytes |
 //! | `/scene.bin` | per vertex position, normal, albedo: 9 little-endian f32 ([`Scene::display_mesh`]) |
 //! | `/level/D.bin` | the global octree's nodes at depth `D` (`octolux::caches::octree` `levels.rs`): per node its kind (u8: 0 internal, 1 valid, 2 atmospheric), its facing bits (u8), and unless atmospheric its 36 bytes |
+//! | `/direct/D.bin` | the same for the direct-light octree (`OctreeIntegrator::direct_octree`, built by the job from the photon pass of the lighting's settings) |
 //! | `/cpu.bin` | with `--compare-cpu`: the CPU query's irradiance at every pixel centre and the distance to the surface there, 4 f32 per pixel, top row first |
 //! | `/done?...` | the page's report once it drew the last level (logged; `--exit-when-done` stops the server) |
 //! | `/mark?begin`, `/mark?end&frames=N` | the page's marks around N frames: the server times them (a headless browser's clock may be virtual) |
 //!
-//! The page draws with the direct light left out: the octree's global (indirect) irradiance
-//! times the albedo over π, or the irradiance itself, or the leaves; what it draws is what the
-//! CPU's `--view irradiance` computes, with the same camera (test `the_viewer_matches_the_cpu`).
+//! The page draws the direct light of the emitters from a direct-light octree baked beside the
+//! global one (not shadow maps: its shadows are as sharp as its leaves), plus the global
+//! octree's indirect irradiance, times the albedo over π; or either irradiance, or the leaves.
+//! Its indirect irradiance is what the CPU's `--view irradiance` computes, with the same camera
+//! (test `the_gpu_query_matches_the_cpu_and_the_levels_converge`).
 
 pub mod http;
 
@@ -62,7 +65,13 @@ pub struct ViewJob {
 }
 
 /// The served data of a scene and its octree (module docs).
-pub fn resources(scene: &Scene, tree: &Octree, width: u32, compare_cpu: bool) -> (HashMap<String, Resource>, serde_json::Value) {
+pub fn resources(
+    scene: &Scene,
+    tree: &Octree,
+    direct: &Octree,
+    width: u32,
+    compare_cpu: bool,
+) -> (HashMap<String, Resource>, serde_json::Value) {
     let height = ((width as f64 * scene.film.height as f64 / scene.film.width as f64).round() as u32).max(1);
     let mut routes = HashMap::new();
     let mut put = |path: &str, content_type: &'static str, body: Vec<u8>| {
@@ -79,19 +88,23 @@ pub fn resources(scene: &Scene, tree: &Octree, width: u32, compare_cpu: bool) ->
         }
     }
     put("/scene.bin", "application/octet-stream", bin);
-    let mut levels = Vec::new();
-    for l in tree.levels() {
-        let mut b = Vec::new();
-        for n in &l.nodes {
-            b.push(n.kind as u8);
-            b.push(n.facing);
-            if n.kind != LevelKind::Atmospheric {
-                b.extend_from_slice(&n.value);
+    let mut tree_meta = |t: &Octree, prefix: &str| {
+        let mut levels = Vec::new();
+        for l in t.levels() {
+            let mut b = Vec::new();
+            for n in &l.nodes {
+                b.push(n.kind as u8);
+                b.push(n.facing);
+                if n.kind != LevelKind::Atmospheric {
+                    b.extend_from_slice(&n.value);
+                }
             }
+            levels.push(json!({ "depth": l.depth, "nodes": l.nodes.len(), "bytes": b.len(), "edge": t.cell_edge(l.depth) }));
+            put(&format!("{prefix}/{}.bin", l.depth), "application/octet-stream", b);
         }
-        levels.push(json!({ "depth": l.depth, "nodes": l.nodes.len(), "bytes": b.len(), "edge": tree.cell_edge(l.depth) }));
-        put(&format!("/level/{}.bin", l.depth), "application/octet-stream", b);
-    }
+        json!({ "origin": t.origin(), "size": t.cell_edge(0), "alpha": t.alpha(), "levels": levels })
+    };
+    let (indirect, direct) = (tree_meta(tree, "/level"), tree_meta(direct, "/direct"));
     if compare_cpu {
         put("/cpu.bin", "application/octet-stream", cpu_irradiance(scene, tree, width, height));
     }
@@ -103,7 +116,8 @@ pub fn resources(scene: &Scene, tree: &Octree, width: u32, compare_cpu: bool) ->
         "vertices": mesh.positions.len(),
         "grey_materials": mesh.grey_materials.len(),
         "bounds": { "min": scene.bounds.min, "max": scene.bounds.max },
-        "tree": { "origin": tree.origin(), "size": tree.cell_edge(0), "alpha": tree.alpha(), "levels": levels },
+        "tree": indirect,
+        "direct": direct,
         "compare_cpu": compare_cpu,
     });
     put("/meta.json", "application/json", serde_json::to_vec(&meta).unwrap_or_default());
@@ -166,7 +180,9 @@ pub fn run_view(job: &ViewJob, fe: &dyn Frontend, on_listen: &dyn Fn(SocketAddr)
         (None, None) => unreachable!("settings are resolved without a cache"),
     };
     let width = job.width.unwrap_or(scene.film.width.min(MAX_CANVAS_WIDTH)).clamp(1, 4096);
-    let (routes, meta) = resources(&scene, &integrator.global, width, job.compare_cpu);
+    fe.info("view: the direct-light octree (the photon pass's first hits) ...");
+    let direct = integrator.direct_octree(&scene).context("cannot build the direct-light octree")?;
+    let (routes, meta) = resources(&scene, &integrator.global, &direct, width, job.compare_cpu);
     let bytes: u64 = meta["tree"]["levels"].as_array().map_or(0, |l| l.iter().filter_map(|x| x["bytes"].as_u64()).sum());
     let listener = TcpListener::bind(job.bind).with_context(|| format!("cannot listen on {}", job.bind))?;
     let addr = listener.local_addr().context("the address listened on")?;

@@ -23,47 +23,49 @@ void main() {
 
 const FS = `#version 300 es
 precision highp float; precision highp int; precision highp usampler2D;
-uniform usampler2D uNodes;   // per node: x = first child (0xffffffff: a leaf of this prefix), y = kind | facing << 8
-uniform usampler2D uValues;  // per node: 9 words, the 36 bytes of its six matrices
-uniform vec3 uRootMin; uniform float uRootSize; uniform float uHalf; uniform int uMode;
-uniform vec3 uOrigin; uniform float uExposure; uniform float uMaxDepth;
+// two octrees, global (indirect) and direct light, each as two integer textures:
+// nodes: per node x = first child (0xffffffff: a leaf of this prefix), y = kind | facing << 8;
+// values: per node 9 words, the 36 bytes of its six matrices
+uniform usampler2D uNodes, uValues, uDNodes, uDValues;
+uniform vec3 uRootMin, uDRootMin; uniform float uRootSize, uDRootSize, uHalf, uDHalf; uniform int uMode;
+uniform vec3 uOrigin; uniform float uExposure; uniform float uMaxDepth; uniform bool uDisplay;
 in vec3 vPos; in vec3 vNrm; in vec3 vAlb;
 out vec4 outColor;
 const int TW = 4096;
 const uint LEAF = 0xffffffffu;
-uvec2 node(uint i) { return texelFetch(uNodes, ivec2(int(i) % TW, int(i) / TW), 0).xy; }
-uint word(uint i) { return texelFetch(uValues, ivec2(int(i) % TW, int(i) / TW), 0).x; }
-uint byteAt(uint b) { return (word(b >> 2u) >> ((b & 3u) * 8u)) & 255u; }
+uvec2 node(usampler2D t, uint i) { return texelFetch(t, ivec2(int(i) % TW, int(i) / TW), 0).xy; }
+uint word(usampler2D t, uint i) { return texelFetch(t, ivec2(int(i) % TW, int(i) / TW), 0).x; }
+uint byteAt(usampler2D t, uint b) { return (word(t, b >> 2u) >> ((b & 3u) * 8u)) & 255u; }
 const float PI = 3.14159265358979;
 // matrix k of node i, applied to n: C (D . n)
-vec3 term(uint i, uint k, vec3 n) {
+vec3 term(usampler2D t, uint i, uint k, vec3 n) {
   uint b = i * 36u + k * 6u;
-  float th = (float(byteAt(b)) + 0.5) * PI / 256.0;
-  float ph = (float(byteAt(b + 1u)) + 0.5) * 2.0 * PI / 256.0;
+  float th = (float(byteAt(t, b)) + 0.5) * PI / 256.0;
+  float ph = (float(byteAt(t, b + 1u)) + 0.5) * 2.0 * PI / 256.0;
   vec3 d = vec3(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
-  uint e = byteAt(b + 5u);
+  uint e = byteAt(t, b + 5u);
   if (e == 0u) return vec3(0.0);
-  vec3 c = (vec3(float(byteAt(b + 2u)), float(byteAt(b + 3u)), float(byteAt(b + 4u))) + 0.5) * exp2(float(e) - 136.0);
+  vec3 c = (vec3(float(byteAt(t, b + 2u)), float(byteAt(t, b + 3u)), float(byteAt(t, b + 4u))) + 0.5) * exp2(float(e) - 136.0);
   return c * dot(d, n);
 }
 uint stN[128]; uint stD[128]; uvec3 stI[128];
 // the §7 blend at p for the unit normal n; w < 0: no leaf answered
-vec4 irradiance(vec3 p, vec3 n) {
+vec4 irradiance(usampler2D nodes, usampler2D vals, vec3 rootMin, float rootSize, float half_, vec3 p, vec3 n) {
   uint sel[3] = uint[3](n.x >= 0.0 ? 0u : 1u, n.y >= 0.0 ? 2u : 3u, n.z >= 0.0 ? 4u : 5u);
   vec3 wn = n * n;
   vec3 sum[3] = vec3[3](vec3(0.0), vec3(0.0), vec3(0.0));
   vec3 wsum = vec3(0.0);
-  vec3 qmin = p - vec3(uHalf), qmax = p + vec3(uHalf);
-  vec3 rmax = uRootMin + vec3(uRootSize);
-  if (!(all(lessThan(qmin, rmax)) && all(greaterThan(qmax, uRootMin)))) return vec4(0.0, 0.0, 0.0, -1.0);
+  vec3 qmin = p - vec3(half_), qmax = p + vec3(half_);
+  vec3 rmax = rootMin + vec3(rootSize);
+  if (!(all(lessThan(qmin, rmax)) && all(greaterThan(qmax, rootMin)))) return vec4(0.0, 0.0, 0.0, -1.0);
   int sp = 0;
   stN[0] = 0u; stD[0] = 0u; stI[0] = uvec3(0u); sp = 1;
   for (int guard = 0; guard < 4096 && sp > 0; guard++) {
     sp--;
     uint i = stN[sp]; uint depth = stD[sp]; uvec3 ijk = stI[sp];
-    float edge = uRootSize / exp2(float(depth));
-    vec3 cmin = uRootMin + vec3(ijk) * edge;
-    uvec2 nd = node(i);
+    float edge = rootSize / exp2(float(depth));
+    vec3 cmin = rootMin + vec3(ijk) * edge;
+    uvec2 nd = node(nodes, i);
     if (nd.x == LEAF) {
       uint kind = nd.y & 255u;
       if (kind == 2u) continue;
@@ -72,14 +74,14 @@ vec4 irradiance(vec3 p, vec3 n) {
       uint facing = nd.y >> 8u;
       for (int a = 0; a < 3; a++) {
         if ((facing & (1u << sel[a])) != 0u) {
-          sum[a] += term(i, sel[a], n) * g;
+          sum[a] += term(vals, i, sel[a], n) * g;
           wsum[a] += g;
         }
       }
       continue;
     }
     float cedge = edge * 0.5;
-    vec3 mid = uRootMin + vec3(ijk * 2u + 1u) * cedge;
+    vec3 mid = rootMin + vec3(ijk * 2u + 1u) * cedge;
     // children in reverse order, so that they are met in the CPU's order
     for (int c = 7; c >= 0; c--) {
       uvec3 b = uvec3(uint(c) & 1u, (uint(c) >> 1u) & 1u, (uint(c) >> 2u) & 1u);
@@ -102,6 +104,12 @@ vec4 irradiance(vec3 p, vec3 n) {
   if (!any) return vec4(0.0, 0.0, 0.0, -1.0);
   return vec4(norm > 0.0 ? max(outE / norm, vec3(0.0)) : vec3(0.0), 1.0);
 }
+// linear to the display's sRGB on the canvas; linear into the float target read back
+vec3 srgb(vec3 c) {
+  if (!uDisplay) return c;
+  c = clamp(c, 0.0, 1.0);
+  return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
+}
 vec3 hsv(float h, float s, float v) {
   vec3 k = mod(vec3(5.0, 3.0, 1.0) + h * 6.0, 6.0);
   return v - v * s * clamp(min(k, 4.0 - k), 0.0, 1.0);
@@ -112,7 +120,7 @@ float leafDepth(vec3 p) {
   if (any(lessThan(rel, vec3(0.0))) || any(greaterThanEqual(rel, vec3(1.0)))) return -1.0;
   uint i = 0u;
   for (int depth = 0; depth < 24; depth++) {
-    uvec2 nd = node(i);
+    uvec2 nd = node(uNodes, i);
     if (nd.x == LEAF) return (nd.y & 255u) == 2u ? -2.0 : float(depth);
     vec3 s = floor(rel * exp2(float(depth + 1)));
     uvec3 b = uvec3(mod(s, 2.0));
@@ -129,9 +137,11 @@ void main() {
     outColor = vec4(d == -2.0 ? vec3(0.02) : d < 0.0 ? vec3(0.0) : hsv(0.8 * d / max(uMaxDepth, 1.0), 0.7, 0.9), 1.0);
     return;
   }
-  vec4 e = irradiance(vPos, n);
-  vec3 c = uMode == 1 ? e.rgb : e.rgb * vAlb / PI;
-  outColor = vec4(c * uExposure, 1.0);
+  vec3 ei = irradiance(uNodes, uValues, uRootMin, uRootSize, uHalf, vPos, n).rgb;
+  if (uMode == 1) { outColor = vec4(srgb(ei * uExposure), 1.0); return; }
+  vec3 ed = irradiance(uDNodes, uDValues, uDRootMin, uDRootSize, uDHalf, vPos, n).rgb;
+  vec3 c = uMode == 5 ? ed : uMode == 4 ? ei * vAlb / PI : (ed + ei) * vAlb / PI;
+  outColor = vec4(srgb(c * uExposure), 1.0);
 }`;
 
 const TW = 4096;
@@ -215,21 +225,59 @@ async function fetchBin(path) {
       cam.origin = origin; cam.forward = fwd; cam.left = left; cam.up = cross(fwd, left);
     }
 
-    // the octree, as it arrives
+    // the octrees, as they arrive: a placeholder root without value until the first level
+    function makeTree(m, unit) {
+      const total = m.levels.reduce((s, l) => s + l.nodes, 0);
+      const t = { m, unit, nodes: new Uint32Array(Math.max(total, 1) * 2), values: new Uint32Array(Math.max(total, 1) * 9),
+        have: 0, levelStart: 0, half: 0, depth: 0, nodeTex: null, valueTex: null };
+      t.valueBytes = new Uint8Array(t.values.buffer);
+      t.nodes[0] = 0xffffffff; t.nodes[1] = 2;
+      upload(t, 1);
+      return t;
+    }
+    function upload(t, count) {
+      if (t.nodeTex) gl.deleteTexture(t.nodeTex);
+      if (t.valueTex) gl.deleteTexture(t.valueTex);
+      t.nodeTex = uintTexture(gl, gl.RG_INTEGER, gl.RG32UI, 2, t.nodes, count);
+      t.valueTex = uintTexture(gl, gl.RED_INTEGER, gl.R32UI, 1, t.values, count * 9);
+    }
+    // one level's bytes into the tree (module docs of view/mod.rs)
+    function addLevel(t, level, data) {
+      if (level.depth > 0) {
+        let child = t.have;
+        for (let i = t.levelStart; i < t.have; i++) {
+          if ((t.nodes[2 * i + 1] & 255) === 0) { t.nodes[2 * i] = child; child += 8; }
+        }
+      }
+      t.levelStart = t.have;
+      let at = 0;
+      for (let k = 0; k < level.nodes; k++) {
+        const i = t.have + k;
+        const kind = data[at], facing = data[at + 1];
+        at += 2;
+        t.nodes[2 * i] = 0xffffffff;
+        t.nodes[2 * i + 1] = kind | (facing << 8);
+        if (kind !== 2) { t.valueBytes.set(data.subarray(at, at + 36), 36 * i); at += 36; }
+      }
+      if (at !== data.length) throw new Error('level ' + level.depth + ': ' + data.length + ' bytes, ' + at + ' read');
+      t.have += level.nodes;
+      t.half = 0.5 * t.m.alpha * level.edge;
+      t.depth = level.depth;
+      upload(t, t.have);
+    }
+    const indirect = makeTree(meta.tree), direct = makeTree(meta.direct);
     const levels = meta.tree.levels;
-    const totalNodes = levels.reduce((s, l) => s + l.nodes, 0);
-    const nodes = new Uint32Array(totalNodes * 2);
-    const values = new Uint32Array(totalNodes * 9);
-    const valueBytes = new Uint8Array(values.buffer);
-    let nodeTex = null, valueTex = null, have = 0, levelStart = 0, halfBox = 0, shownDepth = 0;
-
     gl.uniform3fv(U('uRootMin'), meta.tree.origin);
     gl.uniform1f(U('uRootSize'), meta.tree.size);
+    gl.uniform3fv(U('uDRootMin'), meta.direct.origin);
+    gl.uniform1f(U('uDRootSize'), meta.direct.size);
     gl.uniform1i(U('uNodes'), 0);
     gl.uniform1i(U('uValues'), 1);
+    gl.uniform1i(U('uDNodes'), 2);
+    gl.uniform1i(U('uDValues'), 3);
     const far = 4 * diag + 1;
 
-    function draw(mode, exposure) {
+    function draw(mode, exposure, display = true) {
       gl.viewport(0, 0, meta.width, meta.height);
       gl.enable(gl.DEPTH_TEST);
       gl.disable(gl.CULL_FACE);
@@ -241,18 +289,26 @@ async function fetchBin(path) {
       gl.uniform3fv(U('uFwd'), cam.forward);
       gl.uniform2f(U('uTan'), cam.tan_half_x, cam.tan_half_y);
       gl.uniform2f(U('uNearFar'), Math.max(cam.near_clip, diag * 1e-4), far);
-      gl.uniform1f(U('uHalf'), halfBox);
+      gl.uniform1f(U('uHalf'), indirect.half);
+      gl.uniform1f(U('uDHalf'), direct.half);
       gl.uniform1i(U('uMode'), mode);
+      gl.uniform1i(U('uDisplay'), display ? 1 : 0);
       gl.uniform1f(U('uExposure'), exposure);
-      gl.uniform1f(U('uMaxDepth'), shownDepth);
-      gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, nodeTex);
-      gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, valueTex);
+      gl.uniform1f(U('uMaxDepth'), indirect.depth);
+      gl.activeTexture(gl.TEXTURE0); gl.bindTexture(gl.TEXTURE_2D, indirect.nodeTex);
+      gl.activeTexture(gl.TEXTURE1); gl.bindTexture(gl.TEXTURE_2D, indirect.valueTex);
+      gl.activeTexture(gl.TEXTURE2); gl.bindTexture(gl.TEXTURE_2D, direct.nodeTex);
+      gl.activeTexture(gl.TEXTURE3); gl.bindTexture(gl.TEXTURE_2D, direct.valueTex);
       gl.drawArrays(gl.TRIANGLES, 0, vertexCount);
     }
 
     const modeEl = document.getElementById('mode');
     const expEl = document.getElementById('exposure');
-    const redraw = () => { if (nodeTex) draw(+modeEl.value, Math.pow(2, +expEl.value)); };
+    // the view and the exposure may come in the address: /?mode=2&exposure=1.5
+    const params = new URLSearchParams(location.search);
+    if (params.has('mode')) modeEl.value = params.get('mode');
+    if (params.has('exposure')) expEl.value = params.get('exposure');
+    const redraw = () => draw(+modeEl.value, Math.pow(2, +expEl.value));
     modeEl.onchange = redraw; expEl.oninput = redraw;
 
     // irradiance (mode 1) or distance (mode 3) into a float target, read back (rows bottom first)
@@ -272,7 +328,7 @@ async function fetchBin(path) {
         gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
       }
       gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
-      draw(mode, 1.0);
+      draw(mode, 1.0, false);
       const px = new Float32Array(meta.width * meta.height * 4);
       gl.readPixels(0, 0, meta.width, meta.height, gl.RGBA, gl.FLOAT, px);
       gl.bindFramebuffer(gl.FRAMEBUFFER, null);
@@ -328,39 +384,22 @@ async function fetchBin(path) {
     for (const level of levels) {
       const data = await fetchBin('/level/' + level.depth + '.bin');
       received += data.length;
-      // the nodes of this level: breadth-first, 8 per internal node of the level before
-      let at = 0;
-      if (level.depth > 0) {
-        let child = have;
-        for (let i = levelStart; i < have; i++) {
-          if ((nodes[2 * i + 1] & 255) === 0) { nodes[2 * i] = child; child += 8; }
-        }
-      }
-      levelStart = have;
-      for (let k = 0; k < level.nodes; k++) {
-        const i = have + k;
-        const kind = data[at], facing = data[at + 1];
-        at += 2;
-        nodes[2 * i] = 0xffffffff;
-        nodes[2 * i + 1] = kind | (facing << 8);
-        if (kind !== 2) { valueBytes.set(data.subarray(at, at + 36), 36 * i); at += 36; }
-      }
-      if (at !== data.length) throw new Error('level ' + level.depth + ': ' + data.length + ' bytes, ' + at + ' read');
-      have += level.nodes;
-      halfBox = 0.5 * meta.tree.alpha * level.edge;
-      shownDepth = level.depth;
-      if (nodeTex) gl.deleteTexture(nodeTex);
-      if (valueTex) gl.deleteTexture(valueTex);
-      nodeTex = uintTexture(gl, gl.RG_INTEGER, gl.RG32UI, 2, nodes, have);
-      valueTex = uintTexture(gl, gl.RED_INTEGER, gl.R32UI, 1, values, have * 9);
+      addLevel(indirect, level, data);
       redraw();
       if (firstPictureBytes === null) firstPictureBytes = received;
-      say('level ' + level.depth + ' of ' + (levels.length - 1) + ': ' + received + ' of ' + total + ' bytes');
+      say('indirect light, level ' + level.depth + ' of ' + (levels.length - 1) + ': ' + received + ' of ' + total + ' bytes');
       const shot = readIrradiance();
       if (shot) shots.push({ bytes: received, depth: level.depth, img: toTopFirst(shot) });
       await new Promise((r) => setTimeout(r, 0));
     }
-    const out = { levels: levels.length, bytes: total, first_picture_bytes: firstPictureBytes, float_target: floatTarget };
+    for (const level of meta.direct.levels) {
+      addLevel(direct, level, await fetchBin('/direct/' + level.depth + '.bin'));
+      redraw();
+      say('direct light, level ' + level.depth + ' of ' + (meta.direct.levels.length - 1));
+      await new Promise((r) => setTimeout(r, 0));
+    }
+    const out = { levels: levels.length, bytes: total, first_picture_bytes: firstPictureBytes, float_target: floatTarget,
+      direct_bytes: meta.direct.levels.reduce((s, l) => s + l.bytes, 0) };
     if (shots.length) {
       const last = shots[shots.length - 1].img;
       const asRgba = (t) => {

@@ -267,6 +267,33 @@ pub fn map_flights<R: Send>(scene: &Scene, settings: &PhotonSettings, map: impl 
         .collect())
 }
 
+/// The first surface hits of the photon pass of `settings` (its direct light, which neither
+/// map stores): the same paths as [`trace_photons`], one photon per path that meets a surface
+/// that may hold photons, in path order. `octolux view` builds a direct-light octree of them
+/// (`OctreeIntegrator::direct_octree`).
+pub fn direct_photons(scene: &Scene, settings: &PhotonSettings) -> Result<Vec<Photon>, PhotonError> {
+    check_pass(scene, settings)?;
+    let n = settings.photons;
+    let inv_n = 1.0 / n as f32;
+    let disc_guide = disc_guide(scene, settings).0;
+    let chunks: Vec<Vec<Photon>> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut out = Vec::new();
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let keep = |h: PathHit| {
+                    if h.bounces == 0 && h.storable {
+                        out.push(h.photon);
+                    }
+                };
+                trace_path(scene, settings, i, PHOTON_STREAM, inv_n, disc_guide.as_ref(), keep, |_| {});
+            }
+            out
+        })
+        .collect();
+    Ok(chunks.concat())
+}
+
 /// One surface hit of a photon path, as [`trace_path`] reports it.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PathHit {

@@ -28,6 +28,7 @@
 //! the cache's light at a vertex), `leak.rs` (the leak test), `insert.rs` (objects inserted
 //! into baked lighting), `views.rs` (the irradiance and leaf views).
 
+mod direct;
 pub mod insert;
 mod leak;
 #[cfg(test)]
