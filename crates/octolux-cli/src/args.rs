@@ -534,7 +534,7 @@ pub struct ViewArgs {
     /// result goes to `data-*` attributes of its body and to the log).
     #[arg(long)]
     pub compare_cpu: bool,
-    /// Stop once the page has drawn the last level and reported (tests, scripts).
+    /// Stop once the page has drawn the whole octree and reported (tests, scripts).
     #[arg(long)]
     pub exit_when_done: bool,
     /// `octree` settings as JSON or TOML (without --cache).

@@ -44,14 +44,16 @@ fn the_server_serves_its_paths_and_nothing_else() {
     let (status, meta) = get("/meta.json");
     assert_eq!(status, 200);
     let meta: serde_json::Value = serde_json::from_slice(&meta).expect("meta.json");
-    let levels = meta["tree"]["levels"].as_array().expect("levels").len();
-    assert!(levels > 2, "{meta}");
+    let chunks = meta["tree"]["chunks"].as_array().expect("chunks").len();
+    assert!(chunks > 2, "{meta}");
     assert_eq!(get("/").0, 200);
     assert_eq!(get("/viewer.js").0, 200);
     let (status, scene) = get("/scene.bin");
     assert_eq!((status, scene.len() as u64), (200, 36 * meta["vertices"].as_u64().unwrap()));
-    assert_eq!(get(&format!("/level/{}.bin", levels - 1)).0, 200);
-    for path in ["/level/99.bin", "/../Cargo.toml", "/etc/passwd", "/cpu.bin", "/scene.bin/x", "//meta.json"] {
+    assert_eq!(get(&format!("/octree/{}.bin", chunks - 1)).0, 200);
+    for path in
+        [&format!("/octree/{chunks}.bin")[..], "/level/0.bin", "/../Cargo.toml", "/etc/passwd", "/cpu.bin", "/scene.bin/x", "//meta.json"]
+    {
         assert_eq!(get(path).0, 404, "{path}");
     }
     assert_eq!(request(&addr, b"POST /meta.json HTTP/1.1\r\n\r\n").0, 405);
@@ -79,7 +81,7 @@ fn attribute(dom: &str, name: &str) -> Option<String> {
 
 #[test]
 #[cfg_attr(missing = "chromium", ignore = "needs chromium (Debian's chromium, or $OCTOLUX_CHROMIUM)")]
-fn the_gpu_query_matches_the_cpu_and_the_levels_converge() {
+fn the_gpu_query_matches_the_cpu_and_the_stream_converges() {
     let Some(browser) = octolux_probe::chromium() else {
         octolux_probe::skip("chromium", "view in headless Chromium: no chromium (set OCTOLUX_CHROMIUM or install Debian's chromium)");
         return;
@@ -106,7 +108,7 @@ fn the_gpu_query_matches_the_cpu_and_the_levels_converge() {
         let total = num("bytes");
         assert!(num("first-picture-bytes") <= 0.05 * total, "{scene}: {body}");
         let curve: Vec<(f64, f64)> = serde_json::from_str(&attribute(&dom, "curve").expect("curve")).expect("the curve's JSON");
-        let at_10 = curve.iter().rfind(|(b, _)| *b <= 0.1 * total).expect("a level within 10% of the bytes");
+        let at_10 = curve.iter().rfind(|(b, _)| *b <= 0.1 * total).expect("a chunk within 10% of the bytes");
         println!("{scene}: {curve:?} of {total} bytes");
         assert!(at_10.1 <= 0.05, "{scene}: relMSE {} after {} of {total} bytes", at_10.1, at_10.0);
         let out = child.wait_with_output().expect("the server stops when the page is done");

@@ -7,26 +7,26 @@
 //! | path | what |
 //! |---|---|
 //! | `/`, `/viewer.js` | the page (`page.html`, `viewer.js`: WebGL2) |
-//! | `/meta.json` | the camera, the canvas size, the root cube, the levels and their bytes |
+//! | `/meta.json` | the camera, the canvas size, each octree's root cube, node count and chunks (bytes, the smallest leaf's edge after each) |
 //! | `/scene.bin` | per vertex position, normal, albedo: 9 little-endian f32 ([`Scene::display_mesh`]) |
-//! | `/level/D.bin` | the global octree's nodes at depth `D` (`octolux::caches::octree` `levels.rs`): per node its kind (u8: 0 internal, 1 valid, 2 atmospheric), its facing bits (u8), and unless atmospheric its 36 bytes |
-//! | `/direct/D.bin` | the same for the direct-light octree (`OctreeIntegrator::direct_octree`, built by the job from the photon pass of the lighting's settings) |
+//! | `/octree/K.bin` | chunk `K` of the global octree's stream (`octolux::caches::octree` `stream.rs`): chunk 0 the root, then splits, each the parent's index in the stream (u32) and its 8 children; a node is its kind (u8: 0 internal, 1 valid, 2 atmospheric), its facing bits (u8), and unless atmospheric its 36 bytes. Cut after [`CHUNK_SHARES`] of the bytes |
+//! | `/direct/K.bin` | the same for the direct-light octree (`OctreeIntegrator::direct_octree`, built by the job from the photon pass of the lighting's settings) |
 //! | `/cpu.bin` | with `--compare-cpu`: the CPU query's irradiance at every pixel centre and the distance to the surface there, 4 f32 per pixel, top row first |
-//! | `/done?...` | the page's report once it drew the last level (logged; `--exit-when-done` stops the server) |
+//! | `/done?...` | the page's report once it drew the whole octree (logged; `--exit-when-done` stops the server) |
 //! | `/mark?begin`, `/mark?end&frames=N` | the page's marks around N frames: the server times them (a headless browser's clock may be virtual) |
 //!
 //! The page draws the direct light of the emitters from a direct-light octree baked beside the
 //! global one (not shadow maps: its shadows are as sharp as its leaves), plus the global
 //! octree's indirect irradiance, times the albedo over π; or either irradiance, or the leaves.
 //! Its indirect irradiance is what the CPU's `--view irradiance` computes, with the same camera
-//! (test `the_gpu_query_matches_the_cpu_and_the_levels_converge`).
+//! (test `the_gpu_query_matches_the_cpu_and_the_stream_converges`).
 
 pub mod http;
 
 use crate::job::{self, bail, Context, Frontend, Result};
 use http::Resource;
 use octolux::accel::BackendKind;
-use octolux::caches::octree::{LevelKind, Octree};
+use octolux::caches::octree::{Octree, StreamKind, StreamNode};
 use octolux::integrators::octree::OctreeIntegrator;
 use octolux::integrators::Integrator;
 use octolux::math::Ray;
@@ -41,6 +41,10 @@ use std::sync::{Arc, Mutex};
 /// The page and its script, served as they are.
 const PAGE: &str = include_str!("page.html");
 const SCRIPT: &str = include_str!("viewer.js");
+
+/// Where the octree's stream is cut into files after the root (shares of its bytes): the page
+/// redraws after each, and measures its error there.
+pub const CHUNK_SHARES: [f64; 10] = [0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0];
 
 /// Widest canvas (pixels); the scene's film is scaled down to it, keeping its aspect.
 pub const MAX_CANVAS_WIDTH: u32 = 640;
@@ -58,7 +62,7 @@ pub struct ViewJob {
     pub bind: SocketAddr,
     /// Also serve the CPU query's irradiance image for the page to compare with.
     pub compare_cpu: bool,
-    /// Stop once the page reported its last level (`/done`).
+    /// Stop once the page reported (`/done`), after the whole octree.
     pub exit_when_done: bool,
     /// Canvas width (default: the film's, at most [`MAX_CANVAS_WIDTH`]).
     pub width: Option<u32>,
@@ -89,22 +93,47 @@ pub fn resources(
     }
     put("/scene.bin", "application/octet-stream", bin);
     let mut tree_meta = |t: &Octree, prefix: &str| {
-        let mut levels = Vec::new();
-        for l in t.levels() {
-            let mut b = Vec::new();
-            for n in &l.nodes {
-                b.push(n.kind as u8);
-                b.push(n.facing);
-                if n.kind != LevelKind::Atmospheric {
-                    b.extend_from_slice(&n.value);
-                }
+        let stream = t.stream();
+        let record = |b: &mut Vec<u8>, n: &StreamNode| {
+            b.push(n.kind as u8);
+            b.push(n.facing);
+            if n.kind != StreamKind::Atmospheric {
+                b.extend_from_slice(&n.value);
             }
-            levels.push(json!({ "depth": l.depth, "nodes": l.nodes.len(), "bytes": b.len(), "edge": t.cell_edge(l.depth) }));
-            put(&format!("{prefix}/{}.bin", l.depth), "application/octet-stream", b);
+        };
+        let total: usize =
+            stream.root.bytes() + stream.splits.iter().map(|s| 4 + s.children.iter().map(StreamNode::bytes).sum::<usize>()).sum::<usize>();
+        // chunk 0: the root; then chunks ending at these shares of the bytes
+        let mut chunk = Vec::new();
+        record(&mut chunk, &stream.root);
+        let (mut chunks, mut sent, mut depth, mut splits) = (Vec::new(), chunk.len(), 0u32, 0usize);
+        let mut close = |chunk: &mut Vec<u8>, splits: usize, depth: u32, chunks: &mut Vec<serde_json::Value>| {
+            let i = chunks.len();
+            chunks.push(json!({ "bytes": chunk.len(), "splits": splits, "edge": t.cell_edge(depth) }));
+            put(&format!("{prefix}/{i}.bin"), "application/octet-stream", std::mem::take(chunk));
+        };
+        close(&mut chunk, 0, 0, &mut chunks);
+        let mut marks = CHUNK_SHARES.iter().map(|f| (f * total as f64) as usize).peekable();
+        for s in &stream.splits {
+            chunk.extend_from_slice(&s.parent.to_le_bytes());
+            s.children.iter().for_each(|c| record(&mut chunk, c));
+            sent += 4 + s.children.iter().map(StreamNode::bytes).sum::<usize>();
+            depth = depth.max(s.depth);
+            splits += 1;
+            if marks.peek().is_some_and(|&m| sent >= m) {
+                while marks.peek().is_some_and(|&m| sent >= m) {
+                    marks.next();
+                }
+                close(&mut chunk, splits, depth, &mut chunks);
+                splits = 0;
+            }
         }
-        json!({ "origin": t.origin(), "size": t.cell_edge(0), "alpha": t.alpha(), "levels": levels })
+        if !chunk.is_empty() {
+            close(&mut chunk, splits, depth, &mut chunks);
+        }
+        json!({ "origin": t.origin(), "size": t.cell_edge(0), "alpha": t.alpha(), "nodes": 1 + 8 * stream.splits.len(), "chunks": chunks })
     };
-    let (indirect, direct) = (tree_meta(tree, "/level"), tree_meta(direct, "/direct"));
+    let (indirect, direct) = (tree_meta(tree, "/octree"), tree_meta(direct, "/direct"));
     if compare_cpu {
         put("/cpu.bin", "application/octet-stream", cpu_irradiance(scene, tree, width, height));
     }
@@ -183,13 +212,13 @@ pub fn run_view(job: &ViewJob, fe: &dyn Frontend, on_listen: &dyn Fn(SocketAddr)
     fe.info("view: the direct-light octree (the photon pass's first hits) ...");
     let direct = integrator.direct_octree(&scene).context("cannot build the direct-light octree")?;
     let (routes, meta) = resources(&scene, &integrator.global, &direct, width, job.compare_cpu);
-    let bytes: u64 = meta["tree"]["levels"].as_array().map_or(0, |l| l.iter().filter_map(|x| x["bytes"].as_u64()).sum());
+    let bytes: u64 = meta["tree"]["chunks"].as_array().map_or(0, |l| l.iter().filter_map(|x| x["bytes"].as_u64()).sum());
     let listener = TcpListener::bind(job.bind).with_context(|| format!("cannot listen on {}", job.bind))?;
     let addr = listener.local_addr().context("the address listened on")?;
     fe.info(&format!(
-        "view: http://{addr}/ ({} triangles, {} octree levels, {bytes} bytes of octree); Ctrl-C stops",
+        "view: http://{addr}/ ({} triangles, {} octree nodes in {bytes} bytes); Ctrl-C stops",
         meta["vertices"].as_u64().unwrap_or(0) / 3,
-        meta["tree"]["levels"].as_array().map_or(0, |l| l.len()),
+        meta["tree"]["nodes"],
     ));
     on_listen(addr);
     let stop = Arc::new(AtomicBool::new(false));

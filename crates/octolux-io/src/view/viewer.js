@@ -2,8 +2,9 @@
 // evaluated per fragment on the GPU (the CPU's §7 query: the leaves meeting a box of side
 // alpha × the smallest leaf's edge around the point, weighted by their overlap volumes, per
 // axis over the leaves whose matrix carries a value, the paper's 36-byte matrices decoded in
-// the shader). The octree arrives level by level (/level/D.bin): every prefix is a complete
-// coarser octree, drawn as it comes. See crates/octolux-io/src/view/mod.rs for the data.
+// the shader). The octree arrives in chunks (/octree/K.bin: the root, then splits, each the
+// 8 children of a node already sent): every prefix is a complete coarser octree, drawn as it
+// comes. See crates/octolux-io/src/view/mod.rs for the data.
 'use strict';
 
 const VS = `#version 300 es
@@ -225,11 +226,10 @@ async function fetchBin(path) {
       cam.origin = origin; cam.forward = fwd; cam.left = left; cam.up = cross(fwd, left);
     }
 
-    // the octrees, as they arrive: a placeholder root without value until the first level
-    function makeTree(m, unit) {
-      const total = m.levels.reduce((s, l) => s + l.nodes, 0);
-      const t = { m, unit, nodes: new Uint32Array(Math.max(total, 1) * 2), values: new Uint32Array(Math.max(total, 1) * 9),
-        have: 0, levelStart: 0, half: 0, depth: 0, nodeTex: null, valueTex: null };
+    // the octrees, as they arrive: a placeholder root without value until the first chunk
+    function makeTree(m) {
+      const t = { m, nodes: new Uint32Array(Math.max(m.nodes, 1) * 2), values: new Uint32Array(Math.max(m.nodes, 1) * 9),
+        have: 0, half: 0, depth: 0, nodeTex: null, valueTex: null };
       t.valueBytes = new Uint8Array(t.values.buffer);
       t.nodes[0] = 0xffffffff; t.nodes[1] = 2;
       upload(t, 1);
@@ -241,32 +241,41 @@ async function fetchBin(path) {
       t.nodeTex = uintTexture(gl, gl.RG_INTEGER, gl.RG32UI, 2, t.nodes, count);
       t.valueTex = uintTexture(gl, gl.RED_INTEGER, gl.R32UI, 1, t.values, count * 9);
     }
-    // one level's bytes into the tree (module docs of view/mod.rs)
-    function addLevel(t, level, data) {
-      if (level.depth > 0) {
-        let child = t.have;
-        for (let i = t.levelStart; i < t.have; i++) {
-          if ((t.nodes[2 * i + 1] & 255) === 0) { t.nodes[2 * i] = child; child += 8; }
-        }
-      }
-      t.levelStart = t.have;
+    // one chunk's bytes into the tree (view/mod.rs): the root, or splits
+    function addChunk(t, k, data) {
       let at = 0;
-      for (let k = 0; k < level.nodes; k++) {
-        const i = t.have + k;
+      const node = (i) => {
+        if (i >= t.m.nodes) throw new Error('node ' + i + ' past the ' + t.m.nodes + ' announced');
         const kind = data[at], facing = data[at + 1];
         at += 2;
         t.nodes[2 * i] = 0xffffffff;
         t.nodes[2 * i + 1] = kind | (facing << 8);
         if (kind !== 2) { t.valueBytes.set(data.subarray(at, at + 36), 36 * i); at += 36; }
+      };
+      if (k === 0) {
+        node(0);
+        t.have = 1;
+      } else {
+        const view = new DataView(data.buffer, data.byteOffset, data.byteLength);
+        while (at < data.length) {
+          const parent = view.getUint32(at, true);
+          at += 4;
+          if (parent >= t.have || (t.nodes[2 * parent + 1] & 255) !== 0 || t.nodes[2 * parent] !== 0xffffffff) {
+            throw new Error('chunk ' + k + ': a split of node ' + parent);
+          }
+          t.nodes[2 * parent] = t.have;
+          for (let c = 0; c < 8; c++) node(t.have + c);
+          t.have += 8;
+        }
       }
-      if (at !== data.length) throw new Error('level ' + level.depth + ': ' + data.length + ' bytes, ' + at + ' read');
-      t.have += level.nodes;
-      t.half = 0.5 * t.m.alpha * level.edge;
-      t.depth = level.depth;
+      if (at !== data.length) throw new Error('chunk ' + k + ': ' + data.length + ' bytes, ' + at + ' read');
+      const edge = t.m.chunks[k].edge;
+      t.half = 0.5 * t.m.alpha * edge;
+      t.depth = Math.round(Math.log2(t.m.size / edge));
       upload(t, t.have);
     }
     const indirect = makeTree(meta.tree), direct = makeTree(meta.direct);
-    const levels = meta.tree.levels;
+    const chunks = meta.tree.chunks;
     gl.uniform3fv(U('uRootMin'), meta.tree.origin);
     gl.uniform1f(U('uRootSize'), meta.tree.size);
     gl.uniform3fv(U('uDRootMin'), meta.direct.origin);
@@ -376,30 +385,30 @@ async function fetchBin(path) {
         cpuDist[i] = raw[4 * i + 3];
       }
     }
-    const total = levels.reduce((s, l) => s + l.bytes, 0);
+    const total = chunks.reduce((s, l) => s + l.bytes, 0);
     let received = 0;
     const curve = [];
     const shots = [];
     let firstPictureBytes = null;
-    for (const level of levels) {
-      const data = await fetchBin('/level/' + level.depth + '.bin');
+    for (let k = 0; k < chunks.length; k++) {
+      const data = await fetchBin('/octree/' + k + '.bin');
       received += data.length;
-      addLevel(indirect, level, data);
+      addChunk(indirect, k, data);
       redraw();
       if (firstPictureBytes === null) firstPictureBytes = received;
-      say('indirect light, level ' + level.depth + ' of ' + (levels.length - 1) + ': ' + received + ' of ' + total + ' bytes');
+      say('indirect light: ' + received + ' of ' + total + ' bytes');
       const shot = readIrradiance();
-      if (shot) shots.push({ bytes: received, depth: level.depth, img: toTopFirst(shot) });
+      if (shot) shots.push({ bytes: received, img: toTopFirst(shot) });
       await new Promise((r) => setTimeout(r, 0));
     }
-    for (const level of meta.direct.levels) {
-      addLevel(direct, level, await fetchBin('/direct/' + level.depth + '.bin'));
+    for (let k = 0; k < meta.direct.chunks.length; k++) {
+      addChunk(direct, k, await fetchBin('/direct/' + k + '.bin'));
       redraw();
-      say('direct light, level ' + level.depth + ' of ' + (meta.direct.levels.length - 1));
+      say('direct light: chunk ' + (k + 1) + ' of ' + meta.direct.chunks.length);
       await new Promise((r) => setTimeout(r, 0));
     }
-    const out = { levels: levels.length, bytes: total, first_picture_bytes: firstPictureBytes, float_target: floatTarget,
-      direct_bytes: meta.direct.levels.reduce((s, l) => s + l.bytes, 0) };
+    const out = { chunks: chunks.length, bytes: total, first_picture_bytes: firstPictureBytes, float_target: floatTarget,
+      direct_bytes: meta.direct.chunks.reduce((s, l) => s + l.bytes, 0) };
     if (shots.length) {
       const last = shots[shots.length - 1].img;
       const asRgba = (t) => {
@@ -434,7 +443,7 @@ async function fetchBin(path) {
     await fetch('/mark?end&frames=10');
     redraw();
     for (const [k, v] of Object.entries(out)) document.body.dataset[k.replace(/_([a-z])/g, (_, c) => c.toUpperCase())] = JSON.stringify(v);
-    say('all ' + levels.length + ' levels, ' + total + ' bytes');
+    say('the whole octree: ' + total + ' bytes, ' + meta.tree.nodes + ' nodes');
     document.body.dataset.status = 'ok';
     const q = Object.entries(out).map(([k, v]) => k + '=' + encodeURIComponent(JSON.stringify(v))).join('&');
     fetch('/done?' + q).catch(() => {});

@@ -86,13 +86,13 @@ mod flights;
 #[cfg(test)]
 mod free_space_tests;
 mod geometry;
-mod levels;
 mod parts;
 mod planes;
 mod query;
 mod refit;
 mod settings;
 mod sort;
+mod stream;
 #[cfg(test)]
 mod tests;
 
@@ -102,11 +102,11 @@ pub(crate) const ALL_FACING: u8 = 0b11_1111;
 pub use atmosphere::{AtmosphereStats, PROBE_LIFT, SMOOTHING_SWEEPS};
 pub use flights::{FlightSums, Flights, FLIGHT_MIN};
 pub use geometry::AnalyticSphere;
-pub use levels::{Level, LevelKind, LevelNode};
 pub use parts::{AtmosphereParts, LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
 pub use refit::{Changes, RefitStats};
 pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
+pub use stream::{Stream, StreamKind, StreamNode, StreamSplit};
 
 /// The surfaces the geometry-area estimator clips to each gathering box (world space).
 #[derive(Clone, Copy, Debug, Default)]
