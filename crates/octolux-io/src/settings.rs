@@ -22,7 +22,8 @@
 
 pub mod reference;
 
-use crate::cache::LoadedCache;
+pub use cache::{cache_base, check_cache_settings};
+
 use crate::mitsuba::{PATH_TRACERS, SAME_IMAGE};
 use octolux::integrators::IntegratorSettings;
 use serde_json::{Map, Value};
@@ -514,108 +515,6 @@ fn place_checked(
     Ok(())
 }
 
-/// Writes `value` at the dotted `key`; false when the settings have no such key (module docs:
-/// keys below `null` or a one-key object switch it; `created` remembers the switched values,
-/// whose new fields then extend them).
-fn place(merged: &mut Value, created: &mut HashSet<String>, key: &str, value: Value) -> bool {
-    let parts: Vec<&str> = key.split('.').collect();
-    if parts.iter().any(|p| p.is_empty()) {
-        return false;
-    }
-    // the longest prefix that exists (the whole key first)
-    let Some(i) = (1..=parts.len()).rev().find(|&i| lookup_parts(merged, &parts[..i]).is_some()) else { return false };
-    let slot = lookup_parts_mut(merged, &parts[..i]).expect("exists");
-    if i == parts.len() {
-        *slot = value;
-        return true;
-    }
-    let prefix = parts[..i].join(".");
-    let in_created = (1..=i).any(|j| created.contains(&parts[..j].join(".")));
-    match slot {
-        Value::Object(m) if in_created => {
-            insert_nested(m, &parts[i..], value);
-        }
-        Value::Null => {
-            *slot = nested(&parts[i..], value);
-            created.insert(prefix);
-        }
-        Value::Object(m) if m.len() == 1 => {
-            *slot = nested(&parts[i..], value);
-            created.insert(prefix);
-        }
-        _ => return false,
-    }
-    true
-}
-
-/// Whether [`place`] would take `key` in `defaults`.
-fn accepts(defaults: &Value, key: &str) -> bool {
-    place(&mut defaults.clone(), &mut HashSet::new(), key, Value::Null)
-}
-
-fn nested(parts: &[&str], value: Value) -> Value {
-    let mut m = Map::new();
-    insert_nested(&mut m, parts, value);
-    Value::Object(m)
-}
-
-fn insert_nested(m: &mut Map<String, Value>, parts: &[&str], value: Value) {
-    match parts {
-        [] => {}
-        [last] => {
-            m.insert(last.to_string(), value);
-        }
-        [first, rest @ ..] => match m.get_mut(*first) {
-            Some(Value::Object(inner)) => insert_nested(inner, rest, value),
-            _ => {
-                m.insert(first.to_string(), nested(rest, value));
-            }
-        },
-    }
-}
-
-fn lookup<'v>(v: &'v Value, key: &str) -> Option<&'v Value> {
-    lookup_parts(v, &key.split('.').collect::<Vec<_>>())
-}
-
-fn lookup_mut<'v>(v: &'v mut Value, key: &str) -> Option<&'v mut Value> {
-    lookup_parts_mut(v, &key.split('.').collect::<Vec<_>>())
-}
-
-fn lookup_parts<'v>(v: &'v Value, parts: &[&str]) -> Option<&'v Value> {
-    parts.iter().try_fold(v, |v, p| v.as_object()?.get(*p))
-}
-
-fn lookup_parts_mut<'v>(v: &'v mut Value, parts: &[&str]) -> Option<&'v mut Value> {
-    parts.iter().try_fold(v, |v, p| v.as_object_mut()?.get_mut(*p))
-}
-
-/// The leaves of a settings file as (dotted key, value); an empty table is a leaf.
-fn flatten(v: &Value, prefix: String, out: &mut Vec<(String, Value)>) {
-    match v {
-        Value::Object(m) if !m.is_empty() => {
-            for (k, v) in m {
-                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
-                flatten(v, key, out);
-            }
-        }
-        _ => out.push((prefix, v.clone())),
-    }
-}
-
-/// Keys of `merged` that `round` (the deserialized settings, serialized again) lacks.
-fn dropped_keys(merged: &Value, round: &Value, prefix: &str, out: &mut Vec<String>) {
-    if let (Value::Object(m), Value::Object(r)) = (merged, round) {
-        for (k, v) in m {
-            let key = format!("{prefix}.{k}");
-            match r.get(k) {
-                Some(rv) => dropped_keys(v, rv, &key, out),
-                None => out.push(key),
-            }
-        }
-    }
-}
-
 /// The leaf keys of a settings value, comma-separated.
 pub fn valid_keys(v: &Value) -> String {
     let mut leaves = Vec::new();
@@ -626,72 +525,6 @@ pub fn valid_keys(v: &Value) -> String {
 /// The value at a dotted key of the settings (e.g. the photon count for the log).
 pub fn get(settings: &IntegratorSettings, key: &str) -> Option<Value> {
     lookup(&serde_json::to_value(settings).ok()?, key).cloned()
-}
-
-/// A lighting cache's settings as the base layer of a render's ([`SettingsInput::base`]: an
-/// object without `type`). The render-time `view` starts from the integrator's default, not
-/// the bake's (a bake made with `--view leaves` made every later render write the leaves).
-pub fn cache_base(c: &LoadedCache) -> Result<Value> {
-    let mut v = serde_json::to_value(c.integrator.settings())?;
-    let view = defaults(c.integrator.name())?.get("view").cloned();
-    if let Value::Object(m) = &mut v {
-        m.remove("type");
-        if let (Some(view), Some(slot)) = (view, m.get_mut("view")) {
-            *slot = view;
-        }
-    }
-    Ok(v)
-}
-
-/// Refuse resolved settings that differ from the cache's in a key that shaped its octrees
-/// (`IntegratorSettings::baked_keys`), naming each dotted key with both values.
-pub fn check_cache_settings(path: &Path, c: &LoadedCache, resolved: &IntegratorSettings) -> Result<()> {
-    if let (octolux::integrators::Integrator::Octree(o), IntegratorSettings::Octree(s)) = (&c.integrator, resolved) {
-        if let Some(why) = o.missing_leak_samples(s, false) {
-            bail!("lighting cache {}: {why}", path.display());
-        }
-    }
-    let settings = c.integrator.settings();
-    let keys = settings.baked_keys();
-    let (baked, now) = (serde_json::to_value(&settings)?, serde_json::to_value(resolved)?);
-    let mut changed = Vec::new();
-    for k in &keys {
-        differing_leaves(baked.get(*k), now.get(*k), k, &mut changed);
-    }
-    if changed.is_empty() {
-        return Ok(());
-    }
-    let free: Vec<&str> = match &baked {
-        Value::Object(m) => m.keys().map(String::as_str).filter(|k| *k != "type" && !keys.contains(k)).collect(),
-        _ => vec![],
-    };
-    let names: Vec<&str> = changed.iter().map(|(k, _, _)| k.as_str()).collect();
-    let values: Vec<String> = changed.iter().map(|(k, now, baked)| format!("{k} = {now} here, {baked} in the bake")).collect();
-    bail!(
-        "lighting cache {}: the settings {} differ from the bake's ({}); they shaped its octrees: re-bake with them, or leave \
-         them out (with --cache only {} may change)",
-        path.display(),
-        names.join(", "),
-        values.join("; "),
-        free.join(", ")
-    )
-}
-
-/// The dotted leaf keys under `key` whose values differ, with the value now and the baked one.
-fn differing_leaves(baked: Option<&Value>, now: Option<&Value>, key: &str, out: &mut Vec<(String, String, String)>) {
-    let show = |v: Option<&Value>| v.map_or("nothing".to_string(), |v| v.to_string());
-    match (baked, now) {
-        (Some(Value::Object(b)), Some(Value::Object(n))) => {
-            let mut keys: Vec<&String> = b.keys().chain(n.keys()).collect();
-            keys.sort();
-            keys.dedup();
-            for k in keys {
-                differing_leaves(b.get(k), n.get(k), &format!("{key}.{k}"), out);
-            }
-        }
-        (b, n) if b != n => out.push((key.to_string(), show(n), show(b))),
-        _ => {}
-    }
 }
 
 /// One spelling for every value: an enum value may be written with `-` for `_`
@@ -708,71 +541,9 @@ fn enum_spelling(current: Option<&Value>, value: &Value) -> Value {
     }
 }
 
+// after `bail!`, which it uses
+mod cache;
+mod json;
+use json::{accepts, dropped_keys, flatten, lookup, lookup_mut, lookup_parts, place};
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use serde_json::json;
-
-    fn input<'a>(integrator: &'a str, flags: Vec<FlagSetting>, sets: &'a [String]) -> SettingsInput<'a> {
-        SettingsInput { integrator: Some(integrator), base: None, derived: vec![], file: None, flags, sets }
-    }
-
-    #[test]
-    fn keys_below_null_or_a_one_key_object_switch_it_and_others_do_not_exist() {
-        let mut v = json!({ "a": { "relative": 0.5 }, "b": null, "c": { "x": 1, "y": 2 } });
-        let mut created = HashSet::new();
-        assert!(place(&mut v, &mut created, "a.absolute", json!(3)));
-        assert!(place(&mut v, &mut created, "b.grid.columns", json!(8)));
-        assert!(place(&mut v, &mut created, "b.grid.rows", json!(4)), "a switched value takes further keys");
-        assert!(place(&mut v, &mut created, "c.x", json!(5)));
-        assert!(!place(&mut v, &mut created, "c.z", json!(5)), "a struct has its fields only");
-        assert!(!place(&mut v, &mut created, "d", json!(5)));
-        assert!(!place(&mut v, &mut created, "c..x", json!(5)));
-        assert_eq!(v, json!({ "a": { "absolute": 3 }, "b": { "grid": { "columns": 8, "rows": 4 } }, "c": { "x": 5, "y": 2 } }));
-    }
-
-    #[test]
-    fn python_spelling_names_the_dict_key_and_the_cli_keeps_its_own() {
-        let sets = ["photons.bogus=true".to_string()];
-        let err = |sp| resolve_spelt(&input("octree", vec![], &sets), sp).unwrap_err().to_string();
-        let py = err(Spelling::Python);
-        assert!(py.starts_with(r#"settings={"photons": {"bogus": True}}: no integrator has the setting `photons.bogus`; the keys of integrator='octree' are"#), "{py}");
-        let cli = err(Spelling::Cli);
-        assert!(
-            cli.starts_with("--set photons.bogus=true: no integrator has the setting `photons.bogus`; the keys of --integrator octree are"),
-            "{cli}"
-        );
-    }
-
-    #[test]
-    fn flags_write_their_keys_and_set_wins() {
-        let flag = |flag, keys: &[&str], value| FlagSetting {
-            flag,
-            only: None,
-            keys: keys.iter().map(|k| k.to_string()).collect(),
-            value,
-            at_most: false,
-        };
-        let sets = vec!["global.h_max=3".to_string()];
-        let r = resolve(&input("octree", vec![flag("--h-max", &["global.h_max", "caustic.h_max"], json!(7))], &sets)).unwrap();
-        let v = serde_json::to_value(&r.settings).unwrap();
-        assert_eq!((v["global"]["h_max"].clone(), v["caustic"]["h_max"].clone()), (json!(3), json!(7)));
-        assert!(r.warnings.is_empty(), "{:?}", r.warnings);
-        // the same flag for an integrator without those keys: a warning, nothing written
-        let r = resolve(&input("path", vec![flag("--h-max", &["global.h_max", "caustic.h_max"], json!(7))], &[])).unwrap();
-        assert_eq!(r.warnings, ["--h-max applies to --integrator octree only; ignored by --integrator path"]);
-        assert_eq!(r.settings, IntegratorSettings::default_for("path").unwrap());
-    }
-
-    #[test]
-    fn at_most_only_lowers() {
-        let lower = |v| FlagSetting { flag: "--x", only: None, keys: vec!["caustic.n_min".into()], value: json!(v), at_most: true };
-        let n_min = |v| {
-            let r = resolve(&input("octree", vec![lower(v)], &[])).unwrap();
-            serde_json::to_value(&r.settings).unwrap()["caustic"]["n_min"].as_u64().unwrap()
-        };
-        let default = n_min(u32::MAX as u64);
-        assert!(default > 3);
-        assert_eq!(n_min(3), 3);
-    }
-}
+mod tests;

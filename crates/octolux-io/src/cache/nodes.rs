@@ -153,25 +153,21 @@ mod tests {
         assert_eq!(round_trip(&nodes).unwrap(), nodes);
     }
 
+    /// `n` nodes of the packed `kinds` and no photon count: the reader's error.
+    fn refused(n: u32, kinds: &[u8]) -> String {
+        let mut out = Vec::new();
+        super::super::put_u32(&mut out, n);
+        out.extend_from_slice(kinds);
+        super::super::put_u32(&mut out, 0);
+        let mut r = Reader { data: &out, at: 0 };
+        get_nodes(&mut r, &|w: &str| w.to_string()).unwrap_err()
+    }
+
     #[test]
     fn a_layout_the_build_cannot_make_is_refused() {
-        let mut out = Vec::new();
-        super::super::put_u32(&mut out, 9);
-        out.extend([0b0000_0000, 0, 0]); // root and all its children internal: children past the end
-        super::super::put_u32(&mut out, 0);
-        let mut r = Reader { data: &out, at: 0 };
-        assert!(get_nodes(&mut r, &|w: &str| w.to_string()).unwrap_err().contains("past"));
-        let mut out = Vec::new();
-        super::super::put_u32(&mut out, 1);
-        out.push(3);
-        super::super::put_u32(&mut out, 0);
-        let mut r = Reader { data: &out, at: 0 };
-        assert!(get_nodes(&mut r, &|w: &str| w.to_string()).unwrap_err().contains("kind 3"));
-        let mut out = Vec::new();
-        super::super::put_u32(&mut out, 1);
-        out.push(1);
-        super::super::put_u32(&mut out, 0);
-        let mut r = Reader { data: &out, at: 0 };
-        assert!(get_nodes(&mut r, &|w: &str| w.to_string()).unwrap_err().contains("fewer"));
+        // root and all its children internal: children past the end
+        assert!(refused(9, &[0, 0, 0]).contains("past"));
+        assert!(refused(1, &[3]).contains("kind 3"));
+        assert!(refused(1, &[1]).contains("fewer"));
     }
 }

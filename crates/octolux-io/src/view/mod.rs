@@ -206,7 +206,7 @@ pub fn run_view(job: &ViewJob, fe: &dyn Frontend, on_listen: &dyn Fn(SocketAddr)
             fe.info(&format!("octree: tracing {} photons and building the octrees ...", s.photons.photons));
             OctreeIntegrator::build(&scene, s).context("cannot build the octrees")?
         }
-        (None, None) => unreachable!("settings are resolved without a cache"),
+        (None, None) => bail!("no lighting cache and no octree settings"),
     };
     let width = job.width.unwrap_or(scene.film.width.min(MAX_CANVAS_WIDTH)).clamp(1, 4096);
     fe.info("view: the direct-light octree (the photon pass's first hits) ...");
