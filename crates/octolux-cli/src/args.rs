@@ -383,7 +383,7 @@ pub struct BakeArgs {
     pub output: PathBuf,
     /// Also store the volumetric values that `render --insert-light volume` reads, and the leak
     /// test's sampled photons its leak test needs (without them such a render computes the
-    /// values at its start). About twice the bytes on the cornell-box.
+    /// values at its start). About 3 times the bytes on the cornell-box.
     #[arg(long)]
     pub volume: bool,
     /// `octree` settings as JSON or TOML (as for `render --settings`).

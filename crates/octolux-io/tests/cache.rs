@@ -87,6 +87,10 @@ fn a_cache_round_trips_to_a_bit_identical_render() {
             (&c.parts.settings, &c.parts.global.nodes, &c.parts.global.values),
             (&parts.settings, &parts.global.nodes, &parts.global.values)
         );
+        // the volumetric values too (a compressed free-space leaf is 28 bytes on disk, its
+        // block's 8 zero bytes restored on load)
+        assert!(parts.global.atmosphere.is_some());
+        assert_eq!(c.parts.global.atmosphere, parts.global.atmosphere);
         assert_eq!(
             c.parts.caustic.as_ref().map(|t| (&t.nodes, &t.values, &t.facing)),
             parts.caustic.as_ref().map(|t| (&t.nodes, &t.values, &t.facing))

@@ -16,9 +16,10 @@
 //!            anchors u8 (0: means only, 1: means and samples), anchor count u32, anchors
 //!              (per valid leaf: the mean (position 3 x u8, normal 3 x i8), then with 1
 //!              4 x (position 3 x u8, incident direction 3 x i8));
-//!            atmosphere u8 (0: none, 1: diffused values follow):
+//!            atmosphere u8 (0: none, 1: diffused values follow; `atmosphere.rs`):
 //!              filled count u32, filled bits (one byte per leaf, depth-first),
-//!              storage u8 (the tree's), value count u32, values (as the leaves')
+//!              storage u8 (the tree's), value count u32, values (as the leaves'; a
+//!              compressed free-space leaf as SH coefficients, version 8)
 //! trailer  CRC-32 (IEEE, zlib's) of every byte before it, u32
 //! ```
 //!
@@ -26,7 +27,9 @@
 //! leaves' photon counts (8 bytes per node before), the leak test's sampled photons only when
 //! the bake's leak test or its volumetric values need them (`bake --volume`; 30 bytes per valid
 //! leaf before, 6 without them), and a bake writes the volumetric values only with
-//! `--volume`. The cache holds no time: the same bake gives the same bytes, for any thread
+//! `--volume`. Version 8 stores a compressed atmospheric leaf with all six matrices filled as
+//! the SH coefficients of its free-space light (`caches::octree` `atmosphere.rs`). The cache
+//! holds no time: the same bake gives the same bytes, for any thread
 //! count and any run ([`TIMING_KEYS`]; the bake's JSON report holds the times); the meta JSON
 //! holds the `octree` integrator's settings, those of the termination rule included. An older
 //! version is refused by name (re-bake it).
@@ -41,12 +44,13 @@
 //! 32 bits and any truncation the length check missed; it is not a defence against a forged
 //! file, and the invariants checked after it are.
 
+mod atmosphere;
 mod nodes;
 
 use crate::IoError;
 use glam::{Mat3, Vec3};
 use octolux::caches::octree::compress::{CompressedLeaf, FullLeaf, LEAF_BYTES};
-use octolux::caches::octree::{Anchor, AtmosphereParts, LeafAnchors, LeafValueParts, OctreeParts, ANCHOR_SAMPLES};
+use octolux::caches::octree::{Anchor, LeafAnchors, LeafValueParts, OctreeParts, ANCHOR_SAMPLES};
 use octolux::caches::OctreeStats;
 use octolux::integrators::octree::{OctreeBuildStats, OctreeIntegratorParts, OctreeIntegratorSettings};
 use octolux::integrators::{build_from_parts, Integrator};
@@ -62,7 +66,7 @@ const ANCHORS_BYTES: usize = ANCHOR_BYTES * (1 + ANCHOR_SAMPLES);
 /// The first 8 bytes of a cache file.
 pub const MAGIC: [u8; 8] = *b"OXCACHE\0";
 /// The format version this octolux writes and reads.
-pub const FORMAT_VERSION: u32 = 7;
+pub const FORMAT_VERSION: u32 = 8;
 /// Header bytes: magic, version, reserved, body length.
 pub const HEADER_BYTES: usize = 24;
 /// Trailer bytes: the CRC-32.
@@ -240,15 +244,7 @@ fn put_tree(out: &mut Vec<u8>, t: &OctreeParts, layout: &mut CacheLayout) {
         }
     }
     part(out, &mut layout.anchors);
-    match &t.atmosphere {
-        None => out.push(0),
-        Some(a) => {
-            out.push(1);
-            put_u32(out, count(a.filled.len()));
-            out.extend_from_slice(&a.filled);
-            put_values(out, &a.values);
-        }
-    }
+    atmosphere::put_atmosphere(out, t);
     part(out, &mut layout.atmosphere);
 }
 
@@ -266,6 +262,22 @@ fn put_values(out: &mut Vec<u8>, values: &LeafValueParts) {
                 m.to_cols_array().iter().for_each(|&x| put_f32(out, x));
             }
         }
+    }
+}
+
+/// Bytes one tree takes in a cache file, by part (its share of the header: its statistics,
+/// cube and depth): what a comparison at equal bytes counts for one octree
+/// (`examples/probes_vs_octree.rs`).
+pub fn tree_layout(t: &OctreeParts) -> CacheLayout {
+    let mut layout = CacheLayout::default();
+    put_tree(&mut Vec::new(), t, &mut layout);
+    layout
+}
+
+impl CacheLayout {
+    /// All the bytes counted.
+    pub fn total(&self) -> usize {
+        self.header + self.nodes + self.values + self.facing + self.anchors + self.atmosphere
     }
 }
 
@@ -410,16 +422,7 @@ fn read_tree(r: &mut Reader, name: &str, settings: &octolux::caches::OctreeSetti
             LeafAnchors { mean, samples }
         })
         .collect();
-    let atmosphere = match r.u8(&what("atmosphere"))? {
-        0 => None,
-        1 => {
-            let (_, filled) = r.array(1, &what("atmosphere bits"))?;
-            let values =
-                read_values(r, &what("atmosphere storage"), &what("atmosphere compressed leaves"), &what("atmosphere full leaves"))?;
-            Some(AtmosphereParts { filled: filled.to_vec(), values })
-        }
-        a => return Err(what(&format!("atmosphere flag {a} (0: none, 1: present)"))),
-    };
+    let atmosphere = atmosphere::get_atmosphere(r, &nodes, &what)?;
     Ok(OctreeParts {
         origin,
         size,
@@ -443,13 +446,18 @@ fn read_values(r: &mut Reader, storage: &str, compressed: &str, full: &str) -> R
         }
         1 => {
             let (_, b) = r.array(FULL_LEAF_BYTES, full)?;
-            let f: Vec<f32> = words(b).map(f32::from_bits).collect();
-            LeafValueParts::Full(
-                f.chunks_exact(54).map(|l| -> FullLeaf { std::array::from_fn(|k| Mat3::from_cols_slice(&l[9 * k..9 * k + 9])) }).collect(),
-            )
+            full_leaves(b)
         }
         s => return Err(format!("{storage}: unknown storage {s} (0: compressed, 1: full)")),
     })
+}
+
+/// Full leaves (54 f32 each) from their bytes.
+fn full_leaves(b: &[u8]) -> LeafValueParts {
+    let f: Vec<f32> = words(b).map(f32::from_bits).collect();
+    LeafValueParts::Full(
+        f.chunks_exact(54).map(|l| -> FullLeaf { std::array::from_fn(|k| Mat3::from_cols_slice(&l[9 * k..9 * k + 9])) }).collect(),
+    )
 }
 
 /// Parse the bytes of a cache file (module docs for the order of the checks). The octrees'

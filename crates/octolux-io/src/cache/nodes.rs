@@ -47,15 +47,11 @@ pub(super) fn put_nodes(out: &mut Vec<u8>, nodes: &[[u32; 2]]) {
     }
     out.extend_from_slice(&packed);
     let mut counts = Vec::new();
-    let mut stack = vec![0usize];
-    while let Some(id) = stack.pop() {
-        let Some(&[link, photons]) = nodes.get(id) else { continue };
-        match kind(link) {
-            INTERNAL => stack.extend((0..8).rev().map(|c| link as usize + c)),
-            VALID => put_varint(&mut counts, photons),
-            _ => {}
+    for_each_leaf(nodes, |k, photons| {
+        if k == VALID {
+            put_varint(&mut counts, photons);
         }
-    }
+    });
     super::put_u32(out, super::count(counts.len()));
     out.extend_from_slice(&counts);
 }
@@ -124,6 +120,26 @@ pub(super) fn get_nodes(r: &mut Reader, what: &dyn Fn(&str) -> String) -> Result
         }
     }
     Ok(nodes)
+}
+
+/// Per leaf, in depth-first order (the order of the atmosphere's filled bits): whether it is
+/// atmospheric. `nodes` as [`get_nodes`] returns them (or a tree's own, laid out the same way).
+pub(super) fn atmospheric_leaves(nodes: &[[u32; 2]]) -> Vec<bool> {
+    let mut out = Vec::new();
+    for_each_leaf(nodes, |k, _| out.push(k == EMPTY));
+    out
+}
+
+/// Call `f(kind, photons)` for every leaf, depth-first from the root, children in order.
+fn for_each_leaf(nodes: &[[u32; 2]], mut f: impl FnMut(u8, u32)) {
+    let mut stack = vec![0usize];
+    while let Some(id) = stack.pop() {
+        let Some(&[link, photons]) = nodes.get(id) else { continue };
+        match kind(link) {
+            INTERNAL => stack.extend((0..8).rev().map(|c| link as usize + c)),
+            k => f(k, photons),
+        }
+    }
 }
 
 #[cfg(test)]

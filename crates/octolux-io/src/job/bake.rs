@@ -156,11 +156,7 @@ pub fn bake(scene: &Scene, scene_name: &str, settings: OctreeIntegratorSettings,
         fe.info(&l);
     }
     if let Some(a) = &atmosphere {
-        fe.info(&format!(
-            "octree: volumetric values: {} of {} leaves filled ({} from photon flights), {} empty leaves unreached, {} edges ({} \
-             blocked by surfaces), {} bytes, {:.3} s",
-            a.filled_leaves, a.leaves, a.flight_leaves, a.unreached_leaves, a.edges, a.blocked_edges, a.bytes, a.t_s
-        ));
+        fe.info(&format!("octree: volumetric values: {}", a.summary()));
     }
     let t3 = Instant::now();
     let info =

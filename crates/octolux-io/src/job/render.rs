@@ -196,11 +196,7 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
             rebaking = Some(insert::Rebaking::start(o, &scene, ins, fe)?);
         } else if !o.global.has_atmosphere() {
             let st = o.fill_atmosphere(&scene);
-            fe.info(&format!(
-                "octree: volumetric values for --insert {}: {} leaves filled ({} from photon flights), {} unreached, {} edges ({} blocked) \
-                 in {:.3} s",
-                ins.file, st.filled_leaves, st.flight_leaves, st.unreached_leaves, st.edges, st.blocked_edges, st.t_s
-            ));
+            fe.info(&format!("octree: volumetric values for --insert {}: {}", ins.file, st.summary()));
         }
     }
     let build_s = made.build_s + t_fill.elapsed().as_secs_f64();

@@ -6,6 +6,8 @@
 //! - [`probes`]: adaptive grids of SH irradiance probes (Unreal's volumetric lightmap,
 //!   Unity's Adaptive Probe Volumes) from the same photons, for the bytes-against-error
 //!   comparison (`docs/guide/baking.md`).
+//! - [`sh`]: real spherical harmonics to band 2 and their quantised storage, shared by the
+//!   probes and the octree's free-space values.
 //! - [`kdtree`], [`ward`], [`christensen`]: the k-nearest-neighbour photon search and the
 //!   paper's baselines (§9: Ward's irradiance cache, Christensen's irradiance photons).
 
@@ -13,6 +15,7 @@ pub mod christensen;
 pub mod kdtree;
 pub mod octree;
 pub mod probes;
+pub mod sh;
 pub mod ward;
 
 pub use octree::{Enlarge, Estimator, LeafInfo, Octree, OctreeError, OctreeSettings, OctreeStats, Split, Storage};

@@ -55,16 +55,20 @@
 //!
 //! # Storage
 //! Per leaf (depth-first order) one byte of filled bits, and per leaf with any filled bit the
-//! six matrices in the tree's storage (36 bytes compressed, zero where not filled). The cache
+//! six matrices in the tree's storage (36 bytes compressed, zero where not filled); compressed,
+//! an atmospheric leaf with all six holds instead the SH coefficients of its free-space reading
+//! (`volume.rs`, `encode_free_space`: the only thing the query reads of it). The cache
 //! file carries both when the bake is asked for them (`bake --volume`; `octolux_io::cache`).
 
 mod volume;
 
+pub use volume::FREE_SPACE_BYTES;
 #[cfg(test)]
-pub(super) use volume::free_space_irradiance;
+pub(super) use volume::{decode_free_space, encode_free_space, free_space_irradiance};
 
 use super::compress::{compress_leaf, decompress_matrix, FullLeaf, MATRIX_BYTES};
 use super::flights::Flights;
+use super::refine::RefineStats;
 use super::{LeafValues, Octree, QueryLeaf, ALL_FACING, ANCHOR_SAMPLES, NO_VALUE};
 use crate::math::Color;
 use glam::{Mat3, Vec3};
@@ -115,8 +119,33 @@ pub struct AtmosphereStats {
     pub fill_sweeps: u32,
     /// Bytes stored: filled bits and values.
     pub bytes: usize,
+    /// The free-space refinement before the fill (`refine.rs`; none: not refined).
+    #[serde(default)]
+    pub refine: RefineStats,
     /// Seconds.
     pub t_s: f64,
+}
+
+impl AtmosphereStats {
+    /// One line for a log: what the refinement and the fill did.
+    pub fn summary(&self) -> String {
+        let r = &self.refine;
+        format!(
+            "free space split where its light changes ({} leaves in {} rounds, {:.3} s), {} of {} leaves filled ({} from photon \
+             flights), {} empty leaves unreached, {} edges ({} blocked by surfaces), {} bytes, {:.3} s",
+            r.split_leaves,
+            r.rounds,
+            r.t_s,
+            self.filled_leaves,
+            self.leaves,
+            self.flight_leaves,
+            self.unreached_leaves,
+            self.edges,
+            self.blocked_edges,
+            self.bytes,
+            self.t_s
+        )
+    }
 }
 
 /// Whether matrix `k` may flow into a leaf from a neighbour on `side` (2 × axis + 1 when the
@@ -412,15 +441,22 @@ impl Octree {
         }
         // Store the filled matrices (zero where a leaf's own value serves).
         let filled: Vec<u8> = known.iter().zip(&source).map(|(k, s)| k & !s).collect();
-        let entries: Vec<FullLeaf> = filled
+        // (the matrices, and whether the leaf is atmospheric with all six: free space)
+        let entries: Vec<(FullLeaf, bool)> = filled
             .iter()
             .zip(&vals)
-            .filter(|(f, _)| **f != 0)
-            .map(|(&f, m)| std::array::from_fn(|k| if f & (1 << k) != 0 { m[k] } else { Mat3::ZERO }))
+            .zip(&leaves)
+            .filter(|((f, _), _)| **f != 0)
+            .map(|((&f, m), l)| {
+                let free = f == ALL_FACING && self.nodes[l.node as usize].value() == NO_VALUE;
+                (std::array::from_fn(|k| if f & (1 << k) != 0 { m[k] } else { Mat3::ZERO }), free)
+            })
             .collect();
         let values = match &self.values {
-            LeafValues::Compressed(_) => LeafValues::Compressed(entries.iter().map(compress_leaf).collect()),
-            LeafValues::Full(_) => LeafValues::Full(entries),
+            LeafValues::Compressed(_) => LeafValues::Compressed(
+                entries.iter().map(|(m, free)| if *free { volume::encode_free_space(m) } else { compress_leaf(m) }).collect(),
+            ),
+            LeafValues::Full(_) => LeafValues::Full(entries.into_iter().map(|e| e.0).collect()),
         };
         let unreached_leaves =
             leaves.iter().zip(&known).filter(|(l, &k)| self.nodes[l.node as usize].value() == NO_VALUE && k == 0).count();
@@ -440,6 +476,7 @@ impl Octree {
             unreached_leaves,
             fill_sweeps: sweeps,
             bytes,
+            refine: RefineStats::default(),
             t_s: t0.elapsed().as_secs_f64(),
         }
     }

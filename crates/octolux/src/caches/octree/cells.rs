@@ -107,6 +107,43 @@ impl TreeView<'_> {
         self.visit_rec(node, depth, ijk, cmin, qmin, qmax, &mut f);
     }
 
+    /// Call `f(node, depth, ijk, w)` for every leaf whose tent reaches `p` (`w > 0`): the tent of
+    /// a leaf of edge `s` and centre `c` is `w = Π_a max(0, 1 − |p_a − c_a| / s)`, a trilinear
+    /// hat as wide as two cells, reaching half a cell past each face. Each leaf's weight is
+    /// continuous in `p`, and the leaves found are all those whose tent is positive there, so
+    /// any blend by these weights is continuous wherever its sum is positive (every point has
+    /// its own leaf's tent, at least 1/8). A node is entered when `p` lies within half its edge
+    /// of its cell: no leaf under it (no wider than it) reaches farther.
+    pub fn visit_tents<F: FnMut(u32, u32, [u32; 3], f32)>(&self, p: Vec3, mut f: F) {
+        let mut stack = [(0u32, 0u32, [0u32; 3]); 8 * (MAX_DEPTH as usize + 1)];
+        let mut top = 1usize;
+        while top > 0 {
+            top -= 1;
+            let (node, depth, ijk) = stack[top];
+            let s = self.cell_size[depth as usize];
+            let c = self.cell_min(depth, ijk) + Vec3::splat(0.5 * s);
+            let d = (p - c).abs() / s;
+            if d.max_element() >= 1.0 {
+                continue;
+            }
+            let n = self.nodes[node as usize];
+            if n.is_leaf() {
+                let w = (Vec3::ONE - d).element_product();
+                if w > 0.0 {
+                    f(node, depth, ijk, w);
+                }
+                continue;
+            }
+            for ch in (0..8u32).rev() {
+                if top < stack.len() {
+                    let b = [ch & 1, (ch >> 1) & 1, (ch >> 2) & 1];
+                    stack[top] = (n.link + ch, depth + 1, [2 * ijk[0] + b[0], 2 * ijk[1] + b[1], 2 * ijk[2] + b[2]]);
+                    top += 1;
+                }
+            }
+        }
+    }
+
     /// `cmin` = `cell_min(depth, ijk)`; the caller checked the positive overlap.
     #[allow(clippy::too_many_arguments)]
     fn visit_rec<F: FnMut(u32, u32, [u32; 3], f32)>(

@@ -25,7 +25,7 @@ use crate::caches::octree::{AtmosphereStats, QueryLeaf};
 use crate::integrators::common::RayCounters;
 use crate::integrators::pathloop::CacheVertex;
 use crate::math::{Color, Ray};
-use crate::photon::trace::map_flights;
+use crate::photon::trace::{map_flights, Flight};
 use crate::sampling::{around, square_to_cosine_hemisphere, Sampler};
 use crate::scene::Scene;
 use crate::scene::SurfaceHit;
@@ -51,22 +51,27 @@ pub struct Inserted {
 }
 
 impl OctreeIntegrator {
-    /// The global octree's volumetric values: the atmospheric cells that enough photon flights
-    /// cross take the light passing through them (`caches::octree` `flights.rs`); the values are
-    /// then diffused into the other cells (and the valid leaves' missing matrices), never
-    /// through a surface of `scene` (the baked scene, without any inserted object). The
-    /// photon paths are traced again with the build's settings (the same paths: the pass is
-    /// deterministic), and every flight of their global light counts, those that leave the
-    /// scene or end on a mirror or glass too. The build statistics follow (bytes).
+    /// The global octree's volumetric values: its atmospheric leaves are first split where the
+    /// photons' flights show their light changing (`caches::octree` `refine.rs`); the
+    /// atmospheric cells that enough flights cross then take the light passing through them
+    /// (`flights.rs`); the values are then diffused into the other cells (and the valid
+    /// leaves' missing matrices), never through a surface of `scene` (the baked scene, without
+    /// any inserted object). The photon paths are traced again with the build's settings (the
+    /// same paths: the pass is deterministic), once per round of the refinement and once for
+    /// the estimate, and every flight of their global light counts, those that leave the scene
+    /// or end on a mirror or glass too. The build statistics follow (bytes).
     pub fn fill_atmosphere(&mut self, scene: &Scene) -> AtmosphereStats {
         let visible = |a: Vec3, b: Vec3| scene.sees(a, b, 0.0);
+        let photons = self.settings.traced_photons();
+        let global = |chunk: &[Flight]| -> Vec<(Vec3, Vec3, f32, Vec3)> {
+            chunk.iter().filter(|f| f.is_global()).map(|f| (f.o, f.d, f.t, f.power)).collect()
+        };
+        let refine =
+            self.global.refine_free_space(|tree| map_flights(scene, &photons, |c| tree.octant_sums(global(c))).unwrap_or_default());
         let tree = &self.global;
-        let flights = map_flights(scene, &self.settings.traced_photons(), |chunk| {
-            tree.flight_sums(chunk.iter().filter(|f| f.is_global()).map(|f| (f.o, f.d, f.t, f.power)))
-        })
-        .ok()
-        .map(|chunks| tree.flights_from(chunks));
-        let st = self.global.fill_atmosphere_with(&visible, flights.as_ref());
+        let flights = map_flights(scene, &photons, |c| tree.flight_sums(global(c))).ok().map(|chunks| tree.flights_from(chunks));
+        let mut st = self.global.fill_atmosphere_with(&visible, flights.as_ref());
+        st.refine = refine;
         self.stats.global = self.global.stats().clone();
         self.stats.bytes = self.global.stats().bytes + self.caustic.as_ref().map_or(0, |c| c.stats().bytes);
         st

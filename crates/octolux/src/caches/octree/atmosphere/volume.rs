@@ -3,7 +3,9 @@
 //! diffused or flight values is read (an ambient cube, or free space by the order-2 fit of its
 //! moments).
 
+use super::super::compress::CompressedLeaf;
 use super::*;
+use crate::caches::sh;
 
 /// An atmospheric leaf's matrix `m` (half-axis `k` of axis `a`, the side of `n_a`) as the
 /// volume query uses it when the leaf lacks some of its six (a partial diffusion; with all six,
@@ -38,6 +40,12 @@ fn ambient_cube(m: Mat3, a: usize, n_a: f32) -> Mat3 {
 /// (under an isotropic field a sensor facing `(1, 1, 1)/√3` read 0.58 of its irradiance).
 #[inline]
 pub(in crate::caches::octree) fn free_space_irradiance(six: &[Mat3; 6], n: Vec3) -> Vec3 {
+    free_space_quadratic(six, n).max(Vec3::ZERO)
+}
+
+/// [`free_space_irradiance`] before the clamp: a polynomial of degree 2 in `n`.
+#[inline]
+fn free_space_quadratic(six: &[Mat3; 6], n: Vec3) -> Vec3 {
     // row b of matrix k: component b of its moment, per colour
     let v = |k: usize, b: usize| six[k].row(b);
     let mut m = Vec3::ZERO;
@@ -52,7 +60,65 @@ pub(in crate::caches::octree) fn free_space_irradiance(six: &[Mat3; 6], n: Vec3)
         let t = v(2 * a, b) - v(2 * a + 1, b) + v(2 * b, a) - v(2 * b + 1, a);
         e += t * (0.25 * n[a] * n[b]);
     }
-    e.max(Vec3::ZERO)
+    e
+}
+
+/// The radiance SH coefficients (bands 0..=2, per colour) of the order-2 fit that
+/// [`free_space_irradiance`] reads: the irradiance's coefficients `E_lm` divided by the
+/// cosine lobe's `A_l`. `E_lm = ∫ E Y_lm dω` is exact from the 12 vertices of an icosahedron,
+/// a spherical 5-design (`E Y_lm` is a polynomial of degree at most 4).
+pub(in crate::caches::octree) fn free_space_sh(six: &[Mat3; 6]) -> [Vec3; sh::MAX_COEFFS] {
+    let g = 0.5 * (1.0 + 5f32.sqrt());
+    let mut c = [Vec3::ZERO; sh::MAX_COEFFS];
+    for (a, b) in [(1.0, g), (-1.0, g), (1.0, -g), (-1.0, -g)] {
+        for v in [Vec3::new(0.0, a, b), Vec3::new(a, b, 0.0), Vec3::new(b, 0.0, a)] {
+            let v = v.normalize();
+            let e = free_space_quadratic(six, v);
+            for (ci, y) in c.iter_mut().zip(sh::basis(v)) {
+                *ci += e * y;
+            }
+        }
+    }
+    let w = 4.0 * std::f32::consts::PI / 12.0;
+    for (i, ci) in c.iter_mut().enumerate() {
+        *ci *= w / sh::COSINE_LOBE[sh::band(i)];
+    }
+    c
+}
+
+/// Bytes of a free-space block that carry its value (its SH coefficients, quantised as an SH
+/// probe's; the rest of the 36-byte block is zero, and a cache file leaves it out).
+pub const FREE_SPACE_BYTES: usize = 28;
+
+/// An atmospheric leaf with all six matrices, as a compressed tree stores it: the SH
+/// coefficients of [`free_space_sh`] quantised as an SH probe's ([`sh::pack`]: band 0 as RGBE,
+/// the others as signed bytes relative to it; 28 bytes), in a 36-byte block (8 bytes zero,
+/// which a cache file leaves out).
+/// The query reads nothing else of such a leaf; the paper's compression of its six matrices
+/// lost a third of its accuracy (docs/guide/baking.md, "A volumetric solution").
+pub(in crate::caches::octree) fn encode_free_space(six: &FullLeaf) -> CompressedLeaf {
+    const _: () = assert!(FREE_SPACE_BYTES == 4 + 3 * (sh::MAX_COEFFS - 1));
+    let p = sh::pack(&free_space_sh(six), sh::ShOrder::L2, true);
+    let mut out = [0u8; 36];
+    out[..4].copy_from_slice(&p.l0);
+    for (i, h) in p.higher.iter().enumerate() {
+        for (ch, &x) in h.iter().enumerate() {
+            out[4 + 3 * i + ch] = x as u8;
+        }
+    }
+    out
+}
+
+/// The SH coefficients of a block of [`encode_free_space`].
+pub(in crate::caches::octree) fn decode_free_space(b: &CompressedLeaf) -> [Vec3; sh::MAX_COEFFS] {
+    let mut higher = [[0i8; 3]; sh::MAX_COEFFS - 1];
+    for (i, h) in higher.iter_mut().enumerate() {
+        for (ch, x) in h.iter_mut().enumerate() {
+            *x = b[4 + 3 * i + ch] as i8;
+        }
+    }
+    let p = sh::PackedProbe { l0: [b[0], b[1], b[2], b[3]], higher, validity: 255 };
+    sh::unpack(&p, sh::ShOrder::L2)
 }
 
 /// [`free_space_irradiance`] as a matrix for the blend: `n ⊗ E`, so that `(n ⊗ E)ᵀ n = E`.
@@ -135,8 +201,7 @@ impl Octree {
         let need = sel.iter().fold(0u8, |b, &k| b | (1 << k));
         let mut sum = [Mat3::ZERO; 3];
         let mut wsum = [0.0f32; 3];
-        let h = Vec3::splat(self.query_half);
-        self.view().visit(p - h, p + h, |node, depth, ijk, g| {
+        self.view().visit_tents(p, |node, depth, ijk, g| {
             let (v, own, e, filled) = self.volume_leaf(node);
             let bits = own | filled;
             if bits & need == 0 {
@@ -147,9 +212,15 @@ impl Octree {
                     return;
                 }
             }
-            let free = (v == NO_VALUE && bits == ALL_FACING).then(|| {
-                let six: [Mat3; 6] = std::array::from_fn(|k| self.volume_matrix(v, e, filled, k));
-                free_space_matrix(&six, n)
+            let free = (v == NO_VALUE && bits == ALL_FACING).then(|| match self.atmosphere.as_ref().map(|a| &a.values) {
+                Some(LeafValues::Compressed(c)) => {
+                    let e = sh::irradiance(&decode_free_space(&c[e as usize]), sh::ShOrder::L2, n);
+                    Mat3::from_cols(n * e.x, n * e.y, n * e.z)
+                }
+                _ => {
+                    let six: [Mat3; 6] = std::array::from_fn(|k| self.volume_matrix(v, e, filled, k));
+                    free_space_matrix(&six, n)
+                }
             });
             for a in 0..3 {
                 let k = sel[a];

@@ -1,6 +1,8 @@
 //! Real spherical harmonics up to band 2, irradiance by the cosine-lobe convolution
 //! (Ramamoorthi & Hanrahan, "An efficient representation for irradiance environment maps",
-//! SIGGRAPH 2001), and the quantised storage of a probe's coefficients.
+//! SIGGRAPH 2001), and the quantised storage of a set of coefficients: an SH probe's
+//! (`caches::probes`), and an atmospheric leaf's free-space light (`caches::octree`,
+//! `atmosphere.rs`).
 //!
 //! Basis (unit vector `(x, y, z)`, the usual real SH in the order `l = 0; l = 1: m = −1, 0, 1;
 //! l = 2: m = −2 .. 2`): `Y00 = 0.282095`; `Y1 = 0.488603 (y, z, x)`;
