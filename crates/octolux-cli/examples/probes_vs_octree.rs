@@ -4,14 +4,16 @@
 //!
 //! ```sh
 //! cargo run --release -p octolux-cli --example probes_vs_octree -- --scene cbox [--photons 1000000]
-//!     [--n-max 2000,500,125] [--free 300] [--objects 10 --per-object 30] [--rays 16384] [--levels 2] [--out FILE.json]
+//!     [--n-max 2000,500,125] [--free 300] [--objects 10 --per-object 30] [--rays 16384] [--levels 2] [--out FILE.json] [--no-probes] [--full]
 //! ```
 //!
 //! One photon pass (seed 0, unlimited depth with Russian roulette), its global and caustic
 //! photons together (all light reflected at least once, what the truth counts); per `n_max` an
 //! octree with the global tree's settings (the `octree` integrator's default global settings otherwise) with its volumetric
-//! fill (`fill_atmosphere`), and probe grids at SH order 1 and 2 whose layout (brick levels
-//! `base..base+2`, lattice scale) is searched so that their bytes match the octree's. Errors
+//! values three ways (diffusion only; the photons' flights; flights after the free space is
+//! refined, what `bake --volume` stores), its bytes those of a `bake --volume` cache file, and
+//! probe grids at SH order 1 and 2 whose layout (brick levels `base..base+2`, lattice scale) is
+//! searched so that their bytes match the last octree's. Errors
 //! of the indirect irradiance (channel mean) at (a) random free points with random normals and
 //! (b) points of spheres placed in free space (radius 0.08 of the free points' extent; the field
 //! of the scene *without* them: the object is not in the bake and the truth is the
@@ -21,7 +23,7 @@
 use anyhow::{Context, Result};
 use glam::Vec3;
 use octolux::accel::BackendKind;
-use octolux::caches::octree::{QueryLeaf, Surfaces};
+use octolux::caches::octree::{OctantSums, QueryLeaf, Surfaces};
 use octolux::caches::probes::{BrickLayout, ProbeGrid, ProbeInputs, ProbeSettings, ShOrder};
 use octolux::caches::Octree;
 use octolux::integrators::octree::{estimator_surfaces, OctreeIntegratorSettings, ANCHOR_LIFT};
@@ -57,6 +59,12 @@ struct Args {
     levels: u32,
     #[arg(long)]
     out: Option<String>,
+    /// Leave the probe grids out (their builds take most of the run).
+    #[arg(long)]
+    no_probes: bool,
+    /// Keep the octree's leaves as full floats (what the compression costs).
+    #[arg(long)]
+    full: bool,
 }
 
 fn load(name: &str) -> Result<Option<Scene>> {
@@ -237,20 +245,39 @@ fn main() -> Result<()> {
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for &n_max in &a.n_max {
         let mut bytes = 0;
-        for flights in [false, true] {
+        for (flights, refine) in [(false, false), (true, false), (true, true)] {
             let t = Instant::now();
             let mut gs = OctreeIntegratorSettings::default().global;
             gs.n_max = n_max;
             gs.n_min = gs.n_min.min(n_max);
+            if a.full {
+                gs.storage = octolux::caches::octree::Storage::Full;
+            }
             let mut tree =
                 Octree::build_with_surfaces(&photons, scene.bounds, &gs, Some(Surfaces { triangles: &tris, spheres: &spheres }))?;
+            let split = if refine {
+                let sums = |t: &Octree| -> Vec<OctantSums> {
+                    flight_photons
+                        .par_chunks(4096)
+                        .zip(lengths.par_chunks(4096))
+                        .map(|(p, l)| t.octant_sums(p.iter().zip(l).map(|(p, &l)| (p.p + p.wi * l, -p.wi, l, p.power))))
+                        .collect()
+                };
+                tree.refine_free_space(sums).split_leaves
+            } else {
+                0
+            };
             let fl = flights.then(|| tree.flights(&flight_photons, &lengths));
             tree.fill_atmosphere_with(&visible, fl.as_ref());
             let t_tree = t.elapsed().as_secs_f64();
-            bytes = tree.stats().bytes;
+            // the bytes of the tree in a `bake --volume` cache file (its leak test's samples kept)
+            bytes = octolux_io::cache::tree_layout(&tree.to_parts()).total();
             let st = tree.stats();
-            let fill =
-                if flights { format!("flights ({} leaves)", fl.as_ref().map_or(0, |f| f.leaves())) } else { "diffusion only".to_string() };
+            let fill = match (flights, refine) {
+                (false, _) => "diffusion only".to_string(),
+                (true, false) => format!("flights ({} leaves)", fl.as_ref().map_or(0, |f| f.leaves())),
+                (true, true) => format!("flights ({} leaves), free space refined ({split} splits)", fl.as_ref().map_or(0, |f| f.leaves())),
+            };
             let label = format!("octree n_max {n_max} ({} valid leaves, h_max {}), {fill}", st.valid_leaves, st.h_max);
             let leak: Vec<f64> = pts
                 .par_iter()
@@ -263,6 +290,19 @@ fn main() -> Result<()> {
             if std::env::var_os("PROBES_DEBUG").is_some() {
                 let mut worst: Vec<usize> = (0..pts.len()).collect();
                 worst.sort_by(|&i, &j| (leak[j] / t_vals[j]).abs().ln().abs().total_cmp(&(leak[i] / t_vals[i]).abs().ln().abs()));
+                // the error where the point's own leaf is valid (surface photons) or atmospheric
+                for valid in [true, false] {
+                    let idx: Vec<usize> = (0..pts.len()).filter(|&i| tree.leaf_at(pts[i].0).is_some_and(|l| l.valid) == valid).collect();
+                    let e: Vec<f64> = idx.iter().map(|&i| leak[i]).collect();
+                    let t: Vec<f64> = idx.iter().map(|&i| t_vals[i]).collect();
+                    let ratio = e.iter().sum::<f64>() / t.iter().sum::<f64>().max(1e-30);
+                    eprintln!(
+                        "  in {} leaves: {} points, relMSE {:.4}, mean ratio {ratio:.3}",
+                        if valid { "valid" } else { "atmospheric" },
+                        idx.len(),
+                        errors(&e, &t)[1]
+                    );
+                }
                 for &i in worst.iter().take(12) {
                     eprintln!(
                         "  worst: p {:.3} n {:.2} object {} truth {:.4} ± {:.4} octree {:.4}",
@@ -274,7 +314,7 @@ fn main() -> Result<()> {
             let plain: Vec<f64> = pts.par_iter().map(|&(p, n, _)| tree.irradiance_volume(p, n, None).map_or(0.0, mean3)).collect();
             report(format!("{label}, no rays"), bytes, plain, t_tree);
         }
-        for order in [ShOrder::L1, ShOrder::L2] {
+        for order in [ShOrder::L1, ShOrder::L2].into_iter().filter(|_| !a.no_probes) {
             let t = Instant::now();
             let (layout, s) = match_bytes(&scene, &all_tris, &all_spheres, order, a.levels, bytes)?;
             let grid = ProbeGrid::build(layout, ProbeInputs { photons: &flight_photons, flight_lengths: &lengths }, &s, &backface)?;
