@@ -49,7 +49,7 @@ fn the_server_serves_its_paths_and_nothing_else() {
     assert_eq!(get("/").0, 200);
     assert_eq!(get("/viewer.js").0, 200);
     let (status, scene) = get("/scene.bin");
-    assert_eq!((status, scene.len() as u64), (200, 36 * meta["vertices"].as_u64().unwrap()));
+    assert_eq!((status, scene.len() as u64), (200, 48 * meta["vertices"].as_u64().unwrap()));
     assert_eq!(get(&format!("/octree/{}.bin", chunks - 1)).0, 200);
     for path in
         [&format!("/octree/{chunks}.bin")[..], "/level/0.bin", "/../Cargo.toml", "/etc/passwd", "/cpu.bin", "/scene.bin/x", "//meta.json"]

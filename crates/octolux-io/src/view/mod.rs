@@ -8,7 +8,7 @@
 //! |---|---|
 //! | `/`, `/viewer.js` | the page (`page.html`, `viewer.js`: WebGL2) |
 //! | `/meta.json` | the camera, the canvas size, each octree's root cube, node count and chunks (bytes, the smallest leaf's edge after each) |
-//! | `/scene.bin` | per vertex position, normal, albedo: 9 little-endian f32 ([`Scene::display_mesh`]) |
+//! | `/scene.bin` | per vertex position, normal, albedo, emitted radiance: 12 little-endian f32 ([`Scene::display_mesh`]) |
 //! | `/octree/K.bin` | chunk `K` of the global octree's stream (`octolux::caches::octree` `stream.rs`): chunk 0 the root, then splits, each the parent's index in the stream (u32) and its 8 children; a node is its kind (u8: 0 internal, 1 valid, 2 atmospheric), its facing bits (u8), and unless atmospheric its 36 bytes. Cut after [`CHUNK_SHARES`] of the bytes |
 //! | `/direct/K.bin` | the same for the direct-light octree (`OctreeIntegrator::direct_octree`, built by the job from the photon pass of the lighting's settings) |
 //! | `/cpu.bin` | with `--compare-cpu`: the CPU query's irradiance at every pixel centre and the distance to the surface there, 4 f32 per pixel, top row first |
@@ -17,7 +17,8 @@
 //!
 //! The page draws the direct light of the emitters from a direct-light octree baked beside the
 //! global one (not shadow maps: its shadows are as sharp as its leaves), plus the global
-//! octree's indirect irradiance, times the albedo over π; or either irradiance, or the leaves.
+//! octree's indirect irradiance, times the albedo over π, plus the area emitters' radiance on
+//! their emitting side; or either irradiance, or the leaves.
 //! Its indirect irradiance is what the CPU's `--view irradiance` computes, with the same camera
 //! (test `the_gpu_query_matches_the_cpu_and_the_stream_converges`).
 
@@ -85,9 +86,9 @@ pub fn resources(
     put("/index.html", "text/html; charset=utf-8", PAGE.as_bytes().to_vec());
     put("/viewer.js", "text/javascript; charset=utf-8", SCRIPT.as_bytes().to_vec());
     let mesh = scene.display_mesh();
-    let mut bin = Vec::with_capacity(mesh.positions.len() * 36);
-    for ((p, n), a) in mesh.positions.iter().zip(&mesh.normals).zip(&mesh.albedo) {
-        for x in p.to_array().into_iter().chain(n.to_array()).chain(a.to_array()) {
+    let mut bin = Vec::with_capacity(mesh.positions.len() * 48);
+    for (((p, n), a), e) in mesh.positions.iter().zip(&mesh.normals).zip(&mesh.albedo).zip(&mesh.emission) {
+        for x in p.to_array().into_iter().chain(n.to_array()).chain(a.to_array()).chain(e.to_array()) {
             bin.extend_from_slice(&x.to_le_bytes());
         }
     }

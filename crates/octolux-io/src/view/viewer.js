@@ -11,15 +11,16 @@ const VS = `#version 300 es
 layout(location = 0) in vec3 aPos;
 layout(location = 1) in vec3 aNrm;
 layout(location = 2) in vec3 aAlb;
+layout(location = 3) in vec3 aEmit;
 uniform vec3 uOrigin, uLeft, uUp, uFwd;
 uniform vec2 uTan, uNearFar;
-out vec3 vPos; out vec3 vNrm; out vec3 vAlb;
+out vec3 vPos; out vec3 vNrm; out vec3 vAlb; out vec3 vEmit;
 void main() {
   vec3 r = aPos - uOrigin;
   float l = dot(r, uLeft), u = dot(r, uUp), f = dot(r, uFwd);
   float n = uNearFar.x, fa = uNearFar.y;
   gl_Position = vec4(-l / uTan.x, u / uTan.y, (f * (fa + n) - 2.0 * fa * n) / (fa - n), f);
-  vPos = aPos; vNrm = aNrm; vAlb = aAlb;
+  vPos = aPos; vNrm = aNrm; vAlb = aAlb; vEmit = aEmit;
 }`;
 
 const FS = `#version 300 es
@@ -30,7 +31,7 @@ precision highp float; precision highp int; precision highp usampler2D;
 uniform usampler2D uNodes, uValues, uDNodes, uDValues;
 uniform vec3 uRootMin, uDRootMin; uniform float uRootSize, uDRootSize, uHalf, uDHalf; uniform int uMode;
 uniform vec3 uOrigin; uniform float uExposure; uniform float uMaxDepth; uniform bool uDisplay;
-in vec3 vPos; in vec3 vNrm; in vec3 vAlb;
+in vec3 vPos; in vec3 vNrm; in vec3 vAlb; in vec3 vEmit;
 out vec4 outColor;
 const int TW = 4096;
 const uint LEAF = 0xffffffffu;
@@ -131,6 +132,8 @@ float leafDepth(vec3 p) {
 }
 void main() {
   vec3 n = normalize(vNrm);
+  // an emitter's radiance, seen from its emitting side (the side its normal faces)
+  vec3 le = dot(n, uOrigin - vPos) > 0.0 ? vEmit : vec3(0.0);
   if (dot(n, uOrigin - vPos) < 0.0) n = -n;
   if (uMode == 3) { outColor = vec4(length(vPos - uOrigin)); return; }
   if (uMode == 2) {
@@ -141,7 +144,7 @@ void main() {
   vec3 ei = irradiance(uNodes, uValues, uRootMin, uRootSize, uHalf, vPos, n).rgb;
   if (uMode == 1) { outColor = vec4(srgb(ei * uExposure), 1.0); return; }
   vec3 ed = irradiance(uDNodes, uDValues, uDRootMin, uDRootSize, uDHalf, vPos, n).rgb;
-  vec3 c = uMode == 5 ? ed : uMode == 4 ? ei * vAlb / PI : (ed + ei) * vAlb / PI;
+  vec3 c = uMode == 5 ? ed : uMode == 4 ? ei * vAlb / PI : (ed + ei) * vAlb / PI + le;
   outColor = vec4(srgb(c * uExposure), 1.0);
 }`;
 
@@ -191,7 +194,7 @@ async function fetchBin(path) {
     gl.useProgram(prog);
     const U = (name) => gl.getUniformLocation(prog, name);
 
-    // the scene: per vertex position, normal, albedo (9 f32)
+    // the scene: per vertex position, normal, albedo, emitted radiance (12 f32)
     const sceneBytes = await fetchBin('/scene.bin');
     const verts = new Float32Array(sceneBytes.buffer, sceneBytes.byteOffset, sceneBytes.byteLength / 4);
     const vao = gl.createVertexArray();
@@ -199,11 +202,11 @@ async function fetchBin(path) {
     const vbo = gl.createBuffer();
     gl.bindBuffer(gl.ARRAY_BUFFER, vbo);
     gl.bufferData(gl.ARRAY_BUFFER, verts, gl.STATIC_DRAW);
-    for (let a = 0; a < 3; a++) {
+    for (let a = 0; a < 4; a++) {
       gl.enableVertexAttribArray(a);
-      gl.vertexAttribPointer(a, 3, gl.FLOAT, false, 36, 12 * a);
+      gl.vertexAttribPointer(a, 3, gl.FLOAT, false, 48, 12 * a);
     }
-    const vertexCount = verts.length / 9;
+    const vertexCount = verts.length / 12;
 
     // the camera: the scene's, then the user's
     const home = meta.camera;

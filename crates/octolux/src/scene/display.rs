@@ -5,9 +5,11 @@
 //! per-vertex shading normals (the mesh's interpolated normals where it has them, the
 //! triangle's winding normal otherwise; spheres: the exact normal) and per-vertex Lambertian
 //! albedo (the material's diffuse reflectance at the vertex's texture coordinates; a material
-//! without a Lambertian part draws as 0.5 grey, and says so in [`DisplayMesh::grey_materials`]).
+//! without a Lambertian part draws as 0.5 grey, and says so in [`DisplayMesh::grey_materials`]),
+//! and per-vertex emitted radiance (an area emitter's, towards the side its normal faces: the
+//! emitting side, as `LightSet::area_le` counts it; zero elsewhere).
 
-use super::Scene;
+use super::{Light, Scene};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -20,6 +22,9 @@ pub struct DisplayMesh {
     pub normals: Vec<Vec3>,
     /// Lambertian albedo (RGB, in [0, 1]).
     pub albedo: Vec<Vec3>,
+    /// Emitted radiance (RGB, W/(m² sr)) towards the side the normal faces; zero for shapes
+    /// that do not emit.
+    pub emission: Vec<Vec3>,
     /// Materials drawn grey (no Lambertian reflectance), by index.
     pub grey_materials: Vec<u32>,
 }
@@ -42,8 +47,15 @@ impl Scene {
                 }
             }
         };
+        let emission = |shape: u32| -> Vec3 {
+            match self.lights.shape_light(shape).and_then(|l| self.lights.lights.get(l as usize)) {
+                Some(Light::Area { radiance, .. }) if radiance.is_finite() => radiance.max(Vec3::ZERO),
+                _ => Vec3::ZERO,
+            }
+        };
         for (t, &s) in self.triangles.iter().zip(&self.tri_shape) {
             let info = &self.shapes[s as usize];
+            let le = emission(s);
             let p = t.map(|k| self.positions[k as usize]);
             let mut ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
             if info.flip {
@@ -55,6 +67,7 @@ impl Scene {
                 out.normals.push(if info.flip && info.has_normals { -n } else { n });
                 let uv = if info.has_uvs { self.uvs[k as usize] } else { Vec2::ZERO };
                 out.albedo.push(albedo(info.material, uv, &mut out.grey_materials));
+                out.emission.push(le);
             }
         }
         for sphere in &self.spheres {
@@ -66,6 +79,7 @@ impl Scene {
                 Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
             };
             let a = albedo(info.material, Vec2::splat(0.5), &mut out.grey_materials);
+            let le = emission(sphere.shape);
             for i in 0..nt {
                 for j in 0..np {
                     for (di, dj) in [(0, 0), (1, 0), (1, 1), (0, 0), (1, 1), (0, 1)] {
@@ -73,10 +87,33 @@ impl Scene {
                         out.positions.push(sphere.center + sphere.radius * d);
                         out.normals.push(sign * d);
                         out.albedo.push(a);
+                        out.emission.push(le);
                     }
                 }
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::integrators::test_scenes::box_scene;
+    use glam::Vec3;
+
+    /// The test box's ceiling light (radiance 15, facing down, at y = 1.99) is the only
+    /// emitting surface of the display mesh, and its normals face the emitting side.
+    #[test]
+    fn emitters_carry_their_radiance_on_their_emitting_side() {
+        let scene = box_scene(8);
+        let m = scene.display_mesh();
+        assert_eq!(m.emission.len(), m.positions.len());
+        let lit: Vec<usize> = (0..m.positions.len()).filter(|&i| m.emission[i] != Vec3::ZERO).collect();
+        assert_eq!(lit.len(), 6, "one quad, two triangles");
+        for i in lit {
+            assert_eq!(m.emission[i], Vec3::splat(15.0));
+            assert!((m.positions[i].y - 1.99).abs() < 1e-4, "{}", m.positions[i]);
+            assert!(m.normals[i].y < -0.99, "the light emits downwards: {}", m.normals[i]);
+        }
     }
 }
