@@ -41,7 +41,7 @@
 //!   nothing else (the brick positions follow from the index).
 
 mod beams;
-pub use super::sh;
+use super::sh;
 #[cfg(test)]
 mod tests;
 
