@@ -8,12 +8,12 @@
 //! ```
 //!
 //! One photon pass (seed 0, unlimited depth with Russian roulette), its global and caustic
-//! photons together (all light reflected at least once, what the truth counts); per `n_max` an
-//! octree with the global tree's settings (the `octree` integrator's default global settings otherwise) with its volumetric
-//! values three ways (diffusion only; the photons' flights; flights after the free space is
-//! refined, what `bake --volume` stores), its bytes those of a `bake --volume` cache file, and
-//! probe grids at SH order 1 and 2 whose layout (brick levels `base..base+2`, lattice scale) is
-//! searched so that their bytes match the last octree's. Errors
+//! photons together (all light reflected at least once, what the truth counts), the probes'
+//! input; per `n_max` a `bake --volume` of the same photon count (the `octree` integrator's
+//! default settings otherwise), read back from its bytes as `render --cache` reads it, its
+//! free-space tree queried, its bytes the whole cache file's; and probe grids at SH order 1 and
+//! 2 whose layout (brick levels `base..base+2`, lattice scale) is searched so that their bytes
+//! match the octree's. Errors
 //! of the indirect irradiance (channel mean) at (a) random free points with random normals and
 //! (b) points of spheres placed in free space (radius 0.08 of the free points' extent; the field
 //! of the scene *without* them: the object is not in the bake and the truth is the
@@ -23,16 +23,18 @@
 use anyhow::{Context, Result};
 use glam::Vec3;
 use octolux::accel::BackendKind;
-use octolux::caches::octree::{OctantSums, QueryLeaf, Surfaces};
+use octolux::caches::octree::QueryLeaf;
 use octolux::caches::probes::{BrickLayout, ProbeGrid, ProbeInputs, ProbeSettings, ShOrder};
-use octolux::caches::Octree;
-use octolux::integrators::octree::{estimator_surfaces, OctreeIntegratorSettings, ANCHOR_LIFT};
+use octolux::integrators::octree::{OctreeIntegratorSettings, ANCHOR_LIFT};
 use octolux::integrators::path::{indirect_irradiance, PathSettings};
+use octolux::integrators::Integrator;
 use octolux::math::Ray;
 use octolux::photon::trace::{map_flights, trace_photons, PhotonSettings};
 use octolux::photon::Photon;
 use octolux::sampling::{square_to_uniform_sphere, Sampler};
 use octolux::scene::Scene;
+use octolux_io::job::bake::bake;
+use octolux_io::job::Collect;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -216,10 +218,8 @@ fn main() -> Result<()> {
         floor(true)
     );
 
-    let (tris, spheres) = estimator_surfaces(&scene);
     let all_tris = scene.mesh_triangles_where(|_| true);
     let all_spheres: Vec<(Vec3, f32)> = scene.analytic_spheres_where(|_| true).into_iter().map(|(c, r, _)| (c, r)).collect();
-    let visible = |x: Vec3, y: Vec3| scene.sees(x, y, 0.0);
     let dirs32 = fibonacci(32);
     let backface = |p: Vec3| look_around(&scene, p, &dirs32).0;
     let mut rows = Vec::new();
@@ -244,76 +244,70 @@ fn main() -> Result<()> {
     println!("| scene | method | bytes | free rRMSE | free relMSE | free >2x / <0.5x | object rRMSE | object relMSE | object >2x / <0.5x | build s |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for &n_max in &a.n_max {
-        let mut bytes = 0;
-        for (flights, refine) in [(false, false), (true, false), (true, true)] {
-            let t = Instant::now();
-            let mut gs = OctreeIntegratorSettings::default().global;
-            gs.n_max = n_max;
-            gs.n_min = gs.n_min.min(n_max);
-            if a.full {
-                gs.storage = octolux::caches::octree::Storage::Full;
-            }
-            let mut tree =
-                Octree::build_with_surfaces(&photons, scene.bounds, &gs, Some(Surfaces { triangles: &tris, spheres: &spheres }))?;
-            let split = if refine {
-                let sums = |t: &Octree| -> Vec<OctantSums> {
-                    flight_photons
-                        .par_chunks(4096)
-                        .zip(lengths.par_chunks(4096))
-                        .map(|(p, l)| t.octant_sums(p.iter().zip(l).map(|(p, &l)| (p.p + p.wi * l, -p.wi, l, p.power))))
-                        .collect()
-                };
-                tree.refine_free_space(sums).split_leaves
-            } else {
-                0
-            };
-            let fl = flights.then(|| tree.flights(&flight_photons, &lengths));
-            tree.fill_atmosphere_with(&visible, fl.as_ref());
-            let t_tree = t.elapsed().as_secs_f64();
-            // the bytes of the tree in a `bake --volume` cache file (its leak test's samples kept)
-            bytes = octolux_io::cache::tree_layout(&tree.to_parts()).total();
-            let st = tree.stats();
-            let fill = match (flights, refine) {
-                (false, _) => "diffusion only".to_string(),
-                (true, false) => format!("flights ({} leaves)", fl.as_ref().map_or(0, |f| f.leaves())),
-                (true, true) => format!("flights ({} leaves), free space refined ({split} splits)", fl.as_ref().map_or(0, |f| f.leaves())),
-            };
-            let label = format!("octree n_max {n_max} ({} valid leaves, h_max {}), {fill}", st.valid_leaves, st.h_max);
-            let leak: Vec<f64> = pts
-                .par_iter()
-                .map(|&(p, n, _)| {
-                    let mut keep =
-                        |q: QueryLeaf| q.samples.iter().any(|&(s, nrm)| scene.sees(p, s + nrm * (ANCHOR_LIFT * q.cell_size), 1e-6));
-                    tree.irradiance_volume(p, n, Some(&mut keep)).map_or(0.0, mean3)
-                })
-                .collect();
-            if std::env::var_os("PROBES_DEBUG").is_some() {
-                let mut worst: Vec<usize> = (0..pts.len()).collect();
-                worst.sort_by(|&i, &j| (leak[j] / t_vals[j]).abs().ln().abs().total_cmp(&(leak[i] / t_vals[i]).abs().ln().abs()));
-                // the error where the point's own leaf is valid (surface photons) or atmospheric
-                for valid in [true, false] {
-                    let idx: Vec<usize> = (0..pts.len()).filter(|&i| tree.leaf_at(pts[i].0).is_some_and(|l| l.valid) == valid).collect();
-                    let e: Vec<f64> = idx.iter().map(|&i| leak[i]).collect();
-                    let t: Vec<f64> = idx.iter().map(|&i| t_vals[i]).collect();
-                    let ratio = e.iter().sum::<f64>() / t.iter().sum::<f64>().max(1e-30);
-                    eprintln!(
-                        "  in {} leaves: {} points, relMSE {:.4}, mean ratio {ratio:.3}",
-                        if valid { "valid" } else { "atmospheric" },
-                        idx.len(),
-                        errors(&e, &t)[1]
-                    );
-                }
-                for &i in worst.iter().take(12) {
-                    eprintln!(
-                        "  worst: p {:.3} n {:.2} object {} truth {:.4} ± {:.4} octree {:.4}",
-                        pts[i].0, pts[i].1, pts[i].2, t_vals[i], truth[i].1, leak[i]
-                    );
-                }
-            }
-            report(format!("{label}, leak test"), bytes, leak, t_tree);
-            let plain: Vec<f64> = pts.par_iter().map(|&(p, n, _)| tree.irradiance_volume(p, n, None).map_or(0.0, mean3)).collect();
-            report(format!("{label}, no rays"), bytes, plain, t_tree);
+        // what `bake --volume` writes, read back as `render --cache` reads it
+        let t = Instant::now();
+        let mut settings = OctreeIntegratorSettings::default();
+        settings.photons.photons = a.photons;
+        settings.global.n_max = n_max;
+        settings.global.n_min = settings.global.n_min.min(n_max);
+        if a.full {
+            settings.global.storage = octolux::caches::octree::Storage::Full;
         }
+        let baked = bake(&scene, &a.scene, settings, true, &Collect::default())?;
+        let t_bake = t.elapsed().as_secs_f64();
+        let loaded = octolux_io::cache::load_bytes(&baked.bytes, true).map_err(anyhow::Error::msg)?;
+        let Integrator::Octree(o) = loaded.integrator else { anyhow::bail!("the cache did not hold the octree integrator") };
+        let volume = o.volume.as_ref().context("the bake made no free-space tree")?;
+        let bytes = baked.bytes.len();
+        let (vs, at) = (volume.stats(), baked.report.atmosphere.clone().unwrap_or_default());
+        let label = format!(
+            "octree n_max {n_max} ({} valid leaves, h_max {}), free-space tree ({} leaves, {} from flights, {} splits; {} B of the file)",
+            o.global.stats().valid_leaves,
+            o.global.stats().h_max,
+            vs.leaves,
+            at.flight_leaves,
+            at.refine.split_leaves,
+            baked.report.file_layout.atmosphere
+        );
+        let leak: Vec<f64> = pts
+            .par_iter()
+            .map(|&(p, n, _)| {
+                let mut keep = |q: QueryLeaf| q.samples.iter().any(|&(s, nrm)| scene.sees(p, s + nrm * (ANCHOR_LIFT * q.cell_size), 1e-6));
+                volume.irradiance_volume(p, n, Some(&mut keep)).map_or(0.0, mean3)
+            })
+            .collect();
+        if std::env::var_os("PROBES_DEBUG").is_some() {
+            let mut worst: Vec<usize> = (0..pts.len()).collect();
+            worst.sort_by(|&i, &j| (leak[j] / t_vals[j]).abs().ln().abs().total_cmp(&(leak[i] / t_vals[i]).abs().ln().abs()));
+            // the error where the point's own surface leaf is valid (surface photons) or atmospheric
+            for valid in [true, false] {
+                let idx: Vec<usize> = (0..pts.len()).filter(|&i| o.global.leaf_at(pts[i].0).is_some_and(|l| l.valid) == valid).collect();
+                let e: Vec<f64> = idx.iter().map(|&i| leak[i]).collect();
+                let t: Vec<f64> = idx.iter().map(|&i| t_vals[i]).collect();
+                let ratio = e.iter().sum::<f64>() / t.iter().sum::<f64>().max(1e-30);
+                eprintln!(
+                    "  in {} surface leaves: {} points, relMSE {:.4}, mean ratio {ratio:.3}",
+                    if valid { "valid" } else { "atmospheric" },
+                    idx.len(),
+                    errors(&e, &t)[1]
+                );
+            }
+            for &i in worst.iter().take(12) {
+                eprintln!(
+                    "  worst: p {:.3} n {:.2} object {} truth {:.4} ± {:.4} octree {:.4} (free-space leaf depth {:?})",
+                    pts[i].0,
+                    pts[i].1,
+                    pts[i].2,
+                    t_vals[i],
+                    truth[i].1,
+                    leak[i],
+                    volume.leaf_at(pts[i].0).map(|l| l.depth)
+                );
+            }
+        }
+        report(format!("{label}, leak test"), bytes, leak, t_bake);
+        let plain: Vec<f64> = pts.par_iter().map(|&(p, n, _)| volume.irradiance_volume(p, n, None).map_or(0.0, mean3)).collect();
+        report(format!("{label}, no rays"), bytes, plain, t_bake);
         for order in [ShOrder::L1, ShOrder::L2].into_iter().filter(|_| !a.no_probes) {
             let t = Instant::now();
             let (layout, s) = match_bytes(&scene, &all_tris, &all_spheres, order, a.levels, bytes)?;

@@ -381,9 +381,9 @@ pub struct BakeArgs {
     /// The lighting cache to write (e.g. lighting.oxc).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Also store the volumetric values that `render --insert-light volume` reads, and the leak
-    /// test's sampled photons its leak test needs (without them such a render computes the
-    /// values at its start). About 3 times the bytes on the cornell-box.
+    /// Also store the volumetric solution that `render --insert-light volume` reads: a
+    /// free-space tree valued by the photons' flights (without it such a render computes it at
+    /// its start). About 1.9 times the bytes on the cornell-box.
     #[arg(long)]
     pub volume: bool,
     /// `octree` settings as JSON or TOML (as for `render --settings`).

@@ -136,15 +136,29 @@ fn ok(args: &[&str]) {
 fn an_insert_render_from_a_cache_equals_the_uncached_insert_render() {
     // The leak test that reads leaf planes (`visible_sample`), and the object's light: re-baked
     // (the photon paths traced again in the baked scene, then the ones the object changes), or
-    // the volumetric values (from the cache, filled by the bake with --volume, which keeps the
-    // leak test's samples too; uncached, by the integrator from that same scene). Every frame
-    // must be the same bytes.
+    // the volumetric solution (from the cache, the free-space tree of the bake with --volume;
+    // uncached, computed by the integrator from that same scene). The bake runs the same leak
+    // test, so it keeps the samples that test casts its rays to. Every frame must be the same
+    // bytes.
     let (dir, p) = scratch("cached");
     std::fs::write(p("scene.xml"), SCENE).unwrap();
     std::fs::write(p("cube.obj"), CUBE).unwrap();
     std::fs::write(p("path.json"), PATH).unwrap();
     let common = ["--spp", "2", "--seed", "3", "--set", "leak=visible_sample", "-q"];
-    ok(&["bake", &p("scene.xml"), "-o", &p("l.oxc"), "--photons", "20000", "--seed", "3", "-q", "--volume"]);
+    ok(&[
+        "bake",
+        &p("scene.xml"),
+        "-o",
+        &p("l.oxc"),
+        "--photons",
+        "20000",
+        "--seed",
+        "3",
+        "-q",
+        "--volume",
+        "--set",
+        "leak=visible_sample",
+    ]);
     // the re-bake traces the cache's photon paths again: from the cache or not, the same ones
     for light in ["rebake", "volume"] {
         let ins = ["--insert", &p("cube.obj"), "--insert-path", &p("path.json"), "--insert-light", light];

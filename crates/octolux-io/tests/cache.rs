@@ -87,10 +87,11 @@ fn a_cache_round_trips_to_a_bit_identical_render() {
             (&c.parts.settings, &c.parts.global.nodes, &c.parts.global.values),
             (&parts.settings, &parts.global.nodes, &parts.global.values)
         );
-        // the volumetric values too (a compressed free-space leaf is 28 bytes on disk, its
-        // block's 8 zero bytes restored on load)
-        assert!(parts.global.atmosphere.is_some());
-        assert_eq!(c.parts.global.atmosphere, parts.global.atmosphere);
+        // the volumetric solution too: the free-space tree, its values (a compressed free-space
+        // leaf is 28 bytes on disk, its block's 8 zero bytes restored on load) and anchors
+        let v = parts.volume.as_ref().expect("the free-space tree");
+        assert!(v.atmosphere.as_ref().is_some_and(|a| !a.anchors.is_empty()));
+        assert_eq!(c.parts.volume.as_ref().map(|t| (&t.nodes, &t.atmosphere)), Some((&v.nodes, &v.atmosphere)));
         assert_eq!(
             c.parts.caustic.as_ref().map(|t| (&t.nodes, &t.values, &t.facing)),
             parts.caustic.as_ref().map(|t| (&t.nodes, &t.values, &t.facing))
@@ -163,11 +164,11 @@ fn read_names_the_file_and_says_why() {
     std::fs::write(&path, &good).unwrap();
     assert!(cache::read(&path).is_ok());
     let mut future = good.clone();
-    future[8] = 9;
+    future[8] = 10;
     fix_crc(&mut future);
     std::fs::write(&path, &future).unwrap();
     let e = cache::read(&path).err().unwrap().to_string();
-    assert!(e.contains("l.oxc") && e.contains("version 9 was written by a newer octolux"), "{e}");
+    assert!(e.contains("l.oxc") && e.contains("version 10 was written by a newer octolux"), "{e}");
     // a valid leaf without photons, checksum fixed: the octree checks refuse it
     let c = cache::decode(&good, true).unwrap();
     let mut bad = c.clone();
@@ -206,7 +207,12 @@ fn a_cache_without_the_leak_samples_renders_as_the_bake_and_refuses_the_test_tha
     s.leak = LeakTest::None;
     assert!(back.missing_leak_samples(&s, true).is_none());
     s.leak = LeakTest::Auto;
-    assert!(back.missing_leak_samples(&s, true).is_some(), "an inserted object's volume query tests leaks with them");
+    // the free-space tree's leak test reads its own anchors
+    assert!(back.missing_leak_samples(&s, true).is_none(), "the free-space tree needs no sampled photons");
+    let mut surface_only = cache::decode(&without, true).expect("decodes").parts;
+    surface_only.volume = None;
+    let Integrator::Octree(bare) = cache::load_bytes(&file(surface_only), true).expect("loads").integrator else { panic!() };
+    assert!(bare.missing_leak_samples(&s, true).is_some(), "without it, the global octree's volume query tests leaks with them");
     o.settings.leak = LeakTest::None;
     o.prepare(&scene);
     let rs = RenderSettings { spp: 2, seed: 1, ..Default::default() };

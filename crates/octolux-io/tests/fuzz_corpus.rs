@@ -40,7 +40,7 @@ fn fuzz_corpus_replays_without_panics() {
 /// format moved on to 5), except the two that must fail: a newer version and a truncated file.
 /// Rebake them with `octolux bake cornell-box --photons 2000` (`--set global.storage=full --set
 /// caustic.storage=full` for the full one, `cornell-spheres --volume` for the caustic one, which
-/// then holds the leak test's samples and the volumetric values too); the newer version is the
+/// then holds the free-space tree too); the newer version is the
 /// compressed seed with the version field raised by one (checksum fixed), the truncated one its
 /// first half.
 #[test]

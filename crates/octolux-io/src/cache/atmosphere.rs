@@ -6,7 +6,9 @@
 //!   filled count u32, filled bits (one byte per leaf, depth-first),
 //!   storage u8 (0 compressed, 1 full), entry count u32 (leaves with any filled bit),
 //!   per entry its matrices as the leaves' values (36 bytes or 54 f32); compressed, an
-//!   atmospheric leaf with all six bits as its free-space SH block (28 bytes, version 8)
+//!   atmospheric leaf with all six bits as its free-space SH block (28 bytes, version 8),
+//!   anchor count u32 (0 or the entry count), per entry where its flights pass in its cell
+//!   (3 x u8; 255, 255, 255: none; version 9)
 //! ```
 
 use super::{count, full_leaves, nodes, put_u32, put_values, Reader, FULL_LEAF_BYTES};
@@ -38,6 +40,8 @@ pub(super) fn put_atmosphere(out: &mut Vec<u8>, t: &OctreeParts) {
                 }
                 full => put_values(out, full),
             }
+            put_u32(out, count(a.anchors.len()));
+            a.anchors.iter().for_each(|q| out.extend_from_slice(q));
         }
     }
 }
@@ -77,7 +81,12 @@ pub(super) fn get_atmosphere(r: &mut Reader, nodes: &[[u32; 2]], what: &dyn Fn(&
                 }
                 s => return Err(what(&format!("atmosphere storage: unknown storage {s} (0: compressed, 1: full)"))),
             };
-            Some(AtmosphereParts { filled: filled.to_vec(), values })
+            let (n, b) = r.array(3, &what("atmosphere anchors"))?;
+            if n != 0 && n != values.len() {
+                return Err(what(&format!("{n} atmosphere anchors for {} entries", values.len())));
+            }
+            let anchors = b.chunks_exact(3).map(|q| [q[0], q[1], q[2]]).collect();
+            Some(AtmosphereParts { filled: filled.to_vec(), values, anchors })
         }
         a => return Err(what(&format!("atmosphere flag {a} (0: none, 1: present)"))),
     })

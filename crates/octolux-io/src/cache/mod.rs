@@ -6,7 +6,8 @@
 //! header   magic "OXCACHE\0" (8) | format version u32 | reserved u32 = 0 | body length u64
 //! body     fingerprint: geometry u64, materials u64, emitters u64
 //!          meta: u32 length + JSON {octolux_version, scene, backend, settings, stats}
-//!          tree count u8 (1: global; 2: global, caustic), then per tree:
+//!          trees u8 (bit 0: global, always; bit 1: caustic; bit 2: free-space), then per tree
+//!          in that order:
 //!            u32 length + JSON {stats}; origin 3 x f32; size f32; depth limit u32;
 //!            nodes: node count u32, 2-bit kinds, u32 length + the valid leaves' photon
 //!              counts as varints (`nodes.rs`);
@@ -19,7 +20,8 @@
 //!            atmosphere u8 (0: none, 1: diffused values follow; `atmosphere.rs`):
 //!              filled count u32, filled bits (one byte per leaf, depth-first),
 //!              storage u8 (the tree's), value count u32, values (as the leaves'; a
-//!              compressed free-space leaf as SH coefficients, version 8)
+//!              compressed free-space leaf as SH coefficients, version 8),
+//!              anchor count u32 (0 or the value count), anchors (3 x u8 each, version 9)
 //! trailer  CRC-32 (IEEE, zlib's) of every byte before it, u32
 //! ```
 //!
@@ -28,7 +30,9 @@
 //! the bake's leak test or its volumetric values need them (`bake --volume`; 30 bytes per valid
 //! leaf before, 6 without them), and a bake writes the volumetric values only with
 //! `--volume`. Version 8 stores a compressed atmospheric leaf with all six matrices filled as
-//! the SH coefficients of its free-space light (`caches::octree` `atmosphere.rs`). The cache
+//! the SH coefficients of its free-space light (`caches::octree` `atmosphere.rs`). Version 9
+//! holds the volumetric solution as a third tree, the free-space tree (`caches::octree`
+//! `refine.rs`), its values' anchors beside them. The cache
 //! holds no time: the same bake gives the same bytes, for any thread
 //! count and any run ([`TIMING_KEYS`]; the bake's JSON report holds the times); the meta JSON
 //! holds the `octree` integrator's settings, those of the termination rule included. An older
@@ -66,7 +70,11 @@ const ANCHORS_BYTES: usize = ANCHOR_BYTES * (1 + ANCHOR_SAMPLES);
 /// The first 8 bytes of a cache file.
 pub const MAGIC: [u8; 8] = *b"OXCACHE\0";
 /// The format version this octolux writes and reads.
-pub const FORMAT_VERSION: u32 = 8;
+pub const FORMAT_VERSION: u32 = 9;
+/// The trees byte: the global octree (always), the caustic one, the free-space tree.
+const TREE_GLOBAL: u8 = 1;
+const TREE_CAUSTIC: u8 = 2;
+const TREE_VOLUME: u8 = 4;
 /// Header bytes: magic, version, reserved, body length.
 pub const HEADER_BYTES: usize = 24;
 /// Trailer bytes: the CRC-32.
@@ -157,7 +165,7 @@ fn with_zero_times<T: serde::de::DeserializeOwned>(mut v: serde_json::Value, key
 /// The build statistics as a file holds them: [`TIMING_KEYS`] and the trees' times left out.
 fn build_stats_json(stats: &OctreeBuildStats) -> serde_json::Value {
     let mut v = without_times(stats, &TIMING_KEYS);
-    for tree in ["global", "caustic"] {
+    for tree in ["global", "caustic", "volume"] {
         if let Some(t) = v.get_mut(tree).filter(|t| t.is_object()) {
             *t = without_times(t, &TREE_TIMING_KEYS);
         }
@@ -166,7 +174,7 @@ fn build_stats_json(stats: &OctreeBuildStats) -> serde_json::Value {
 }
 
 fn build_stats_from_json(mut v: serde_json::Value) -> Result<OctreeBuildStats, String> {
-    for tree in ["global", "caustic"] {
+    for tree in ["global", "caustic", "volume"] {
         if let Some(t) = v.get_mut(tree).filter(|t| t.is_object()) {
             let s: OctreeStats = with_zero_times(t.take(), &TREE_TIMING_KEYS, &format!("metadata, {tree} statistics"))?;
             *t = serde_json::to_value(s).map_err(|e| e.to_string())?;
@@ -210,7 +218,8 @@ pub struct CacheLayout {
     pub facing: usize,
     /// The leak test's anchors (6 bytes per valid leaf, 30 with the sampled photons).
     pub anchors: usize,
-    /// The volumetric values (`bake --volume`).
+    /// The volumetric solution (`bake --volume`): the free-space tree, whole, and any tree's
+    /// diffused values.
     pub atmosphere: usize,
 }
 
@@ -301,11 +310,18 @@ pub fn encode_with_layout(c: &CacheFile) -> (Vec<u8>, CacheLayout) {
         stats: build_stats_json(&c.parts.stats),
     };
     put_json(&mut body, &meta);
-    body.push(1 + c.parts.caustic.is_some() as u8);
+    body.push(
+        TREE_GLOBAL | if c.parts.caustic.is_some() { TREE_CAUSTIC } else { 0 } | if c.parts.volume.is_some() { TREE_VOLUME } else { 0 },
+    );
     layout.header = body.len();
     put_tree(&mut body, &c.parts.global, &mut layout);
     if let Some(t) = &c.parts.caustic {
         put_tree(&mut body, t, &mut layout);
+    }
+    if let Some(t) = &c.parts.volume {
+        let mut free = CacheLayout::default();
+        put_tree(&mut body, t, &mut free);
+        layout.atmosphere += free.total();
     }
     let mut out = Vec::with_capacity(HEADER_BYTES + body.len() + TRAILER_BYTES);
     out.extend_from_slice(&MAGIC);
@@ -513,19 +529,20 @@ pub fn decode(bytes: &[u8], verify_checksum: bool) -> Result<CacheFile, String> 
     // the values checked as every other source's are (a crafted max_depth of -5, say)
     crate::settings::check_values(&octolux::integrators::IntegratorSettings::Octree(meta.settings.clone()))
         .map_err(|e| format!("its settings: {e}"))?;
-    let trees = r.u8("tree count")?;
-    if !(1..=2).contains(&trees) {
-        return Err(format!("{trees} octrees (1 or 2: global, caustic)"));
+    let trees = r.u8("trees")?;
+    if trees & TREE_GLOBAL == 0 || trees & !(TREE_GLOBAL | TREE_CAUSTIC | TREE_VOLUME) != 0 {
+        return Err(format!("trees {trees:#05b} (bit 0: global, always; bit 1: caustic; bit 2: free-space)"));
     }
     let global = read_tree(&mut r, "global", &meta.settings.global)?;
-    let caustic = if trees == 2 { Some(read_tree(&mut r, "caustic", &meta.settings.caustic)?) } else { None };
+    let caustic = if trees & TREE_CAUSTIC != 0 { Some(read_tree(&mut r, "caustic", &meta.settings.caustic)?) } else { None };
+    let volume = if trees & TREE_VOLUME != 0 { Some(read_tree(&mut r, "free-space", &meta.settings.global)?) } else { None };
     if r.left() != 0 {
         return Err(format!("{} unread bytes after the octrees", r.left()));
     }
     Ok(CacheFile {
         fingerprint,
         info: CacheInfo { octolux_version: meta.octolux_version, scene: meta.scene, backend: meta.backend },
-        parts: OctreeIntegratorParts { settings: meta.settings, global, caustic, stats: build_stats_from_json(meta.stats)? },
+        parts: OctreeIntegratorParts { settings: meta.settings, global, caustic, volume, stats: build_stats_from_json(meta.stats)? },
     })
 }
 

@@ -162,7 +162,8 @@ pub fn bake(scene: &Scene, scene_name: &str, settings: OctreeIntegratorSettings,
     let info =
         CacheInfo { octolux_version: env!("CARGO_PKG_VERSION").into(), scene: scene_name.to_string(), backend: scene.backend_name() };
     let mut parts = o.to_parts();
-    let leak_samples = volume || o.leak() == LeakTest::VisibleSample;
+    // the free-space tree's leak test reads its own anchors, not the global leaves' samples
+    let leak_samples = o.leak() == LeakTest::VisibleSample;
     if !leak_samples {
         parts.global = parts.global.without_leak_samples();
         parts.caustic = parts.caustic.map(|c| c.without_leak_samples());

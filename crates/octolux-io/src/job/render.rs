@@ -194,7 +194,7 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
     if let (Some(ins), Integrator::Octree(o)) = (&insertion, &mut integrator) {
         if ins.light == insert::InsertLight::Rebake {
             rebaking = Some(insert::Rebaking::start(o, &scene, ins, fe)?);
-        } else if !o.global.has_atmosphere() {
+        } else if o.volume.is_none() {
             let st = o.fill_atmosphere(&scene);
             fe.info(&format!("octree: volumetric values for --insert {}: {}", ins.file, st.summary()));
         }

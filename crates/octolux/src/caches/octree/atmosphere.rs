@@ -97,6 +97,26 @@ pub(super) struct Atmosphere {
     index: Vec<u32>,
     /// Per entry of `values`: its filled bits (derived from `filled`).
     entry_bits: Vec<u8>,
+    /// Per entry of `values`: where its light passes, within its cell ([`quantise_anchor`];
+    /// [`NO_ANCHOR`]: a diffused value), or empty: none recorded.
+    pub(super) anchors: Vec<[u8; 3]>,
+}
+
+/// An entry's anchor byte that marks no anchor (a diffused value: the leak test then reads
+/// the leaf at its point nearest to the query).
+pub const NO_ANCHOR: [u8; 3] = [255, 255, 255];
+
+/// A point of a cell (corner `cmin`, edge `s`) as three bytes, `0..=254` per axis; the
+/// centre of the byte's slab on decoding ([`anchor_point`]).
+pub(super) fn quantise_anchor(p: Vec3, cmin: Vec3, s: f32) -> [u8; 3] {
+    let q = |a: usize| ((p[a] - cmin[a]) / s * 255.0).floor().clamp(0.0, 254.0) as u8;
+    [q(0), q(1), q(2)]
+}
+
+/// The point of a cell an anchor's bytes stand for; `None` for [`NO_ANCHOR`] (any first byte
+/// 255).
+pub(super) fn anchor_point(q: [u8; 3], cmin: Vec3, s: f32) -> Option<Vec3> {
+    (q[0] != 255).then(|| cmin + Vec3::new(q[0] as f32 + 0.5, q[1] as f32 + 0.5, q[2] as f32 + 0.5) * (s / 255.0))
 }
 
 /// What the fill did.
@@ -182,14 +202,14 @@ fn node_index(tree: &Octree, filled: &[u8]) -> Vec<u32> {
 
 impl Atmosphere {
     /// From stored parts: lengths are the caller's to check (`parts.rs`).
-    pub(super) fn new(tree: &Octree, filled: Vec<u8>, values: LeafValues) -> Atmosphere {
+    pub(super) fn new(tree: &Octree, filled: Vec<u8>, values: LeafValues, anchors: Vec<[u8; 3]>) -> Atmosphere {
         let index = node_index(tree, &filled);
         let entry_bits = filled.iter().copied().filter(|&f| f != 0).collect();
-        Atmosphere { filled, values, index, entry_bits }
+        Atmosphere { filled, values, index, entry_bits, anchors }
     }
 
     pub(super) fn bytes(&self) -> usize {
-        self.filled.len() + self.values.bytes()
+        self.filled.len() + self.values.bytes() + 3 * self.anchors.len()
     }
 }
 
@@ -233,11 +253,6 @@ impl Octree {
             }
         }
         own & faced
-    }
-
-    /// Whether the tree carries diffused values.
-    pub fn has_atmosphere(&self) -> bool {
-        self.atmosphere.is_some()
     }
 
     /// Diffuse the six matrices into every leaf that lacks them (module docs). `visible(a, b)`
@@ -461,7 +476,25 @@ impl Octree {
         let unreached_leaves =
             leaves.iter().zip(&known).filter(|(l, &k)| self.nodes[l.node as usize].value() == NO_VALUE && k == 0).count();
         let filled_leaves = filled.iter().filter(|&&f| f != 0).count();
-        let atmosphere = Atmosphere::new(self, filled, values);
+        // the flight leaves' anchors, per entry
+        let anchors = match flights {
+            Some(f) => {
+                let view = self.view();
+                filled
+                    .iter()
+                    .zip(&leaves)
+                    .filter(|(&f, _)| f != 0)
+                    .map(|(_, l)| match f.index.get(l.node as usize).copied().filter(|&j| j != NONE) {
+                        Some(j) if f.anchors[j as usize].is_finite() => {
+                            quantise_anchor(f.anchors[j as usize], view.cell_min(l.depth, l.ijk), self.cell_size[l.depth as usize])
+                        }
+                        _ => NO_ANCHOR,
+                    })
+                    .collect()
+            }
+            None => Vec::new(),
+        };
+        let atmosphere = Atmosphere::new(self, filled, values, anchors);
         let bytes = atmosphere.bytes();
         self.stats.bytes += bytes;
         self.stats.bytes_per_valid_leaf =

@@ -23,6 +23,12 @@
 //! `caches::probes` use the same flights. Flights that end on a mirror or glass, or that leave
 //! the scene, store no photon and are not counted.
 //!
+//! # Anchors
+//! Each leaf's flights also give where its light passes: their centroid, each crossing's
+//! midpoint weighted by its power (channel mean) times its length in the cell. The volume
+//! query's leak test sees the leaf there (`atmosphere/volume.rs`): a cell cut by a wall whose
+//! flights lie behind it is not seen from the room.
+//!
 //! # Determinism
 //! Photons are taken in fixed chunks; each chunk's crossings are sorted by leaf and summed in
 //! f64, and the chunks' sums are added in chunk order: the values are bit-identical for any
@@ -54,6 +60,9 @@ pub struct Flights {
     pub(super) index: Vec<u32>,
     /// The six matrices of each such leaf.
     pub(super) values: Vec<FullLeaf>,
+    /// Per entry of `values`: where its light passes, the flights' centroid (each crossing's
+    /// midpoint weighted by its power, channel mean, times its length in the cell).
+    pub(super) anchors: Vec<Vec3>,
     /// Flights used (finite, positive length).
     pub flights: usize,
     /// Leaf crossings of those flights in atmospheric leaves.
@@ -66,6 +75,8 @@ pub struct FlightSums {
     /// (node × 8 + octant of the direction the light comes from, sums of `w ⊗ Φ ℓ`, crossings),
     /// sorted by key.
     sums: Vec<(u64, [f64; 9], u32)>,
+    /// (node, `Σ x · midpoint`, `Σ x`) with `x` = power (channel mean) × length, sorted by node.
+    centroids: Vec<(u32, [f64; 3], f64)>,
     /// Flights used.
     used: usize,
 }
@@ -136,6 +147,7 @@ impl Octree {
         // summed as the flights come (flight order per leaf), so that a chunk holds one entry
         // per leaf and octant it met, not one per crossing
         let mut acc: std::collections::HashMap<u64, ([f64; 9], u32)> = std::collections::HashMap::new();
+        let mut cen: std::collections::HashMap<u32, ([f64; 3], f64)> = std::collections::HashMap::new();
         let mut used = 0usize;
         for (o, d, t, c) in flights {
             if !(t > 0.0 && o.is_finite() && d.is_finite() && c.is_finite()) {
@@ -145,19 +157,28 @@ impl Octree {
             // the direction the light comes from, seen from the cells it crosses
             let w = -d;
             let oct = (w.x < 0.0) as u64 | ((w.y < 0.0) as u64) << 1 | ((w.z < 0.0) as u64) << 2;
-            self.segment_leaves(o, d, t, |node, l| {
+            let power = (c.x as f64 + c.y as f64 + c.z as f64) / 3.0;
+            self.segment_cells(o, d, t, |node, _, _, t0, t1| {
                 if self.nodes[node as usize].value() == super::NO_VALUE {
+                    let l = t1 - t0;
                     let a = w * l;
                     let v = [a.x * c.x, a.y * c.x, a.z * c.x, a.x * c.y, a.y * c.y, a.z * c.y, a.x * c.z, a.y * c.z, a.z * c.z];
                     let e = acc.entry(node as u64 * 8 + oct).or_insert(([0.0; 9], 0));
                     e.0.iter_mut().zip(v).for_each(|(s, x)| *s += x as f64);
                     e.1 += 1;
+                    let x = power * l as f64;
+                    let mid = o + d * (0.5 * (t0 + t1));
+                    let g = cen.entry(node).or_insert(([0.0; 3], 0.0));
+                    g.0.iter_mut().zip(mid.to_array()).for_each(|(s, m)| *s += x * m as f64);
+                    g.1 += x;
                 }
             });
         }
         let mut sums: Vec<(u64, [f64; 9], u32)> = acc.into_iter().map(|(k, (v, m))| (k, v, m)).collect();
         sums.sort_unstable_by_key(|r| r.0);
-        FlightSums { sums, used }
+        let mut centroids: Vec<(u32, [f64; 3], f64)> = cen.into_iter().map(|(k, (v, m))| (k, v, m)).collect();
+        centroids.sort_unstable_by_key(|r| r.0);
+        FlightSums { sums, centroids, used }
     }
 
     /// The flight estimate (module docs) from the chunks' sums, added in the order given.
@@ -172,9 +193,16 @@ impl Octree {
         }
         let mut sums = vec![[0f64; 9]; atm_nodes.len() * 8];
         let mut count = vec![0u32; atm_nodes.len()];
+        let mut cen = vec![([0f64; 3], 0f64); atm_nodes.len()];
         let (mut flights, mut crossings) = (0usize, 0u64);
         for chunk in chunks {
             flights += chunk.used;
+            for (node, v, m) in chunk.centroids {
+                let Some(&j) = atm.get(node as usize).filter(|&&j| j != NONE) else { continue };
+                let g = &mut cen[j as usize];
+                g.0.iter_mut().zip(v).for_each(|(s, x)| *s += x);
+                g.1 += m;
+            }
             for (k, v, m) in chunk.sums {
                 let Some(&j) = atm.get((k / 8) as usize).filter(|&&j| j != NONE) else { continue };
                 let s = &mut sums[j as usize * 8 + (k % 8) as usize];
@@ -185,6 +213,7 @@ impl Octree {
         }
         let mut index = vec![NONE; self.nodes.len()];
         let mut values = Vec::new();
+        let mut anchors = Vec::new();
         for (j, l) in atm_nodes.iter().enumerate() {
             if count[j] < FLIGHT_MIN {
                 continue;
@@ -201,8 +230,10 @@ impl Octree {
             });
             index[l.node as usize] = values.len() as u32;
             values.push(leaf);
+            let (g, m) = cen[j];
+            anchors.push(if m > 0.0 { Vec3::new((g[0] / m) as f32, (g[1] / m) as f32, (g[2] / m) as f32) } else { Vec3::NAN });
         }
-        Flights { index, values, flights, crossings }
+        Flights { index, values, anchors, flights, crossings }
     }
 
     /// The flight estimate from stored photons and their flight lengths (scene units;

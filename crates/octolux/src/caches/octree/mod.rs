@@ -100,12 +100,12 @@ mod tests;
 /// Every matrix of the leaf carries a value.
 pub(crate) const ALL_FACING: u8 = 0b11_1111;
 
-pub use atmosphere::{AtmosphereStats, FREE_SPACE_BYTES, PROBE_LIFT, SMOOTHING_SWEEPS};
+pub use atmosphere::{AtmosphereStats, FREE_SPACE_BYTES, NO_ANCHOR, PROBE_LIFT, SMOOTHING_SWEEPS};
 pub use flights::{FlightSums, Flights, FLIGHT_MIN};
 pub use geometry::AnalyticSphere;
 pub use parts::{AtmosphereParts, LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
-pub use refine::{OctantSums, RefineStats, REFINE_FLOOR, REFINE_TAU};
+pub use refine::{OctantSums, RefineStats, FREE_SPACE_BASE_DEPTH, REFINE_FLOOR, REFINE_TAU};
 pub use refit::{Changes, RefitStats};
 pub use settings::{auto_depth, Depth, Enlarge, Estimator, OctreeSettings, Split, Storage, AUTO_HEADROOM, MAX_DEPTH};
 pub use stream::{Stream, StreamKind, StreamNode, StreamSplit};

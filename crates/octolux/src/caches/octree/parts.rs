@@ -57,6 +57,9 @@ pub struct AtmosphereParts {
     /// One entry per leaf with any filled bit, in order, in the tree's storage (zero matrices
     /// where not filled).
     pub values: LeafValueParts,
+    /// Per entry, where its flights pass within its cell (three bytes, `0..=254` per axis;
+    /// [`NO_ANCHOR`](super::atmosphere::NO_ANCHOR): a diffused value), or empty: none recorded.
+    pub anchors: Vec<[u8; 3]>,
 }
 
 /// A built octree as plain data (see the module docs).
@@ -208,6 +211,7 @@ impl Octree {
                     LeafValues::Compressed(v) => LeafValueParts::Compressed(v.clone()),
                     LeafValues::Full(v) => LeafValueParts::Full(v.clone()),
                 },
+                anchors: a.anchors.clone(),
             }),
         }
     }
@@ -278,6 +282,9 @@ impl Octree {
             if a.values.len() != entries {
                 return bad(format!("{} atmosphere values for {entries} filled leaves", a.values.len()));
             }
+            if !a.anchors.is_empty() && a.anchors.len() != entries {
+                return bad(format!("{} atmosphere anchors for {entries} filled leaves", a.anchors.len()));
+            }
             if std::mem::discriminant(&a.values) != std::mem::discriminant(&values) {
                 return bad("the atmosphere's storage is not the tree's".into());
             }
@@ -299,9 +306,9 @@ impl Octree {
                 LeafValueParts::Compressed(v) => LeafValues::Compressed(v),
                 LeafValueParts::Full(v) => LeafValues::Full(v),
             };
-            (a.filled, v)
+            (a.filled, v, a.anchors)
         });
-        let atmosphere_bytes = atmosphere_values.as_ref().map_or(0, |(f, v)| f.len() + v.bytes());
+        let atmosphere_bytes = atmosphere_values.as_ref().map_or(0, |(f, v, q)| f.len() + v.bytes() + 3 * q.len());
         let bytes = std::mem::size_of_val(nodes.as_slice())
             + values.bytes()
             + facing.len()
@@ -338,8 +345,8 @@ impl Octree {
             settings,
             stats,
         };
-        if let Some((filled, values)) = atmosphere_values {
-            tree.atmosphere = Some(super::atmosphere::Atmosphere::new(&tree, filled, values));
+        if let Some((filled, values, anchors)) = atmosphere_values {
+            tree.atmosphere = Some(super::atmosphere::Atmosphere::new(&tree, filled, values, anchors));
         }
         Ok(tree)
     }

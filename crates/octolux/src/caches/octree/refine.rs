@@ -26,12 +26,24 @@
 //! smallest leaf) is unchanged, and so is every surface query (an atmospheric leaf holds no
 //! photon; its eight children hold none either).
 //!
+//! # The free-space tree
+//! Refining the surface tree's own atmospheric leaves leaves out the free space inside its
+//! valid leaves' cells: near every surface, and in a small room almost everywhere (the
+//! Bitterli box: 266 of 300 free points; read as their surface, relMSE 0.43 there). So the
+//! volumetric solution is a tree of its own ([`Octree::free_space_tree`]): the surface tree's
+//! root cube, cut uniformly to depth [`FREE_SPACE_BASE_DEPTH`], every leaf atmospheric, then
+//! refined by the test above. A cell that a wall cuts has octants the flights reach and
+//! octants they do not, so the test splits it towards the wall; its flight estimate then
+//! reads the light on the wall's open side. The flights' centroid in each leaf (`flights.rs`)
+//! is its anchor for the leak test, so that a cell that holds a sliver of a room and the
+//! sunlit space behind its wall does not light the room.
+//!
 //! # Determinism
 //! The caller's chunks are added in order, in f64; the nodes are laid out again in the order a
 //! cache file reads them (children allocated depth first): bit-identical for any thread count.
 
 use super::flights::FLIGHT_MIN;
-use super::{Node, Octree, LEAF_BIT, NO_VALUE};
+use super::{Node, Octree, OctreeStats, LEAF_BIT, NO_VALUE};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, HashMap};
@@ -41,6 +53,10 @@ use std::collections::{BTreeMap, HashMap};
 pub const REFINE_TAU: f64 = 0.1;
 /// The floor of the relative test in dim space, as a fraction of the mean free-space fluence.
 pub const REFINE_FLOOR: f64 = 0.1;
+/// Depth of the uniform start of a free-space tree ([`Octree::free_space_tree`]): 512 cells.
+/// Measured (docs/lab/2026-12-06-free-space-tree.md): on the Bitterli box, starting from the
+/// surface tree's own cells gave the same error with 2.8x the bytes, from depth 4 1.7x.
+pub const FREE_SPACE_BASE_DEPTH: u32 = 3;
 
 /// One chunk of flights summed per octant of the atmospheric leaves they cross
 /// ([`Octree::octant_sums`]), for [`Octree::refine_free_space`].
@@ -182,6 +198,47 @@ impl Octree {
         }
         st.t_s = t0.elapsed().as_secs_f64();
         st
+    }
+
+    /// The start of a free-space tree over this tree's root cube, with its settings (module
+    /// docs, "The free-space tree"): every cell of depth [`FREE_SPACE_BASE_DEPTH`] an
+    /// atmospheric leaf, no photon, no surface value. [`Octree::refine_free_space`] splits it
+    /// down to this tree's deepest leaf, and [`Octree::fill_atmosphere_with`] gives its
+    /// leaves their values.
+    pub fn free_space_tree(&self) -> Octree {
+        let mut t = self.clone();
+        t.nodes = vec![Node { link: LEAF_BIT | NO_VALUE, photons: 0 }];
+        let mut level = vec![0usize];
+        for _ in 0..FREE_SPACE_BASE_DEPTH.min(self.stats.max_depth) {
+            let mut next = Vec::with_capacity(level.len() * 8);
+            for &i in &level {
+                let first = t.nodes.len();
+                t.nodes[i] = Node { link: first as u32, photons: 0 };
+                t.nodes.extend([Node { link: LEAF_BIT | NO_VALUE, photons: 0 }; 8]);
+                next.extend(first..first + 8);
+            }
+            level = next;
+        }
+        t.relayout();
+        t.values = match &self.values {
+            super::LeafValues::Compressed(_) => super::LeafValues::Compressed(Vec::new()),
+            super::LeafValues::Full(_) => super::LeafValues::Full(Vec::new()),
+        };
+        t.facing.clear();
+        t.anchors.clear();
+        t.atmosphere = None;
+        t.flat = Default::default();
+        t.stats = OctreeStats {
+            nodes: t.nodes.len(),
+            leaves: level.len(),
+            bytes: t.nodes.len() * std::mem::size_of::<Node>(),
+            max_depth: self.stats.max_depth,
+            min_leaf_size: self.stats.min_leaf_size,
+            h_max: self.stats.h_max,
+            surface_area: self.stats.surface_area,
+            ..OctreeStats::default()
+        };
+        t
     }
 
     /// Make each of `leaves` (atmospheric) an internal node with eight atmospheric children, and

@@ -51,35 +51,35 @@ pub struct Inserted {
 }
 
 impl OctreeIntegrator {
-    /// The global octree's volumetric values: its atmospheric leaves are first split where the
-    /// photons' flights show their light changing (`caches::octree` `refine.rs`); the
-    /// atmospheric cells that enough flights cross then take the light passing through them
-    /// (`flights.rs`); the values are then diffused into the other cells (and the valid
-    /// leaves' missing matrices), never through a surface of `scene` (the baked scene, without
-    /// any inserted object). The photon paths are traced again with the build's settings (the
-    /// same paths: the pass is deterministic), once per round of the refinement and once for
-    /// the estimate, and every flight of their global light counts, those that leave the scene
-    /// or end on a mirror or glass too. The build statistics follow (bytes).
+    /// The volumetric solution ([`OctreeIntegrator::volume`]): a free-space tree over the
+    /// global octree's root cube (`caches::octree` `refine.rs`, "The free-space tree"), split
+    /// where the photons' flights show its light changing; the cells that enough flights cross
+    /// then take the light passing through them (`flights.rs`), and the values are diffused
+    /// into the others, never through a surface of `scene` (the baked scene, without any
+    /// inserted object). The photon paths are traced again with the build's settings (the same
+    /// paths: the pass is deterministic), once per round of the refinement and once for the
+    /// estimate, and every flight of their global light counts, those that leave the scene or
+    /// end on a mirror or glass too. The build statistics follow (bytes).
     pub fn fill_atmosphere(&mut self, scene: &Scene) -> AtmosphereStats {
         let visible = |a: Vec3, b: Vec3| scene.sees(a, b, 0.0);
         let photons = self.settings.traced_photons();
         let global = |chunk: &[Flight]| -> Vec<(Vec3, Vec3, f32, Vec3)> {
             chunk.iter().filter(|f| f.is_global()).map(|f| (f.o, f.d, f.t, f.power)).collect()
         };
-        let refine =
-            self.global.refine_free_space(|tree| map_flights(scene, &photons, |c| tree.octant_sums(global(c))).unwrap_or_default());
-        let tree = &self.global;
+        let mut tree = self.global.free_space_tree();
+        let refine = tree.refine_free_space(|t| map_flights(scene, &photons, |c| t.octant_sums(global(c))).unwrap_or_default());
         let flights = map_flights(scene, &photons, |c| tree.flight_sums(global(c))).ok().map(|chunks| tree.flights_from(chunks));
-        let mut st = self.global.fill_atmosphere_with(&visible, flights.as_ref());
+        let mut st = tree.fill_atmosphere_with(&visible, flights.as_ref());
         st.refine = refine;
-        self.stats.global = self.global.stats().clone();
-        self.stats.bytes = self.global.stats().bytes + self.caustic.as_ref().map_or(0, |c| c.stats().bytes);
+        self.stats.volume = Some(tree.stats().clone());
+        self.volume = Some(tree);
+        self.stats.bytes = self.bytes();
         st
     }
 
     /// Light reflected at a point of an inserted object from `tree`'s volume query.
     pub(super) fn inserted_indirect(&self, scene: &Scene, v: &CacheVertex, min_alpha: f32, counters: &mut RayCounters) -> Option<Color> {
-        let (tree, hit, n, material) = (&self.global, v.hit, v.n, v.material);
+        let (tree, hit, n, material) = (self.volume.as_ref().unwrap_or(&self.global), v.hit, v.n, v.material);
         let mut rays = 0u64;
         let leak = self.settings.leak;
         let shapes = self.inserted.shapes.clone();

@@ -96,7 +96,10 @@ pub struct OctreeBuildStats {
     pub build_photons_per_s: f64,
     pub global: OctreeStats,
     pub caustic: Option<OctreeStats>,
-    /// `F_m`: bytes of both octrees as stored.
+    /// The free-space tree's, if baked ([`OctreeIntegrator::volume`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volume: Option<OctreeStats>,
+    /// `F_m`: bytes of the octrees as stored (the free-space tree's included).
     pub bytes: usize,
 }
 
@@ -114,6 +117,11 @@ pub struct OctreeIntegrator {
     pub settings: OctreeIntegratorSettings,
     pub global: Octree,
     pub caustic: Option<Octree>,
+    /// The volumetric solution (`bake --volume`; [`OctreeIntegrator::fill_atmosphere`]): a
+    /// free-space tree over the global octree's root cube, every leaf atmospheric
+    /// (`caches/octree/refine.rs`, "The free-space tree"). The volume query of an inserted
+    /// object reads it; without it, the global octree's.
+    pub volume: Option<Octree>,
     pub stats: OctreeBuildStats,
     /// [`LeafPlanes`] of the global and the caustic tree for the leak test (index 0 and 1),
     /// derived from the scene by [`OctreeIntegrator::prepare`]: without them every segment of
@@ -130,6 +138,8 @@ pub struct OctreeIntegratorParts {
     pub settings: OctreeIntegratorSettings,
     pub global: OctreeParts,
     pub caustic: Option<OctreeParts>,
+    /// The free-space tree, if baked (its settings are the global octree's).
+    pub volume: Option<OctreeParts>,
     pub stats: OctreeBuildStats,
 }
 
@@ -140,6 +150,7 @@ impl OctreeIntegrator {
             settings: self.settings.clone(),
             global: self.global.to_parts(),
             caustic: self.caustic.as_ref().map(Octree::to_parts),
+            volume: self.volume.as_ref().map(Octree::to_parts),
             stats: self.stats.clone(),
         }
     }
@@ -148,7 +159,7 @@ impl OctreeIntegrator {
     /// is checked ([`Octree::from_parts`]) and each octree's settings must be the integrator's.
     /// Renders are bit-identical to those of the integrator the parts came from.
     pub fn from_parts(parts: OctreeIntegratorParts) -> Result<OctreeIntegrator, BuildError> {
-        let OctreeIntegratorParts { settings, global, caustic, mut stats } = parts;
+        let OctreeIntegratorParts { settings, global, caustic, volume, mut stats } = parts;
         settings.validate().map_err(BuildError::Settings)?;
         let tree = |name: &'static str, want: &OctreeSettings, p: OctreeParts| {
             let err = |source| BuildError::Parts { tree: name, source };
@@ -159,15 +170,22 @@ impl OctreeIntegrator {
         };
         let global = tree("global", &settings.global, global)?;
         let caustic = caustic.map(|c| tree("caustic", &settings.caustic, c)).transpose()?;
+        let volume = volume.map(|v| tree("volume", &settings.global, v)).transpose()?;
         stats.global = global.stats().clone();
         stats.caustic = caustic.as_ref().map(|c| c.stats().clone());
-        stats.bytes = global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes);
-        let o = OctreeIntegrator { settings, global, caustic, stats, planes: [None, None], inserted: Default::default() };
+        stats.volume = volume.as_ref().map(|v| v.stats().clone());
+        let mut o = OctreeIntegrator { settings, global, caustic, volume, stats, planes: [None, None], inserted: Default::default() };
+        o.stats.bytes = o.bytes();
         if let Some(why) = o.missing_leak_samples(&o.settings, false) {
             return Err(BuildError::Settings(why));
         }
         o.prepare_query();
         Ok(o)
+    }
+
+    /// Bytes of the octrees as stored: global, caustic and free-space.
+    pub fn bytes(&self) -> usize {
+        [Some(&self.global), self.caustic.as_ref(), self.volume.as_ref()].into_iter().flatten().map(|t| t.stats().bytes).sum()
     }
 
     /// Why the queries of `settings` cannot run on these octrees, if they cannot: the
@@ -177,7 +195,7 @@ impl OctreeIntegrator {
     /// mean anchors lacks them ([`Octree::has_leak_samples`]).
     pub fn missing_leak_samples(&self, settings: &OctreeIntegratorSettings, insert_volume: bool) -> Option<String> {
         let visible_sample = settings.leak.resolved(settings.mode) == LeakTest::VisibleSample;
-        let needs = visible_sample || (insert_volume && settings.leak != LeakTest::None);
+        let needs = visible_sample || (insert_volume && settings.leak != LeakTest::None && self.volume.is_none());
         let lacking = !self.global.has_leak_samples() || self.caustic.as_ref().is_some_and(|c| !c.has_leak_samples());
         (needs && lacking).then(|| {
             let what = if !visible_sample {
@@ -187,7 +205,8 @@ impl OctreeIntegrator {
             };
             format!(
                 "{what} casts rays to the leaves' sampled photons, and these octrees hold only their means (a cache baked for \
-                 another leak test): bake with the leak test used here (or with --volume), or render with leak = none"
+                 another leak test): bake with the leak test used here (for an inserted object's volume query, or with \
+                 --volume), or render with leak = none"
             )
         })
     }
@@ -287,9 +306,10 @@ impl OctreeIntegrator {
             build_photons_per_s: n as f64 / t_octree_s.max(1e-9),
             global: global.stats().clone(),
             caustic: caustic.as_ref().map(|c| c.stats().clone()),
+            volume: None,
             bytes: global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes),
         };
-        let mut o = OctreeIntegrator { settings, global, caustic, stats, planes: [None, None], inserted: Default::default() };
+        let mut o = OctreeIntegrator { settings, global, caustic, volume: None, stats, planes: [None, None], inserted: Default::default() };
         o.prepare(scene);
         o.prepare_query();
         Ok(o)

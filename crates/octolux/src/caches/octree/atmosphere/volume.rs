@@ -160,16 +160,20 @@ impl Octree {
     }
 
     /// The leak test's view of a leaf met by a volume query at `p`: a valid leaf's anchors;
-    /// for an atmospheric leaf, the point of its cell nearest to `p` (nudged a thousandth of
-    /// the cell inwards; `p` itself inside the cell), as position and as every sample, normal
-    /// zero. Not the cell's centre: an inserted object often encloses the centre of the cell
-    /// it stands in, and its own surface then hid the cell from every point on it (measured:
-    /// a black ring on a ball, 28% of its light missing in one frame of eight).
-    fn volume_query_leaf(&self, p: Vec3, v: u32, depth: u32, ijk: [u32; 3]) -> QueryLeaf {
+    /// for an atmospheric leaf with a flight estimate, its anchor (where its flights pass: a
+    /// cell that holds a sliver of a room and the sunlit space behind its wall has its anchor
+    /// outside, and a point in the room does not see it); for one with a diffused value, the
+    /// point of its cell nearest to `p` (nudged a thousandth of the cell inwards; `p` itself
+    /// inside the cell). Each as position and as every sample, normal zero. Not the cell's
+    /// centre: an inserted object often encloses the centre of the cell it stands in, and its
+    /// own surface then hid the cell from every point on it (measured: a black ring on a ball,
+    /// 28% of its light missing in one frame of eight).
+    fn volume_query_leaf(&self, p: Vec3, v: u32, e: u32, depth: u32, ijk: [u32; 3]) -> QueryLeaf {
         let view = self.view();
         let (cmin, s) = (view.cell_min(depth, ijk), self.cell_size[depth as usize]);
         if v == NO_VALUE {
-            let c = p.clamp(cmin + Vec3::splat(1e-3 * s), cmin + Vec3::splat(0.999 * s));
+            let anchor = self.atmosphere.as_ref().and_then(|a| a.anchors.get(e as usize)).and_then(|&q| anchor_point(q, cmin, s));
+            let c = anchor.unwrap_or_else(|| p.clamp(cmin + Vec3::splat(1e-3 * s), cmin + Vec3::splat(0.999 * s)));
             return QueryLeaf {
                 position: c,
                 normal: Vec3::ZERO,
@@ -208,7 +212,7 @@ impl Octree {
                 return;
             }
             if let Some(k) = keep.as_mut() {
-                if !k(self.volume_query_leaf(p, v, depth, ijk)) {
+                if !k(self.volume_query_leaf(p, v, e, depth, ijk)) {
                     return;
                 }
             }

@@ -1,5 +1,6 @@
-//! The volumetric solution (`caches::octree` `atmosphere.rs`) against path tracing, across
-//! walls and across cell borders, and an object inserted into baked lighting.
+//! The volumetric solution (the free-space tree: `caches::octree` `refine.rs`, `flights.rs`,
+//! `atmosphere.rs`) against path tracing, across walls and cell borders, and an object inserted
+//! into baked lighting.
 
 use super::super::leak_tests::two_rooms;
 use super::super::RayCounters;
@@ -50,6 +51,11 @@ fn volume(tree: &Octree, scene: &Scene, p: Vec3, n: Vec3) -> f64 {
     tree.irradiance_volume(p, n, Some(&mut keep)).map_or(0.0, mean3)
 }
 
+/// The free-space tree of a baked integrator ([`OctreeIntegrator::fill_atmosphere`]).
+fn free(o: &OctreeIntegrator) -> &Octree {
+    o.volume.as_ref().expect("the volumetric solution was baked")
+}
+
 fn baked_box(photons: u64) -> (Scene, OctreeIntegrator) {
     let scene = box_scene(8);
     let mut s = OctreeIntegratorSettings::default();
@@ -63,12 +69,11 @@ fn baked_box(photons: u64) -> (Scene, OctreeIntegrator) {
 
 /// Free-space points of the closed Cornell-like box (size 2, light under the ceiling), each of
 /// the six axis normals: the volume query's indirect irradiance against the path tracer's
-/// (512 rays each). Measured (400 000 photons): per (point, normal) the ratio spreads over
-/// 0.63–1.46 (the diffused value is that of the nearby surfaces facing the same way, not the
-/// point's own: a sensor facing −X near the red wall sees it closer than the green wall, whose
-/// value it gets, does), the mean ratio over the 48 cases 1.004. Before the diffusion flowed one
-/// way along each matrix's axis, the dark top of the light pulled the up-facing values under
-/// the ceiling to 0.26. Bounds: every case within 0.5–1.6, the mean within 15%.
+/// (512 rays each). Measured (400 000 photons), the free-space tree's flights: per (point,
+/// normal) the ratio spreads over 0.95–1.17, the mean over the 48 cases 1.021. (The values
+/// diffused from the surface tree's leaves gave 0.63–1.46, mean 1.004: a sensor took the value
+/// of the nearby surfaces facing the same way, not its own.) Bounds: every case within
+/// 0.8–1.3, the mean within 6%.
 #[test]
 fn free_space_irradiance_is_close_to_path_tracing() {
     let (scene, o) = baked_box(400_000);
@@ -85,7 +90,7 @@ fn free_space_irradiance_is_close_to_path_tracing() {
     let (mut ratios, mut line) = (Vec::new(), String::new());
     for (i, &p) in points.iter().enumerate() {
         for (k, &n) in NORMALS.iter().enumerate() {
-            let e = volume(&o.global, &scene, p, n);
+            let e = volume(free(&o), &scene, p, n);
             let r = path_irradiance(&scene, p, n, 512, (i * 6 + k) as u64);
             assert!(r > 0.0, "the path tracer sees indirect light at {p} for {n}");
             ratios.push(e / r);
@@ -98,20 +103,22 @@ fn free_space_irradiance_is_close_to_path_tracing() {
     eprintln!(
         "octree volume / path-traced indirect irradiance (+X -X +Y -Y +Z -Z per point):{line}\nmean {mean:.3}, range {lo:.3}..{hi:.3}"
     );
-    assert!((0.5..=1.6).contains(&lo) && (0.5..=1.6).contains(&hi), "a case out of 0.5..1.6: {lo:.3}..{hi:.3}");
-    assert!((mean - 1.0).abs() <= 0.15, "mean ratio {mean:.3}");
+    assert!((0.8..=1.3).contains(&lo) && (0.8..=1.3).contains(&hi), "a case out of 0.8..1.3: {lo:.3}..{hi:.3}");
+    assert!((mean - 1.0).abs() <= 0.06, "mean ratio {mean:.3}");
 }
 
 /// Two rooms with a shared wall (`octree_leak.rs`), the light in the left one: the dark room
-/// must receive no diffused value, for a wall two leaves thick and for one a quarter leaf thick
-/// (thinner than a cell: the two rooms share cells). With a visibility that sees through
-/// everything the fill does leak (the test can fail).
+/// must receive no light from the free-space tree, for a wall two leaves thick and for one a
+/// quarter leaf thick (thinner than a cell: the two rooms share cells). Without the leak test
+/// the thin wall leaks (measured: 61% of the lit room's value in the dark room; the test can
+/// fail): a cell that holds both sides has its flights' anchor on the lit side, which no point
+/// of the dark room sees.
 #[test]
 fn values_do_not_cross_a_wall() {
     let root = 2.0 * (1.0 + 2e-5);
     let s = root / 32.0;
     let x_lit = -1.0 - 1e-5 * 2.0 + (16.0 + 0.3) * s;
-    for (t_leaves, leaks_expected) in [(2.0f32, true), (0.25, true)] {
+    for (t_leaves, leaks_expected) in [(2.0f32, false), (0.25, true)] {
         let t = t_leaves * s;
         let scene = two_rooms(x_lit, t);
         let mut st = OctreeIntegratorSettings::default();
@@ -136,19 +143,20 @@ fn values_do_not_cross_a_wall() {
             (lit_mean, dark.iter().copied().fold(0.0, f64::max))
         };
         let stats = o.fill_atmosphere(&scene);
-        let (lit, dark) = measure(&o.global);
+        let tree = free(&o);
+        let (lit, dark) = measure(tree);
         eprintln!("wall {t_leaves} leaves: lit room {lit:.4}, dark room max {dark:.5} ({:.3}%); {stats:?}", 100.0 * dark / lit);
         assert!(lit > 0.0 && dark <= 0.01 * lit, "wall {t_leaves} leaves: dark room {dark} against lit {lit}");
-        // the same fill seeing through walls leaks: the visibility is what stops it
-        let mut blind = o.global.clone();
-        blind.fill_atmosphere(&|_, _| true);
+        // the same query without the leak test leaks: the anchors' visibility is what stops it
         let mut leak = 0.0f64;
         for y in [0.2f32, 0.5, 0.8] {
             for &n in &NORMALS {
-                leak = leak.max(blind.irradiance_volume(Vec3::new(x_lit + t + 0.3, y, 0.5), n, None).map_or(0.0, mean3));
+                for d in [0.02f32, 0.1, 0.3] {
+                    leak = leak.max(tree.irradiance_volume(Vec3::new(x_lit + t + d, y, 0.5), n, None).map_or(0.0, mean3));
+                }
             }
         }
-        eprintln!("  without the visibility test: dark room max {leak:.4} ({:.1}%)", 100.0 * leak / lit);
+        eprintln!("  without the leak test: dark room max {leak:.4} ({:.1}%)", 100.0 * leak / lit);
         if leaks_expected {
             assert!(leak > 0.05 * lit, "the blind fill should leak: {leak}");
         }
@@ -161,7 +169,7 @@ fn values_do_not_cross_a_wall() {
 #[test]
 fn volume_query_is_continuous_across_cell_borders() {
     let (scene, o) = baked_box(200_000);
-    let tree = &o.global;
+    let tree = free(&o);
     let q = tree.query_size();
     let mut checked = 0;
     for start in [Vec3::new(0.05, 1.0, 0.1), Vec3::new(-0.3, 0.6, 0.2), Vec3::new(0.2, 1.4, -0.3)] {
@@ -189,7 +197,7 @@ fn volume_query_is_continuous_across_cell_borders() {
 /// aimed at their centres, 0.788 once it aimed at their point nearest to the query (the
 /// object itself then hid the leaves beside each face, whose nearest points lie in the face's
 /// plane), 0.937 since the object's leak test looks through the object
-/// (`leaf_seen_past_inserted`). Bound: 0.85–1.15.
+/// (`leaf_seen_past_inserted`), 1.025 from the free-space tree. Bound: 0.85–1.15.
 #[test]
 fn inserted_object_renders_from_the_bake() {
     use crate::integrators::Integrator;
@@ -222,17 +230,18 @@ fn inserted_object_renders_from_the_bake() {
 /// On the faces of a cube inserted in the middle of the baked box (no wall within a query box
 /// of it), the object's leak test keeps every leaf the query meets: the value is the one
 /// without a leak test. With the object blocking the rays (the scene's leak test,
-/// `keep_leaf`), the leaves beside and behind each face were dropped: measured 0.22–0.56 of
-/// the value on four faces and nothing at all on the two facing ±Z, so that test fails here.
+/// `keep_leaf`), the leaves whose anchors lie behind the face are dropped and the value
+/// changes (measured once on the surface tree's atmosphere with the query box of the smallest
+/// leaf: 0.22–0.56 of the value on four faces, nothing at all on the two facing ±Z).
 #[test]
 fn the_inserted_objects_leak_test_looks_through_the_object() {
     use super::super::leak::keep_leaf;
     let (_, o) = baked_box(200_000);
     let (centre, half) = (Vec3::new(-0.3, 1.0, 0.0), 0.15f32);
     let (scene, first) = box_with_cube(centre, Vec3::splat(half), 8);
-    let tree = &o.global;
+    let tree = free(&o);
     let (mut all_sum, mut blocked_sum, mut rays) = (0.0f64, 0.0f64, 0u64);
-    let mut lowest_face = f64::MAX;
+    let mut farthest_face = 0.0f64;
     for &n in &NORMALS {
         let (t1, t2) = n.any_orthonormal_pair();
         let (mut face_all, mut face_blocked) = (0.0, 0.0);
@@ -259,15 +268,16 @@ fn the_inserted_objects_leak_test_looks_through_the_object() {
         }
         all_sum += face_all;
         blocked_sum += face_blocked;
-        lowest_face = lowest_face.min(face_blocked / face_all);
+        farthest_face = farthest_face.max((face_blocked / face_all - 1.0).abs());
     }
     eprintln!(
-        "inserted cube: with the object blocking the leak test {:.3} of the light (lowest face {lowest_face:.3}); {rays} rays",
+        "inserted cube: with the object blocking the leak test {:.3} of the light (farthest face off by {farthest_face:.3}); {rays} rays",
         blocked_sum / all_sum
     );
-    // measured 0.759 since the volume query blends by tents (leaves up to a cell away count,
-    // most of them not behind the face); below 0.5 with the query box of the smallest leaf
-    assert!(lowest_face < 0.85, "the blocking test should lose light here (the test can fail): {lowest_face}");
+    // measured: a face 0.759 of the value on the surface tree's atmosphere, 0.955 on the
+    // free-space tree (its leaves' anchors lie where their flights pass, mostly away from the
+    // object); below 0.5 with the query box of the smallest leaf
+    assert!(farthest_face > 0.02, "the blocking test should change the light here (the test can fail): {farthest_face}");
 }
 
 /// Diagnostic (not a check, `--ignored`): on the faces of a cube inserted into the baked box
@@ -300,7 +310,7 @@ fn inserted_cube_faces_diagnostic() {
                     }
                     let p = hit.p + n * 1e-3;
                     let mut rays = 0u64;
-                    let tree = &o.global;
+                    let tree = free(&o);
                     let oct_keep =
                         tree.irradiance_volume(hit.p, n, Some(&mut |q| keep_leaf(&scene, None, &hit, n, &q, &mut rays))).map_or(0.0, mean3);
                     let oct_none = tree.irradiance_volume(hit.p, n, None).map_or(0.0, mean3);
@@ -346,7 +356,7 @@ fn flights_give_the_furnace_its_free_space_light() {
     assert!(st.flight_leaves > 0, "{st:?}");
     let expected = std::f64::consts::PI * (le * rho / (1.0 - rho)) as f64;
     let (mut sum, mut n, mut worst) = (0.0f64, 0usize, 0.0f64);
-    for info in o.global.leaf_infos().iter().filter(|l| !l.valid) {
+    for info in free(&o).leaf_infos().iter().filter(|l| !l.valid) {
         let c = info.bounds.center();
         // the leaves next to the walls take the diffused values when few flights cross them
         if (info.bounds.max - info.bounds.min).x < 0.2 {
@@ -356,7 +366,7 @@ fn flights_give_the_furnace_its_free_space_light() {
         // every normal under an isotropic field (`ambient_cube`)
         let diag = [Vec3::ONE.normalize(), Vec3::new(0.3, -0.8, 0.52).normalize()];
         for nrm in NORMALS.into_iter().chain(diag) {
-            let e = o.global.irradiance_volume(c, nrm, None).map_or(0.0, mean3) / expected;
+            let e = free(&o).irradiance_volume(c, nrm, None).map_or(0.0, mean3) / expected;
             sum += e;
             n += 1;
             worst = worst.max((e - 1.0).abs());
