@@ -58,17 +58,20 @@ impl OctreeIntegrator {
     /// into the others, never through a surface of `scene` (the baked scene, without any
     /// inserted object). The photon paths are traced again with the build's settings (the same
     /// paths: the pass is deterministic), once per round of the refinement and once for the
-    /// estimate, and every flight of their global light counts, those that leave the scene or
-    /// end on a mirror or glass too. The build statistics follow (bytes).
+    /// estimate, and every flight after a bounce counts (the global and the caustic light:
+    /// the inserted object reads no caustic octree), those that leave the scene or end on a
+    /// mirror or glass too. The build statistics follow (bytes).
     pub fn fill_atmosphere(&mut self, scene: &Scene) -> AtmosphereStats {
         let visible = |a: Vec3, b: Vec3| scene.sees(a, b, 0.0);
         let photons = self.settings.traced_photons();
-        let global = |chunk: &[Flight]| -> Vec<(Vec3, Vec3, f32, Vec3)> {
-            chunk.iter().filter(|f| f.is_global()).map(|f| (f.o, f.d, f.t, f.power)).collect()
+        // every flight after a bounce: the global light and the caustic light (an inserted
+        // object reads no caustic octree)
+        let reflected = |chunk: &[Flight]| -> Vec<(Vec3, Vec3, f32, Vec3)> {
+            chunk.iter().filter(|f| f.bounces > 0).map(|f| (f.o, f.d, f.t, f.power)).collect()
         };
         let mut tree = self.global.free_space_tree();
-        let refine = tree.refine_free_space(|t| map_flights(scene, &photons, |c| t.octant_sums(global(c))).unwrap_or_default());
-        let flights = map_flights(scene, &photons, |c| tree.flight_sums(global(c))).ok().map(|chunks| tree.flights_from(chunks));
+        let refine = tree.refine_free_space(|t| map_flights(scene, &photons, |c| t.octant_sums(reflected(c))).unwrap_or_default());
+        let flights = map_flights(scene, &photons, |c| tree.flight_sums(reflected(c))).ok().map(|chunks| tree.flights_from(chunks));
         let mut st = tree.fill_atmosphere_with(&visible, flights.as_ref());
         st.refine = refine;
         self.stats.volume = Some(tree.stats().clone());
