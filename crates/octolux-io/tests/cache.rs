@@ -101,6 +101,15 @@ fn a_cache_round_trips_to_a_bit_identical_render() {
         let Integrator::Octree(back) = &loaded.integrator else { panic!("an octree integrator") };
         assert_eq!(back.stats.global.valid_leaves, o.stats.global.valid_leaves);
         assert_eq!(back.stats.bytes, o.stats.bytes);
+        // the free-space tree's structure as baked is the one read back
+        let shape = |t: &OctreeIntegrator| {
+            t.volume.as_ref().map(|v| {
+                let s = v.stats();
+                (s.nodes, s.leaves, s.max_depth, s.min_leaf_size, s.depth_histogram.clone())
+            })
+        };
+        assert!(shape(&o).is_some());
+        assert_eq!(shape(back), shape(&o));
         println!(
             "{storage:?}: file {} bytes, in memory {} bytes, {} + {} valid leaves",
             bytes.len(),

@@ -22,6 +22,7 @@
 
 use super::{shade_matrix, LeakTest, OctreeIntegrator, ANCHOR_LIFT};
 use crate::caches::octree::{AtmosphereStats, QueryLeaf};
+use crate::caches::Octree;
 use crate::integrators::common::RayCounters;
 use crate::integrators::pathloop::CacheVertex;
 use crate::math::{Color, Ray};
@@ -74,6 +75,11 @@ impl OctreeIntegrator {
         let flights = map_flights(scene, &photons, |c| tree.flight_sums(reflected(c))).ok().map(|chunks| tree.flights_from(chunks));
         let mut st = tree.fill_atmosphere_with(&visible, flights.as_ref());
         st.refine = refine;
+        // its structural statistics (deepest leaf, smallest leaf) as a cache file reads them
+        // back: the refinement splits down to the global octree's depth, not the tree's own
+        if let Ok(t) = Octree::from_parts(tree.to_parts()) {
+            tree = t;
+        }
         self.stats.volume = Some(tree.stats().clone());
         self.volume = Some(tree);
         self.stats.bytes = self.bytes();
