@@ -6,12 +6,13 @@
 //! The scene rendered is the baked one plus the object (its shapes appended last, so that the
 //! baked scene's shape indices are unchanged); [`Inserted::shapes`] names them. At a point of
 //! the object, direct light is computed as everywhere (shadow rays see the whole scene); the
-//! indirect light is the global octree's **volume query** ([`crate::caches::Octree::incident_matrix_volume`]:
-//! the leaves' own and diffused values, whatever the object's position) with a leak control
-//! that looks through the object (`leaf_seen_past_inserted`: each leaf met must be visible
-//! from the point in the baked scene; an atmospheric leaf through its point nearest to it;
-//! `leak = "none"` turns it off). The caustic octree is not read on the object (caustic light
-//! is not diffused).
+//! indirect light is the **volume query** ([`crate::caches::Octree::incident_matrix_volume`])
+//! of the free-space tree ([`OctreeIntegrator::fill_atmosphere`]; the global octree's when none
+//! was computed), whatever the object's position, with a leak control that looks through the
+//! object (`leaf_seen_past_inserted`: each leaf met must be visible from the point in the baked
+//! scene, a flight leaf at its anchor, a diffused one at its point nearest to it;
+//! `leak = "none"` turns it off). The caustic octree is not read on the object: the free-space
+//! tree holds the caustic flights too.
 //!
 //! Not captured here: the object's shadow in the baked indirect light of the scene (the floor
 //! under it keeps its baked value), the light it reflects onto the scene, and the change of the

@@ -158,7 +158,7 @@ fn values_do_not_cross_a_wall() {
         }
         eprintln!("  without the leak test: dark room max {leak:.4} ({:.1}%)", 100.0 * leak / lit);
         if leaks_expected {
-            assert!(leak > 0.05 * lit, "the blind fill should leak: {leak}");
+            assert!(leak > 0.05 * lit, "without the leak test the thin wall should leak: {leak}");
         }
     }
 }
