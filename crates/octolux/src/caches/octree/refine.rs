@@ -206,38 +206,39 @@ impl Octree {
     /// down to this tree's deepest leaf, and [`Octree::fill_atmosphere_with`] gives its
     /// leaves their values.
     pub fn free_space_tree(&self) -> Octree {
-        let mut t = self.clone();
-        t.nodes = vec![Node { link: LEAF_BIT | NO_VALUE, photons: 0 }];
-        let mut level = vec![0usize];
+        let mut t = Octree {
+            origin: self.origin,
+            size: self.size,
+            cell_size: self.cell_size,
+            inv_quant: self.inv_quant,
+            h_max: self.h_max,
+            nodes: vec![Node { link: LEAF_BIT | NO_VALUE, photons: 0 }],
+            values: match &self.values {
+                super::LeafValues::Compressed(_) => super::LeafValues::Compressed(Vec::new()),
+                super::LeafValues::Full(_) => super::LeafValues::Full(Vec::new()),
+            },
+            facing: Vec::new(),
+            anchors: Vec::new(),
+            leak_samples: self.leak_samples,
+            query_half: self.query_half,
+            atmosphere: None,
+            flat: Default::default(),
+            settings: self.settings.clone(),
+            stats: OctreeStats {
+                nodes: 1,
+                leaves: 1,
+                bytes: std::mem::size_of::<Node>(),
+                max_depth: self.stats.max_depth,
+                min_leaf_size: self.stats.min_leaf_size,
+                h_max: self.stats.h_max,
+                surface_area: self.stats.surface_area,
+                ..OctreeStats::default()
+            },
+        };
         for _ in 0..FREE_SPACE_BASE_DEPTH.min(self.stats.max_depth) {
-            let mut next = Vec::with_capacity(level.len() * 8);
-            for &i in &level {
-                let first = t.nodes.len();
-                t.nodes[i] = Node { link: first as u32, photons: 0 };
-                t.nodes.extend([Node { link: LEAF_BIT | NO_VALUE, photons: 0 }; 8]);
-                next.extend(first..first + 8);
-            }
-            level = next;
+            let leaves: Vec<u32> = t.leaves().iter().map(|l| l.node).collect();
+            t.split_atmospheric(&leaves);
         }
-        t.relayout();
-        t.values = match &self.values {
-            super::LeafValues::Compressed(_) => super::LeafValues::Compressed(Vec::new()),
-            super::LeafValues::Full(_) => super::LeafValues::Full(Vec::new()),
-        };
-        t.facing.clear();
-        t.anchors.clear();
-        t.atmosphere = None;
-        t.flat = Default::default();
-        t.stats = OctreeStats {
-            nodes: t.nodes.len(),
-            leaves: level.len(),
-            bytes: t.nodes.len() * std::mem::size_of::<Node>(),
-            max_depth: self.stats.max_depth,
-            min_leaf_size: self.stats.min_leaf_size,
-            h_max: self.stats.h_max,
-            surface_area: self.stats.surface_area,
-            ..OctreeStats::default()
-        };
         t
     }
 

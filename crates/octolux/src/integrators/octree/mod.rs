@@ -307,9 +307,10 @@ impl OctreeIntegrator {
             global: global.stats().clone(),
             caustic: caustic.as_ref().map(|c| c.stats().clone()),
             volume: None,
-            bytes: global.stats().bytes + caustic.as_ref().map_or(0, |c| c.stats().bytes),
+            bytes: 0,
         };
         let mut o = OctreeIntegrator { settings, global, caustic, volume: None, stats, planes: [None, None], inserted: Default::default() };
+        o.stats.bytes = o.bytes();
         o.prepare(scene);
         o.prepare_query();
         Ok(o)
