@@ -7,6 +7,7 @@ one run.
     .venv-peers/bin/python bench/time_to_error.py --scenes cornell-box box --budget 10
     .venv-peers/bin/python bench/time_to_error.py --methods octree path ward --scenes cbox
     .venv-peers/bin/python bench/time_to_error.py --plot-only target/tte/results.json
+    .venv-peers/bin/python bench/time_to_error.py --methods path --path-variant split4=split=4
 
 Scenes: the six of ../shared/scenes/bitterli-collection/ at the resolution and max depth of their
 time-to-error references (tests/refs/tte/manifest.json, 160 wide, each with its own noise at about
@@ -69,7 +70,7 @@ METHODS = ["octree", "octree-paper", "octree-unbiased", "path", "mitsuba", "ward
 DEFAULT_METHODS = ["octree", "octree-paper", "octree-unbiased", "path", "mitsuba"]
 # --set flags of the octree variants (the integrator is `octree`)
 # the methods whose error keeps falling as 1/cost past their last rung
-UNBIASED = ("path", "mitsuba", "octree-unbiased")
+UNBIASED = ["path", "mitsuba", "octree-unbiased"]
 VARIANTS = {"octree-paper": ["--set", "mode=paper"], "octree-unbiased": ["--set", "mode=unbiased"]}
 CACHE_RUNGS = [(100_000, 1), (300_000, 4), (1_000_000, 16), (2_000_000, 64), (4_000_000, 256), (8_000_000, 1024)]
 # The octree modes that trace paths on past the cache (terminate, unbiased): photons 4x per rung,
@@ -91,6 +92,20 @@ def add_variant(spec: str) -> str:
     name, _, keys = spec.partition("=")
     VARIANTS[name] = [a for kv in filter(None, keys.split(",")) for a in ("--set", kv)]
     for lst in (CACHES, METHODS, TRACED):
+        if name not in lst:
+            lst.append(name)
+    return name
+
+
+# --path-variant: path-tracer methods with --set keys (the spp ladder, unbiased)
+PATH_VARIANTS: dict[str, list[str]] = {}
+
+
+def add_path_variant(spec: str) -> str:
+    """--path-variant NAME=KEY=VALUE[,KEY=VALUE...]: the path tracer with these --set keys."""
+    name, _, keys = spec.partition("=")
+    PATH_VARIANTS[name] = [a for kv in filter(None, keys.split(",")) for a in ("--set", kv)]
+    for lst in (METHODS, UNBIASED):
         if name not in lst:
             lst.append(name)
     return name
@@ -147,10 +162,10 @@ def compare(img: Path, ref: str) -> dict:
 
 def octolux_cmd(sc: dict, method: str, spp: int, photons: int | None, out: Path, res=None) -> list[str]:
     w, h = res or sc["res"]
-    integrator = "octree" if method in VARIANTS else method
+    integrator = "octree" if method in VARIANTS else "path" if method in PATH_VARIANTS else method
     cmd = [str(BIN), "render", sc["scene"], "--integrator", integrator, "--spp", str(spp), "--resolution", f"{w}x{h}",
            "--max-depth", str(sc["depth"]), "--seed", str(SEED), "-q", "-o", str(out)]
-    return cmd + VARIANTS.get(method, []) + (["--photons", str(photons)] if photons else [])
+    return cmd + VARIANTS.get(method, PATH_VARIANTS.get(method, [])) + (["--photons", str(photons)] if photons else [])
 
 
 def setup_cpu(name: str, sc: dict) -> float:
@@ -367,9 +382,11 @@ def main() -> int:
     ap.add_argument("--plot-only", type=Path, help="re-plot and re-tabulate a results.json")
     ap.add_argument("--variant", action="append", default=[],
                     help="NAME=KEY=VALUE[,KEY=VALUE...]: an extra octree method with these --set keys")
+    ap.add_argument("--path-variant", action="append", default=[],
+                    help="NAME=KEY=VALUE[,KEY=VALUE...]: an extra path-tracer method with these --set keys")
     ap.add_argument("--reuse", action="store_true", help="keep the scenes already in target/tte/results.json")
     args = ap.parse_args()
-    extra = [add_variant(v) for v in args.variant]
+    extra = [add_variant(v) for v in args.variant] + [add_path_variant(v) for v in args.path_variant]
     args.methods = list(dict.fromkeys(args.methods + extra))
     if args.plot_only:
         results = json.loads(args.plot_only.read_text())

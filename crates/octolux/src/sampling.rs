@@ -97,6 +97,20 @@ impl Sampler {
         }
     }
 
+    /// The sampler of continuation `j` of `k` split from this one at its current dimension
+    /// (`integrators::pathloop`, "Splitting"): a Sobol' sampler goes on with sample
+    /// `sample · k + j` of a sequence keyed apart from the pixel's, so that the `k`
+    /// continuations of the pixel's samples are stratified together; an independent sampler
+    /// with a stream hashed from its state and `j`.
+    pub fn split(&self, j: u32, k: u32) -> Sampler {
+        match self.inner {
+            Inner::Pcg { state, inc } => Sampler::new(mix64(state ^ inc.rotate_left(17)), j as u64, k as u64),
+            Inner::Sobol { key, sample, slot } => Sampler {
+                inner: Inner::Sobol { key: mix64(key ^ 0x2545_f491_4f6c_dd1d), sample: sample.wrapping_mul(k).wrapping_add(j), slot },
+            },
+        }
+    }
+
     /// Key of the next Sobol' slot.
     #[inline]
     fn next_slot(key: u64, slot: &mut u32) -> u64 {

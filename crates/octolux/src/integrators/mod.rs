@@ -97,6 +97,8 @@ impl IntegratorSettings {
 pub enum IntegratorError {
     // The inner errors are in the messages, not chained as sources: a chain printed with
     // `{:#}` would say each cause twice.
+    #[error("path: {0}")]
+    Path(crate::caches::kdtree::SettingsError),
     #[error("octree: {0}")]
     Octree(octree::BuildError),
     #[error("{name}: {error}")]
@@ -114,7 +116,10 @@ impl From<octree::BuildError> for IntegratorError {
 pub fn build(settings: &IntegratorSettings, scene: &Scene) -> Result<Integrator, IntegratorError> {
     let baseline = |name: &'static str| move |error| IntegratorError::Baseline { name, error };
     Ok(match settings {
-        IntegratorSettings::Path(s) => Integrator::Path(*s),
+        IntegratorSettings::Path(s) => {
+            s.validate().map_err(IntegratorError::Path)?;
+            Integrator::Path(*s)
+        }
         IntegratorSettings::Octree(s) => Integrator::Octree(Box::new(OctreeIntegrator::build(scene, s.clone())?)),
         IntegratorSettings::Photonmap(s) => {
             Integrator::PhotonMap(Box::new(PhotonMapIntegrator::build(scene, s.clone()).map_err(baseline("photonmap"))?))

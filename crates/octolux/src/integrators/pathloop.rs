@@ -44,6 +44,17 @@
 //! path `1/q`). A path traced on from a residual does not end in the cache again: a second
 //! level multiplies the variance by `1/q` once more.
 //!
+//! # Splitting
+//! With [`Depths::split`] `k > 1`, a path splits once, at its first vertex with a smooth lobe
+//! where it does not end in the cache: after that vertex's emission, cache read and light
+//! sample, `k` continuations each sample the BSDF and go on with the path's weights times
+//! `1/k` (Vorba & Křivánek's ADRRS with a fixed factor). Each draws from its own sampler
+//! ([`Sampler::split`]): the `k` continuations of a pixel's samples are stratified together.
+//! Russian roulette judges a continuation's weight times `k`, as it would the unsplit
+//! path's. The estimate's mean is the unsplit path's; the camera ray, the first vertex's
+//! emission and light sample are paid once for `k` continuations (measured in
+//! docs/lab/2026-12-06-splitting-measured.md).
+//!
 //! # The ray cone
 //! When the policy asks for it ([`Ending::FOOTPRINT`]), the loop carries the path's ray cone
 //! (as NVIDIA SHaRC and neural radiance caching do): width `w` at the current vertex and
@@ -77,6 +88,9 @@ pub struct Depths {
     pub rr_depth: u32,
     /// How next-event estimation picks a light (and what the MIS weights take as its pdf).
     pub lights: LightSelection,
+    /// Continuations traced from the path's first vertex with a smooth lobe, each weighing
+    /// `1/split` (module docs, "Splitting"); 1: none.
+    pub split: u32,
 }
 
 /// A surface vertex with a non-delta lobe, offered to [`Ending::end`].
@@ -197,144 +211,296 @@ pub fn li<E: Ending>(
     ending: &E,
     depths: Depths,
     scene: &Scene,
-    mut ray: Ray,
+    ray: Ray,
     diff: Option<&RayDifferential>,
     sampler: &mut Sampler,
     counters: &mut RayCounters,
 ) -> Color {
+    let max_depth = if depths.max_depth < 0 { u32::MAX } else { depths.max_depth as u32 };
+    if max_depth == 0 {
+        return Color::ZERO;
+    }
+    let lp = Loop { ending, depths, max_depth, scene };
+    let start = Walk {
+        ray,
+        throughput: Color::ONE,
+        alive: true,
+        tail: Color::ZERO,
+        tail_on: false,
+        tail_traces: false,
+        skip: Color::ZERO,
+        skip_on: false,
+        eta: 1.0,
+        depth: 0,
+        prev_pdf: 1.0,
+        prev_delta: true,
+        prev_p: ray.o,
+        prev_n: Vec3::ZERO,
+        specular_chain: true,
+        residual_on: false,
+        cone_width: 0.0,
+        cone_spread: if E::FOOTPRINT && diff.is_some() { scene.camera.pixel_spread() } else { 0.0 },
+        split: depths.split.max(1),
+        rr_scale: 1.0,
+    };
+    walk::<E, false>(&lp, start, diff, None, sampler, counters)
+}
+
+/// What the loop reads and never changes.
+struct Loop<'a, E> {
+    ending: &'a E,
+    depths: Depths,
+    max_depth: u32,
+    scene: &'a Scene,
+}
+
+/// A vertex whose light sample is taken, its BSDF still to be sampled: where a path splits.
+#[derive(Clone, Copy)]
+struct Vertex {
+    hit: SurfaceHit,
+    wo: Vec3,
+    end: Option<CacheEnd>,
+}
+
+/// A path's state from one vertex to the next (the loop's variables): what a continuation
+/// starts from where the path splits.
+#[derive(Clone, Copy)]
+struct Walk {
+    ray: Ray,
+    /// Weight of the path going on (all lobes after a vertex that did not end).
+    throughput: Color,
+    /// The path goes on (false once it ended in a cache with no narrow lobe left).
+    alive: bool,
+    /// The tail (module docs): its weight, whether there is one, and whether it follows delta
+    /// bounces beyond its first hit (the cache lacked the caustics).
+    tail: Color,
+    tail_on: bool,
+    tail_traces: bool,
+    /// The part of `throughput` whose caustic light the cache gave at the last non-delta
+    /// vertex: emitters reached from there through delta bounces count without it.
+    skip: Color,
+    skip_on: bool,
+    eta: f32,
+    depth: u32,
+    prev_pdf: f32,
+    prev_delta: bool,
+    prev_p: Vec3,
+    /// The shading normal at `prev_p`: the light selection's there, for the MIS weight.
+    prev_n: Vec3,
+    specular_chain: bool,
+    /// Traced on from a residual: no further vertex ends in the cache (module docs).
+    residual_on: bool,
+    cone_width: f32,
+    cone_spread: f32,
+    /// Continuations at the next vertex that may split ([`Depths::split`]; 1 once split).
+    split: u32,
+    /// What splitting divided the weights by: Russian roulette judges a continuation's weight
+    /// times this, as it would the unsplit path's.
+    rr_scale: f32,
+}
+
+/// The light of `k` continuations of `base` from `v` (each weighed by `base`), the samplers
+/// split from `sampler`. Kept out of line: the loop stays one function, inlined into its caller.
+#[inline(never)]
+fn split_walk<E: Ending>(lp: &Loop<'_, E>, base: Walk, v: Vertex, k: u32, sampler: &Sampler, counters: &mut RayCounters) -> Color {
+    (0..k).fold(Color::ZERO, |sum, j| sum + walk::<E, true>(lp, base, None, Some(v), &mut sampler.split(j, k), counters))
+}
+
+/// The loop (module docs): the light gathered by the path `w` from `pending`, a vertex whose
+/// light sample is taken, else from `w.ray`. `RESUME`: whether `pending` may be `Some` (a
+/// continuation; the unsplit path's loop is compiled without the test).
+#[inline]
+fn walk<E: Ending, const RESUME: bool>(
+    lp: &Loop<'_, E>,
+    w: Walk,
+    diff: Option<&RayDifferential>,
+    mut pending: Option<Vertex>,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    let (ending, depths, max_depth, scene) = (lp.ending, lp.depths, lp.max_depth, lp.scene);
+    let Walk {
+        mut ray,
+        mut throughput,
+        mut alive,
+        mut tail,
+        mut tail_on,
+        mut tail_traces,
+        mut skip,
+        mut skip_on,
+        mut eta,
+        mut depth,
+        mut prev_pdf,
+        mut prev_delta,
+        mut prev_p,
+        mut prev_n,
+        mut specular_chain,
+        mut residual_on,
+        mut cone_width,
+        mut cone_spread,
+        split,
+        rr_scale,
+    } = w;
     // Only the camera ray carries a differential (Mitsuba 0.6): the first hit's lookups.
     let mut diff = diff;
-    let max_depth = if depths.max_depth < 0 { u32::MAX } else { depths.max_depth as u32 };
     let mut result = Color::ZERO;
-    // Weight of the path going on (all lobes after a vertex that did not end).
-    let mut throughput = Color::ONE;
-    // `alive`: the path goes on (false once it ended in a cache with no narrow lobe left).
-    let mut alive = true;
-    // The tail (module docs): its weight, whether there is one, and whether it follows delta
-    // bounces beyond its first hit (the cache lacked the caustics).
-    let (mut tail, mut tail_on, mut tail_traces) = (Color::ZERO, false, false);
-    // The part of `throughput` whose caustic light the cache gave at the last non-delta vertex:
-    // emitters reached from there through delta bounces count without it.
-    let (mut skip, mut skip_on) = (Color::ZERO, false);
-    let mut eta = 1.0f32;
-    let mut depth = 0u32;
-    let mut prev_pdf = 1.0f32;
-    let mut prev_delta = true;
-    let mut prev_p = ray.o;
-    // The shading normal at `prev_p`: the light selection's there, for the MIS weight.
-    let mut prev_n = Vec3::ZERO;
     let sel = depths.lights;
-    let mut specular_chain = true;
-    // Traced on from a residual: no further vertex ends in the cache (module docs).
-    let mut residual_on = false;
-    let (mut cone_width, mut cone_spread) = (0.0f32, if E::FOOTPRINT && diff.is_some() { scene.camera.pixel_spread() } else { 0.0 });
-    if max_depth == 0 {
-        return result;
-    }
     loop {
-        counters.rays += 1;
-        // The weight emission found by this ray is counted with.
-        let mut weight = if tail_on { throughput + tail } else { throughput };
-        if skip_on && prev_delta {
-            weight = (weight - skip).max(Color::ZERO);
-        }
-        let Some(mut hit) = scene.intersect(&ray) else {
-            // Escaped: environment emission.
-            let le = scene.lights.env_le(ray.d);
-            if le != Color::ZERO {
-                let w = if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_env(sel, ray.d)) };
-                result += weight * le * w;
+        // The vertex, in place (a SurfaceHit is not moved on the unsplit path).
+        let mut resumed: Option<Vertex> = None;
+        let mut found: Option<SurfaceHit>;
+        let (hit, wo, end): (&SurfaceHit, Vec3, Option<CacheEnd>) = match if RESUME { pending.take() } else { None } {
+            Some(v) => {
+                let v = resumed.insert(v);
+                (&v.hit, v.wo, v.end)
             }
-            break;
-        };
-        if E::FOOTPRINT {
-            cone_width += hit.t * cone_spread;
-        }
-        if let Some(d) = diff.take() {
-            // Only MIP-mapped textures read the partials: skip them for the others.
-            if scene.materials[hit.material as usize].reads_uv_partials() {
-                hit.set_ray_differential(d);
-            }
-        }
-        // Emission from an area light hit by the ray.
-        if let Some(light) = hit.light {
-            let le = scene.lights.area_le(light, hit.ng, -ray.d);
-            if le != Color::ZERO {
-                let w =
-                    if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_area(sel, light, prev_p, prev_n, hit.p, hit.ng)) };
-                result += weight * le * w;
-            }
-        }
-        if tail_on && !tail_traces {
-            // the cache holds what lies beyond the tail's first hit
-            tail_on = false;
-        }
-        if !alive && !tail_on {
-            break;
-        }
-        if depth + 1 >= max_depth {
-            break;
-        }
-        let material = &scene.materials[hit.material as usize];
-        material.prefetch(&scene.images, hit.uv);
-        let wo = hit.frame.to_local(-ray.d);
+            None => {
+                counters.rays += 1;
+                // The weight emission found by this ray is counted with.
+                let mut weight = if tail_on { throughput + tail } else { throughput };
+                if skip_on && prev_delta {
+                    weight = (weight - skip).max(Color::ZERO);
+                }
+                found = scene.intersect(&ray);
+                let Some(hit) = found.as_mut() else {
+                    // Escaped: environment emission.
+                    let le = scene.lights.env_le(ray.d);
+                    if le != Color::ZERO {
+                        let w = if prev_delta { 1.0 } else { mis_power(prev_pdf, scene.lights.pdf_li_env(sel, ray.d)) };
+                        result += weight * le * w;
+                    }
+                    break;
+                };
+                if E::FOOTPRINT {
+                    cone_width += hit.t * cone_spread;
+                }
+                if let Some(d) = diff.take() {
+                    // Only MIP-mapped textures read the partials: skip them for the others.
+                    if scene.materials[hit.material as usize].reads_uv_partials() {
+                        hit.set_ray_differential(d);
+                    }
+                }
+                // Emission from an area light hit by the ray.
+                if let Some(light) = hit.light {
+                    let le = scene.lights.area_le(light, hit.ng, -ray.d);
+                    if le != Color::ZERO {
+                        let w = if prev_delta {
+                            1.0
+                        } else {
+                            mis_power(prev_pdf, scene.lights.pdf_li_area(sel, light, prev_p, prev_n, hit.p, hit.ng))
+                        };
+                        result += weight * le * w;
+                    }
+                }
+                if tail_on && !tail_traces {
+                    // the cache holds what lies beyond the tail's first hit
+                    tail_on = false;
+                }
+                if !alive && !tail_on {
+                    break;
+                }
+                if depth + 1 >= max_depth {
+                    break;
+                }
+                let material = &scene.materials[hit.material as usize];
+                material.prefetch(&scene.images, hit.uv);
+                let wo = hit.frame.to_local(-ray.d);
 
-        // The cache's say, then next-event estimation.
-        let mut end = None;
-        if alive && material.has_smooth_lobe() {
-            let v = CacheVertex {
-                hit: &hit,
-                material,
-                wo,
-                n: crate::math::facing(hit.frame.n, -ray.d),
-                index: depth + 1,
-                footprint: cone_width,
-                specular_chain,
-                throughput,
-                gathered: result,
-            };
-            if let Some(e) = if residual_on { None } else { ending.end(scene, &v, sampler, counters) } {
-                result += throughput * e.radiance;
-                if let Some(Residual { q, cv: ControlVariate::Constant(c) }) = e.residual {
-                    result -= throughput * c / q;
-                }
-                end = Some(e);
-                if e.ends {
-                    counters.cache_ends[(depth as usize).min(3)] += 1;
-                }
-            }
-            let only = end.is_some_and(|e| e.light_sample_only);
-            let u_sel = sampler.next_1d();
-            let u = sampler.next_2d();
-            // An environment sample's radiance is looked up only once the shadow ray is clear
-            // (`sample_li_deferred`): the same sum, without the sky model for occluded samples.
-            if let Some((mut ls, env)) = scene.lights.sample_li_deferred(sel, hit.p, hit.frame.n, u_sel, u) {
-                if ls.pdf > 0.0 && (env || ls.li != Color::ZERO) {
-                    let wi = hit.frame.to_local(ls.wi);
-                    let f = material.eval(&scene.images, hit.uv, wo, wi) * hit.shading_factor(ls.wi);
-                    if f != Color::ZERO {
-                        counters.shadow_rays += 1;
-                        if !scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
-                            if env {
-                                ls.li = scene.lights.env_le(ls.wi);
-                            }
-                            if ls.li != Color::ZERO {
-                                let w = if ls.delta || only { 1.0 } else { mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi)) };
-                                result += throughput * f * ls.li * (w / ls.pdf);
+                // The cache's say, then next-event estimation.
+                let mut end = None;
+                if alive && material.has_smooth_lobe() {
+                    let v = CacheVertex {
+                        hit: &*hit,
+                        material,
+                        wo,
+                        n: crate::math::facing(hit.frame.n, -ray.d),
+                        index: depth + 1,
+                        footprint: cone_width,
+                        specular_chain,
+                        throughput,
+                        gathered: result,
+                    };
+                    if let Some(e) = if residual_on { None } else { ending.end(scene, &v, sampler, counters) } {
+                        result += throughput * e.radiance;
+                        if let Some(Residual { q, cv: ControlVariate::Constant(c) }) = e.residual {
+                            result -= throughput * c / q;
+                        }
+                        end = Some(e);
+                        if e.ends {
+                            counters.cache_ends[(depth as usize).min(3)] += 1;
+                        }
+                    }
+                    let only = end.is_some_and(|e| e.light_sample_only);
+                    let u_sel = sampler.next_1d();
+                    let u = sampler.next_2d();
+                    // An environment sample's radiance is looked up only once the shadow ray is clear
+                    // (`sample_li_deferred`): the same sum, without the sky model for occluded samples.
+                    if let Some((mut ls, env)) = scene.lights.sample_li_deferred(sel, hit.p, hit.frame.n, u_sel, u) {
+                        if ls.pdf > 0.0 && (env || ls.li != Color::ZERO) {
+                            let wi = hit.frame.to_local(ls.wi);
+                            let f = material.eval(&scene.images, hit.uv, wo, wi) * hit.shading_factor(ls.wi);
+                            if f != Color::ZERO {
+                                counters.shadow_rays += 1;
+                                if !scene.occluded(&hit.spawn_to(ls.wi, ls.dist)) {
+                                    if env {
+                                        ls.li = scene.lights.env_le(ls.wi);
+                                    }
+                                    if ls.li != Color::ZERO {
+                                        let w = if ls.delta || only {
+                                            1.0
+                                        } else {
+                                            mis_power(ls.pdf, material.pdf(&scene.images, hit.uv, wo, wi))
+                                        };
+                                        result += throughput * f * ls.li * (w / ls.pdf);
+                                    }
+                                }
                             }
                         }
                     }
+                    if only && !tail_on {
+                        // every lobe is the cache's and its direct light the light sample's
+                        break;
+                    }
+                } else {
+                    // Keep the random-number stream aligned whatever the material (and on the tail,
+                    // which takes no light sample).
+                    sampler.next_1d();
+                    sampler.next_2d();
                 }
+
+                (&*hit, wo, end)
             }
-            if only && !tail_on {
-                // every lobe is the cache's and its direct light the light sample's
-                break;
-            }
-        } else {
-            // Keep the random-number stream aligned whatever the material (and on the tail,
-            // which takes no light sample).
-            sampler.next_1d();
-            sampler.next_2d();
+        };
+        let material = &scene.materials[hit.material as usize];
+        if split > 1 && alive && end.is_none_or(|e| !e.ends || e.residual.is_some()) && material.has_smooth_lobe() {
+            // Split (module docs, "Splitting"): `split` continuations of weight 1/split each,
+            // with random numbers of their own.
+            let k = split;
+            let c = 1.0 / k as f32;
+            let base = Walk {
+                ray,
+                throughput: throughput * c,
+                alive,
+                tail: tail * c,
+                tail_on,
+                tail_traces,
+                skip: skip * c,
+                skip_on,
+                eta,
+                depth,
+                prev_pdf,
+                prev_delta,
+                prev_p,
+                prev_n,
+                specular_chain,
+                residual_on,
+                cone_width,
+                cone_spread,
+                split: 1,
+                rr_scale: rr_scale * k as f32,
+            };
+            result += split_walk(lp, base, Vertex { hit: *hit, wo, end }, k, sampler, counters);
+            break;
         }
 
         // BSDF sampling.
@@ -413,7 +579,7 @@ pub fn li<E: Ending>(
         // Russian roulette.
         let tmax = max_component(if tail_on { throughput + tail } else { throughput });
         if depth >= depths.rr_depth {
-            let q = (tmax * eta * eta).min(0.95);
+            let q = (tmax * rr_scale * eta * eta).min(0.95);
             if sampler.next_1d() >= q {
                 break;
             }

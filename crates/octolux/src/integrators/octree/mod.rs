@@ -318,7 +318,7 @@ impl OctreeIntegrator {
 
     /// The path loop's limits.
     fn depths(&self) -> Depths {
-        Depths { max_depth: self.settings.max_depth, rr_depth: self.settings.rr_depth, lights: LightSelection::Tree }
+        Depths { max_depth: self.settings.max_depth, rr_depth: self.settings.rr_depth, lights: LightSelection::Tree, split: 1 }
     }
 
     /// Radiance along a primary ray: the path loop ending in the octrees, or a debug view.

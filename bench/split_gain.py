@@ -1,0 +1,130 @@
+#!/usr/bin/env python3
+"""What splitting at a path's first vertex gains, measured (issue 24, item 2; the path
+tracer's `split` setting, integrators/pathloop.rs "Splitting").
+
+For each scene and split factor k the path tracer renders S seeds at the same spp. Per pixel
+and channel the variance over the seeds, weighted by the relMSE's 1/(r² + 0.01) (r: the
+scene's reference, metrics.rs), estimates the expected relMSE of one render without any
+reference noise; its render time (out.json `render.render_s`, scene loading excluded) is the
+cost. The efficiency gain of k over k = 1 is (V_1 T_1) / (V_k T_k). The variance of the
+fireflies' pixels is itself noisy: the printed 90% interval comes from a bootstrap over the
+seeds (both factors resampled together).
+
+Usage: .venv-py/bin/python bench/split_gain.py [--scenes classroom sponza ...] [--splits 1 2 4 8]
+       [--seeds 24] [--spp 4] [--res 160x90]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+import scenes as aliases  # noqa: E402  (bench/scenes.json)
+
+try:
+    import octolux  # the PyO3 module: read_exr
+except ImportError:  # pragma: no cover
+    sys.exit("split_gain.py needs the octolux Python module (pip install -e crates/octolux-py)")
+
+BIN = Path(os.environ.get("OCTOLUX_BIN", ROOT / "target" / "release" / "octolux"))
+
+
+def render(sc: dict, split: int, spp: int, res: str, seed: int, out: Path) -> float:
+    cmd = [str(BIN), "render", str(sc["scene"]), "--integrator", "path", "--spp", str(spp), "--resolution", res,
+           "--max-depth", str(sc["max_depth"]), "--seed", str(seed), "--threads", "2", "--set", f"split={split}",
+           "-q", "-o", str(out)]
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed: {p.stderr.strip()[-600:]}")
+    return float(json.loads(out.with_suffix(".json").read_text())["render"]["render_s"])
+
+
+def downsample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    h, w = shape
+    fy, fx = img.shape[0] // h, img.shape[1] // w
+    return img[: h * fy, : w * fx].reshape(h, fy, w, fx, 3).mean(axis=(1, 3))
+
+
+def cpu_line() -> str:
+    try:
+        info = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return "CPU: unknown"
+    model = next((ln.split(":", 1)[1].strip() for ln in info.splitlines() if ln.startswith("model name")), "?")
+    flags = next((ln.split(":", 1)[1].split() for ln in info.splitlines() if ln.startswith("flags")), [])
+    ext = [f for f in ("sse4_2", "avx", "avx2", "fma", "avx512f") if f in flags]
+    return f"CPU: {model} ({', '.join(ext)})"
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", nargs="+", default=["classroom", "dining-room", "sponza", "veach-lamp"])
+    ap.add_argument("--splits", nargs="+", type=int, default=[1, 2, 4, 8])
+    ap.add_argument("--seeds", type=int, default=24)
+    ap.add_argument("--spp", type=int, default=4)
+    ap.add_argument("--res", default="160x90")
+    a = ap.parse_args()
+    if not BIN.exists():
+        sys.exit(f"{BIN} missing: cargo build --release -p octolux-cli")
+    if a.splits[0] != 1:
+        a.splits.insert(0, 1)
+    rw, rh = (int(v) for v in a.res.split("x"))
+    print(cpu_line())
+    print(f"{a.seeds} seeds x {a.spp} spp at {a.res}, 2 threads")
+    print("| scene | " + " | ".join(f"k={k}: time, gain [90%]" for k in a.splits[1:]) + " |")
+    print("|---" * (1 + len(a.splits[1:])) + "|")
+    rng = np.random.default_rng(1)
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in a.scenes:
+            try:
+                sc = aliases.get(name)
+            except (KeyError, FileNotFoundError) as e:
+                print(f"skipped {name}: {e}", file=sys.stderr)
+                continue
+            if not Path(sc["reference"]).exists() or (not sc.get("builtin") and not Path(sc["scene"]).exists()):
+                print(f"skipped {name}: scene or reference missing", file=sys.stderr)
+                continue
+            ref = downsample(octolux.read_exr(sc["reference"]), (rh, rw)).astype(np.float64)
+            wgt = 1.0 / (ref ** 2 + 1e-2)
+            per_k = {}
+            for k in a.splits:
+                imgs, times = [], []
+                for s in range(a.seeds):
+                    out = Path(tmp) / f"{name}-{k}-{s}.exr"
+                    times.append(render(sc, k, a.spp, a.res, 1000 + s, out))
+                    imgs.append(octolux.read_exr(str(out)).astype(np.float64))
+                per_k[k] = (np.stack(imgs), np.array(times))
+                print(f"  {name} k={k}: {np.mean(times):.3f} s per render", file=sys.stderr, flush=True)
+
+            def eff(k: int, idx: np.ndarray) -> float:
+                x, t = per_k[k]
+                v = (x[idx].var(axis=0, ddof=1) * wgt).mean()
+                return 1.0 / (v * t[idx].mean())
+
+            every = np.arange(a.seeds)
+            cells = []
+            for k in a.splits[1:]:
+                gain = eff(k, every) / eff(1, every)
+                boot = []
+                for _ in range(400):
+                    i = rng.integers(0, a.seeds, a.seeds)
+                    j = rng.integers(0, a.seeds, a.seeds)
+                    boot.append(eff(k, i) / eff(1, j))
+                lo, hi = np.percentile(boot, [5, 95])
+                t_ratio = per_k[k][1].mean() / per_k[1][1].mean()
+                cells.append(f"{t_ratio:.2f}x, {gain:.2f}x [{lo:.2f}, {hi:.2f}]")
+            print(f"| {name} | " + " | ".join(cells) + " |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
