@@ -18,11 +18,12 @@
 //! Splits come in the order that lowers the error fastest per byte, not depth by depth: a
 //! node's split removes `δ = Σ_c γ_c Σ_k |M_{c,k} − M_k|²_F / (|M|²_F + ε)` (its children's
 //! departure from its mean, relative, weighted by their cell volumes; `ε` a millionth of the
-//! mean over the valid leaves); a node is ranked by its whole subtree's `Σ δ` over the subtree's
-//! bytes, so that a split that changes little but opens a subtree that changes much is not left
-//! to the end. A node is split only after its parent, the highest rank first (ties: the lower
-//! node index). Measured against depth by depth on the viewer's curve:
-//! docs/lab/2026-12-06-viewer.md.
+//! mean over the valid leaves) and costs its children's bytes. A node is split only after its
+//! parent. Among such orders the one that minimises the area under the error-against-bytes
+//! curve, `Σ δ_j` times the bytes sent before split `j` is done, is Horn's (1972) for jobs
+//! under out-tree precedence ([`horn_order`]): a split whose subtree holds a rich run of splits
+//! comes early even when its own `δ` is small. Measured against depth by depth and against a
+//! rank by whole-subtree gain per byte on the viewer's curve: docs/lab/2026-12-06-viewer.md.
 
 use super::compress::{compress_leaf, decompress_matrix, CompressedLeaf, FullLeaf, MATRIX_BYTES};
 use super::{LeafValues, Octree, ALL_FACING, NO_VALUE};
@@ -99,48 +100,47 @@ impl Octree {
         let norm2 = |m: &FullLeaf| m.iter().map(|x| x.to_cols_array().iter().map(|v| (*v as f64).powi(2)).sum::<f64>()).sum::<f64>();
         let valid: Vec<f64> = records.iter().zip(&full).filter(|(r, _)| r.kind == StreamKind::Valid).map(|(_, m)| norm2(m)).collect();
         let eps = 1e-6 * valid.iter().sum::<f64>() / valid.len().max(1) as f64 + f64::MIN_POSITIVE;
-        // subtree gain and bytes, from the last node back (children lie after their parent)
-        let (mut gain, mut bytes) = (vec![0.0f64; n], vec![0usize; n]);
-        for id in (0..n).rev() {
+        // Each split's own gain (module docs, "Order") and bytes (its 8 children and the
+        // parent's index), and each node's parent.
+        let (mut gain, mut bytes, mut parent) = (vec![0.0f64; n], vec![0.0f64; n], vec![u32::MAX; n]);
+        for id in 0..n {
             let node = self.nodes[id];
             if node.is_leaf() {
                 continue;
             }
-            let (first, parent) = (node.link as usize, &full[id]);
-            let scale = 1.0 / (norm2(parent) + eps);
-            let mut delta = 0.0f64;
+            let (first, mean) = (node.link as usize, &full[id]);
+            let scale = 1.0 / (norm2(mean) + eps);
+            bytes[id] = 4.0;
             for c in first..first + 8 {
-                bytes[id] += records[c].bytes() + bytes[c];
-                gain[id] += gain[c];
+                parent[c] = id as u32;
+                bytes[id] += records[c].bytes() as f64;
                 if records[c].kind == StreamKind::Atmospheric {
                     continue;
                 }
                 let gamma = (self.cell_size[depths[c] as usize] as f64).powi(3);
                 let d: f64 = (0..6)
                     .filter(|&k| records[c].facing & records[id].facing & (1 << k) != 0)
-                    .map(|k| (full[c][k] - parent[k]).to_cols_array().iter().map(|v| (*v as f64).powi(2)).sum::<f64>())
+                    .map(|k| (full[c][k] - mean[k]).to_cols_array().iter().map(|v| (*v as f64).powi(2)).sum::<f64>())
                     .sum();
-                delta += gamma * d * scale;
+                gain[id] += gamma * d * scale;
             }
-            gain[id] += delta;
         }
-        let rank = |id: usize| gain[id] / bytes[id].max(1) as f64;
-        // (rank, lower node index first, node, its index in the stream)
-        let mut heap = BinaryHeap::new();
-        let key = |id: usize, at: u32| (rank(id).to_bits(), std::cmp::Reverse(id as u32), at);
-        if !self.nodes[0].is_leaf() {
-            heap.push(key(0, 0));
-        }
-        let mut splits = Vec::new();
-        while let Some((_, std::cmp::Reverse(id), at)) = heap.pop() {
+        let internal: Vec<bool> = self.nodes.iter().map(|nd| !nd.is_leaf()).collect();
+        let order = if internal[0] { horn_order(&internal, &gain, &bytes, &parent) } else { Vec::new() };
+        // the stream index of each node once sent: the root 0, split `j`'s children 1 + 8 j + c
+        let mut at = vec![0u32; n];
+        let mut splits = Vec::with_capacity(order.len());
+        for id in order {
             let first = self.nodes[id as usize].link as usize;
             let base = 1 + 8 * splits.len() as u32;
             for c in 0..8 {
-                if !self.nodes[first + c].is_leaf() {
-                    heap.push(key(first + c, base + c as u32));
-                }
+                at[first + c] = base + c as u32;
             }
-            splits.push(StreamSplit { parent: at, depth: depths[first], children: std::array::from_fn(|c| records[first + c]) });
+            splits.push(StreamSplit {
+                parent: at[id as usize],
+                depth: depths[first],
+                children: std::array::from_fn(|c| records[first + c]),
+            });
         }
         Stream { root: records[0], splits }
     }
@@ -239,6 +239,58 @@ impl Octree {
     }
 }
 
+/// The order of the internal nodes (the root first, every node after its parent) that lowers
+/// the error fastest per byte (module docs, "Order"): Horn's algorithm for an out-tree of jobs
+/// of weight `gain` and time `bytes`. Repeatedly, the group of highest `Σ gain / Σ bytes` that
+/// is not the root's joins its parent's group, its sequence appended to the parent group's;
+/// the root's group's sequence is the order (ties: the lower node index first).
+fn horn_order(internal: &[bool], gain: &[f64], bytes: &[f64], parent: &[u32]) -> Vec<u32> {
+    const END: u32 = u32::MAX;
+    let n = internal.len();
+    // per group (named by its first node): totals, the last node of its sequence; per node:
+    // the next in its group's sequence, and its group (union-find, by the first node)
+    let (mut w, mut p) = (gain.to_vec(), bytes.to_vec());
+    let mut tail: Vec<u32> = (0..n as u32).collect();
+    let mut next = vec![END; n];
+    let mut group: Vec<u32> = (0..n as u32).collect();
+    let mut version = vec![0u32; n];
+    fn find(group: &mut [u32], mut x: u32) -> u32 {
+        while group[x as usize] != x {
+            let up = group[group[x as usize] as usize];
+            group[x as usize] = up;
+            x = up;
+        }
+        x
+    }
+    let ratio = |w: f64, p: f64| if p > 0.0 { w / p } else { 0.0 };
+    let mut heap: BinaryHeap<(u64, std::cmp::Reverse<u32>, u32)> =
+        (1..n).filter(|&id| internal[id]).map(|id| (ratio(w[id], p[id]).to_bits(), std::cmp::Reverse(id as u32), 0)).collect();
+    while let Some((_, std::cmp::Reverse(id), ver)) = heap.pop() {
+        let g = id as usize;
+        if group[g] != id || version[g] != ver {
+            continue; // merged into another group, or its totals changed since
+        }
+        let into = find(&mut group, parent[g]);
+        let to = into as usize;
+        next[tail[to] as usize] = id;
+        tail[to] = tail[g];
+        w[to] += w[g];
+        p[to] += p[g];
+        group[g] = into;
+        if into != 0 {
+            version[to] += 1;
+            heap.push((ratio(w[to], p[to]).to_bits(), std::cmp::Reverse(into), version[to]));
+        }
+    }
+    let mut order = Vec::new();
+    let mut at = 0u32;
+    while at != END {
+        order.push(at);
+        at = next[at as usize];
+    }
+    order
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -314,5 +366,68 @@ mod tests {
         assert!(want.transpose().mul_vec3(Vec3::Y).x > 0.0);
         assert!((e.0 - e.1).abs().max_element() <= 0.01 * e.1.max_element(), "{e:?}");
         assert_ne!(root.facing & (1 << 2), 0);
+    }
+
+    /// `Σ gain_j C_j`, `C_j` the bytes sent once split `j` is done.
+    fn weighted_completion(order: &[u32], gain: &[f64], bytes: &[f64]) -> f64 {
+        let mut sent = 0.0;
+        order
+            .iter()
+            .map(|&j| {
+                sent += bytes[j as usize];
+                gain[j as usize] * sent
+            })
+            .sum()
+    }
+
+    #[test]
+    fn horn_order_is_the_best_order_of_small_trees() {
+        // random trees of 7 nodes (node i's parent below i), all internal: against every
+        // order with each node after its parent
+        let mut s = Sampler::new(5, 0, 0);
+        for _ in 0..40 {
+            let n = 7;
+            let parent: Vec<u32> = (0..n).map(|i| if i == 0 { u32::MAX } else { (s.next_1d() * i as f32) as u32 }).collect();
+            let gain: Vec<f64> = (0..n).map(|_| (s.next_1d() as f64).powi(3)).collect();
+            let bytes: Vec<f64> = (0..n).map(|_| 4.0 + 300.0 * s.next_1d() as f64).collect();
+            let order = horn_order(&[true; 7], &gain, &bytes, &parent);
+            let mut seen = [false; 7];
+            for &j in &order {
+                assert!(j == 0 || seen[parent[j as usize] as usize], "{order:?}: {j} before its parent");
+                seen[j as usize] = true;
+            }
+            assert!(seen.iter().all(|&x| x), "{order:?}");
+            // every order of 1..7 after the root that keeps parents first
+            let mut best = f64::INFINITY;
+            let mut perm: Vec<u32> = (1..n as u32).collect();
+            let mut c = vec![0usize; perm.len()];
+            let mut check = |p: &[u32]| {
+                let full: Vec<u32> = std::iter::once(0).chain(p.iter().copied()).collect();
+                let ok = full.iter().enumerate().all(|(at, &j)| j == 0 || full[..at].contains(&parent[j as usize]));
+                if ok {
+                    best = best.min(weighted_completion(&full, &gain, &bytes));
+                }
+            };
+            check(&perm);
+            let mut i = 0;
+            while i < perm.len() {
+                // Heap's algorithm
+                if c[i] < i {
+                    if i % 2 == 0 {
+                        perm.swap(0, i)
+                    } else {
+                        perm.swap(c[i], i)
+                    }
+                    check(&perm);
+                    c[i] += 1;
+                    i = 0;
+                } else {
+                    c[i] = 0;
+                    i += 1;
+                }
+            }
+            let got = weighted_completion(&order, &gain, &bytes);
+            assert!(got <= best * (1.0 + 1e-12), "Horn's order {order:?} costs {got}, the best {best}");
+        }
     }
 }
