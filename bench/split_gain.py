@@ -16,9 +16,6 @@ Usage: .venv-py/bin/python bench/split_gain.py [--scenes classroom sponza ...] [
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -26,32 +23,11 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-import scenes as aliases  # noqa: E402  (bench/scenes.json)
-
-try:
-    import octolux  # the PyO3 module: read_exr
-except ImportError:  # pragma: no cover
-    sys.exit("split_gain.py needs the octolux Python module (pip install -e crates/octolux-py)")
-
-BIN = Path(os.environ.get("OCTOLUX_BIN", ROOT / "target" / "release" / "octolux"))
+from seed_renders import check_bin, read, render, scenes_at  # noqa: E402
 
 
-def render(sc: dict, split: int, spp: int, res: str, seed: int, out: Path) -> float:
-    cmd = [str(BIN), "render", str(sc["scene"]), "--integrator", "path", "--spp", str(spp), "--resolution", res,
-           "--max-depth", str(sc["max_depth"]), "--seed", str(seed), "--threads", "2", "--set", f"split={split}",
-           "-q", "-o", str(out)]
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed: {p.stderr.strip()[-600:]}")
-    return float(json.loads(out.with_suffix(".json").read_text())["render"]["render_s"])
 
-
-def downsample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    h, w = shape
-    fy, fx = img.shape[0] // h, img.shape[1] // w
-    return img[: h * fy, : w * fx].reshape(h, fy, w, fx, 3).mean(axis=(1, 3))
 
 
 def cpu_line() -> str:
@@ -73,35 +49,23 @@ def main() -> int:
     ap.add_argument("--spp", type=int, default=4)
     ap.add_argument("--res", default="160x90")
     a = ap.parse_args()
-    if not BIN.exists():
-        sys.exit(f"{BIN} missing: cargo build --release -p octolux-cli")
+    check_bin()
     if a.splits[0] != 1:
         a.splits.insert(0, 1)
-    rw, rh = (int(v) for v in a.res.split("x"))
     print(cpu_line())
     print(f"{a.seeds} seeds x {a.spp} spp at {a.res}, 2 threads")
     print("| scene | " + " | ".join(f"k={k}: time, gain [90%]" for k in a.splits[1:]) + " |")
     print("|---" * (1 + len(a.splits[1:])) + "|")
     rng = np.random.default_rng(1)
     with tempfile.TemporaryDirectory() as tmp:
-        for name in a.scenes:
-            try:
-                sc = aliases.get(name)
-            except (KeyError, FileNotFoundError) as e:
-                print(f"skipped {name}: {e}", file=sys.stderr)
-                continue
-            if not Path(sc["reference"]).exists() or (not sc.get("builtin") and not Path(sc["scene"]).exists()):
-                print(f"skipped {name}: scene or reference missing", file=sys.stderr)
-                continue
-            ref = downsample(octolux.read_exr(sc["reference"]), (rh, rw)).astype(np.float64)
-            wgt = 1.0 / (ref ** 2 + 1e-2)
+        for name, sc, wgt in scenes_at(a.scenes, a.res):
             per_k = {}
             for k in a.splits:
                 imgs, times = [], []
                 for s in range(a.seeds):
                     out = Path(tmp) / f"{name}-{k}-{s}.exr"
-                    times.append(render(sc, k, a.spp, a.res, 1000 + s, out))
-                    imgs.append(octolux.read_exr(str(out)).astype(np.float64))
+                    times.append(render(sc["scene"], sc["max_depth"], a.spp, a.res, 1000 + s, out, ["--set", f"split={k}"]))
+                    imgs.append(read(out))
                 per_k[k] = (np.stack(imgs), np.array(times))
                 print(f"  {name} k={k}: {np.mean(times):.3f} s per render", file=sys.stderr, flush=True)
 

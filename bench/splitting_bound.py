@@ -28,9 +28,7 @@ Usage: .venv-py/bin/python bench/splitting_bound.py [--scenes dining-room classr
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -38,31 +36,11 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-import scenes as aliases  # noqa: E402  (bench/scenes.json)
-
-try:
-    import octolux  # the PyO3 module: read_exr
-except ImportError:  # pragma: no cover
-    sys.exit("splitting_bound.py needs the octolux Python module (pip install -e crates/octolux-py)")
-
-BIN = ROOT / "target" / "release" / "octolux"
+from seed_renders import check_bin, read, render, scenes_at  # noqa: E402
 
 
-def render(scene: str, depth: int, spp: int, res: str, seed: int, out: Path) -> float:
-    cmd = [str(BIN), "render", scene, "--integrator", "path", "--spp", str(spp), "--resolution", res,
-           "--max-depth", str(depth), "--seed", str(seed), "--threads", "2", "-o", str(out)]
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed: {p.stderr.strip()[-600:]}")
-    return float(json.loads(out.with_suffix(".json").read_text())["render"]["render_s"])
 
-
-def downsample(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    h, w = shape
-    fy, fx = img.shape[0] // h, img.shape[1] // w
-    return img[: h * fy, : w * fx].reshape(h, fy, w, fx, 3).mean(axis=(1, 3))
 
 
 def moments(x0: np.ndarray, x1: np.ndarray, wgt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -104,30 +82,18 @@ def main() -> int:
     ap.add_argument("--spp", type=int, default=4)
     ap.add_argument("--res", default="160x90")
     a = ap.parse_args()
-    if not BIN.exists():
-        sys.exit(f"{BIN} missing: cargo build --release -p octolux-cli")
-    rw, rh = (int(v) for v in a.res.split("x"))
+    check_bin()
     print("| scene | T0/T1 | continuation's share of variance | best uniform k | its gain | oracle k_p (10/50/90%) | oracle gain |")
     print("|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
-        for name in a.scenes:
-            try:
-                sc = aliases.get(name)
-            except (KeyError, FileNotFoundError) as e:
-                print(f"skipped {name}: {e}", file=sys.stderr)
-                continue
-            if not Path(sc["reference"]).exists() or (not sc.get("builtin") and not Path(sc["scene"]).exists()):
-                print(f"skipped {name}: scene or reference missing", file=sys.stderr)
-                continue
-            ref = downsample(octolux.read_exr(sc["reference"]), (rh, rw))
-            wgt = 1.0 / (ref.astype(np.float64) ** 2 + 1e-2)
+        for name, sc, wgt in scenes_at(a.scenes, a.res):
             xs, x0s, t_full, t_first = [], [], 0.0, 0.0
             for seed in range(1, a.seeds + 1):
                 f, g = Path(tmp) / f"{name}_{seed}_full.exr", Path(tmp) / f"{name}_{seed}_first.exr"
                 t_full += render(sc["scene"], sc["max_depth"], a.spp, a.res, seed, f)
                 t_first += render(sc["scene"], 2, a.spp, a.res, seed, g)
-                xs.append(octolux.read_exr(f).astype(np.float64))
-                x0s.append(octolux.read_exr(g).astype(np.float64))
+                xs.append(read(f))
+                x0s.append(read(g))
             x, x0 = np.stack(xs), np.stack(x0s)
             x1 = x - x0
             h = a.seeds // 2
