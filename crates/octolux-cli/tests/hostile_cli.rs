@@ -868,6 +868,11 @@ fn every_source_of_a_value_is_checked_alike() {
     let with = |extra: &[&str]| run(&[&quick[..], extra].concat());
     assert_eq!(stderr(&with(&["--max-depth", "-5"])), "error: --max-depth -5 must be -1 (unbounded) or at least 0\n");
     assert_eq!(stderr(&with(&["--set", "max_depth=-5"])), "error: --set max_depth=-5: max_depth -5 must be -1 (unbounded) or at least 0\n");
+    // the path tracer's split factor, refused before the render as the others are
+    assert_eq!(
+        stderr(&with(&["--integrator", "path", "--set", "split=0"])),
+        "error: --set split=0: invalid setting `split`: 0 must be 1 (no splitting) to 256\n"
+    );
     let file = dir.path.join("s.json");
     std::fs::write(&file, r#"{"type": "octree", "max_depth": -5}"#).expect("write");
     assert_eq!(

@@ -126,7 +126,7 @@ pub fn check_max_depth(d: i64) -> std::result::Result<(), String> {
 pub fn check_values(s: &IntegratorSettings) -> std::result::Result<(), String> {
     let depth = |d: i32| check_max_depth(d as i64).map_err(|e| format!("max_depth {e}"));
     match s {
-        IntegratorSettings::Path(p) => depth(p.max_depth),
+        IntegratorSettings::Path(p) => depth(p.max_depth).and_then(|()| p.validate().map_err(|e| e.to_string())),
         IntegratorSettings::Octree(o) => {
             depth(o.max_depth)?;
             if o.photons.photons == 0 {

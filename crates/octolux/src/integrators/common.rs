@@ -209,14 +209,6 @@ pub fn walk_specular(
     }
 }
 
-/// `max_depth` must be -1 (unbounded) or positive.
-pub(crate) fn check_max_depth(max_depth: i32) -> Result<(), crate::caches::kdtree::SettingsError> {
-    if max_depth < -1 || max_depth == 0 {
-        return Err(crate::caches::kdtree::SettingsError::new("max_depth", format!("{max_depth} must be -1 (unbounded) or at least 1")));
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,7 +3,7 @@
 //! (power heuristic), Russian roulette from `rr_depth`, Mitsuba 3's `max_depth` semantics and
 //! its handling of masks and bump maps: see the loop's module docs.
 
-use super::common::{check_max_depth, RayCounters};
+use super::common::RayCounters;
 use super::pathloop::{self, Depths, Never};
 use crate::caches::kdtree::SettingsError;
 use crate::math::{Color, Ray, RayDifferential};
@@ -42,12 +42,16 @@ impl PathSettings {
     /// Splitting beyond this many continuations is refused (a typo would multiply the cost).
     pub const MAX_SPLIT: u32 = 256;
 
-    /// `max_depth` -1 or positive, `split` in 1..=[`Self::MAX_SPLIT`].
+    /// `max_depth` -1 or at least 0 (Mitsuba 3's rule: 0 renders nothing), `split` in
+    /// 1..=[`Self::MAX_SPLIT`].
     pub fn validate(&self) -> Result<(), SettingsError> {
+        if self.max_depth < -1 {
+            return Err(SettingsError::new("max_depth", format!("{} must be -1 (unbounded) or at least 0", self.max_depth)));
+        }
         if !(1..=Self::MAX_SPLIT).contains(&self.split) {
             return Err(SettingsError::new("split", format!("{} must be 1 (no splitting) to {}", self.split, Self::MAX_SPLIT)));
         }
-        check_max_depth(self.max_depth)
+        Ok(())
     }
 
     /// The loop's path length limits.
@@ -183,5 +187,8 @@ mod tests {
         }
         let e = PathSettings { split: 0, ..Default::default() }.validate().unwrap_err().to_string();
         assert!(e.contains("split") && e.contains("0 must be 1"), "{e}");
+        for (max_depth, ok) in [(-2, false), (-1, true), (0, true), (1, true)] {
+            assert_eq!(PathSettings { max_depth, ..Default::default() }.validate().is_ok(), ok, "max_depth {max_depth}");
+        }
     }
 }

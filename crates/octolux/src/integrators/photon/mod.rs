@@ -26,7 +26,6 @@ pub mod ward;
 
 pub use super::common::Vertex;
 
-pub(crate) use super::common::check_max_depth;
 use super::common::{direct_light, walk_specular, RayCounters};
 use crate::caches::kdtree::{
     gather_photons, photon_irradiance, scene_size, Density, DensityEstimate, DensitySettings, Neighbor, PhotonTree, SettingsError,
@@ -61,6 +60,14 @@ pub enum BaselineError {
     Settings(#[from] SettingsError),
     #[error(transparent)]
     Photons(#[from] PhotonError),
+}
+
+/// `max_depth` must be -1 (unbounded) or positive.
+pub(crate) fn check_max_depth(max_depth: i32) -> Result<(), SettingsError> {
+    if max_depth < -1 || max_depth == 0 {
+        return Err(SettingsError::new("max_depth", format!("{max_depth} must be -1 (unbounded) or at least 1")));
+    }
+    Ok(())
 }
 
 /// The checks every baseline's settings start with: at least one photon, then each named
