@@ -35,6 +35,9 @@ import sys
 import tempfile
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+sys.path.insert(0, os.path.join(REPO, "bench"))
+from machine import cpu_line  # noqa: E402
+
 W, H = 2048, 1024
 SUN_U, SUN_V = 0.3, 0.36  # the sun's place in the map: elevation (0.5 - SUN_V) * 180 = 25 degrees
 CLASSROOM = os.path.join(REPO, "..", "shared", "scenes", "bitterli-collection", "classroom", "scene.xml")
@@ -170,9 +173,7 @@ def main(argv=None) -> int:
             print(f"writing the {W}x{H} sky", file=sys.stderr)
             write_sky(sky_path)
         scenes = {"open": OPEN, "room": room(), "classroom": classroom(folder)}
-        with open("/proc/cpuinfo") as f:
-            model = next((l.split(":", 1)[1].strip() for l in f if l.startswith("model name")), "?")
-        print(f"# {model}; load average {os.getloadavg()[0]:.2f}; {args.spp} spp, {args.threads} threads")
+        print(f"# {cpu_line()}; load average {os.getloadavg()[0]:.2f}; {args.spp} spp, {args.threads} threads")
         for name in args.scene or ["open", "room", "classroom"]:
             if scenes[name] is None:
                 print(f"skip: {name}: {CLASSROOM} is absent")

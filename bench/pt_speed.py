@@ -61,6 +61,9 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), 
 sys.path.insert(0, os.path.join(REPO, "tools", "mitsuba"))
 import locations  # noqa: E402  (tools/mitsuba/locations.py: $OCTOLUX_SHARED or <repo>/../shared)
 
+sys.path.insert(0, os.path.join(REPO, "bench"))
+from machine import cpu_line  # noqa: E402
+
 MI_PY = locations.mitsuba_python()
 MI_RENDER = os.path.join(REPO, "tools", "mitsuba", "render.py")
 COLLECTION_MANIFEST = os.path.join(REPO, "tests", "refs", "collection", "manifest.json")
@@ -359,6 +362,7 @@ def main(argv=None) -> int:
         return f"{a / b:.2f}x" if (a and b) else "-"
 
     tmax = max(threads)
+    print(f"# {cpu_line()}")
     print(f"# path tracer, {args.spp} spp; MS/s = 1e6 samples per wall second; cpu = per CPU-second x threads;"
           f" load average {load0[0]:.2f} at start, {os.getloadavg()[0]:.2f} at end")
     for v in variants:
@@ -402,7 +406,7 @@ def main(argv=None) -> int:
                   " ".join(f"{t}T {fmt(get(row, 'octolux', t), '.0f')}" for t in threads))
     if args.json:
         with open(args.json, "w") as f:
-            json.dump({"args": vars(args), "loadavg_start": load0, "loadavg_end": os.getloadavg(),
+            json.dump({"args": vars(args), "cpu": cpu_line(), "loadavg_start": load0, "loadavg_end": os.getloadavg(),
                        "results": results}, f, indent=2)
     return 0
 

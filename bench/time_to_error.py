@@ -59,6 +59,7 @@ BIN = Path(os.environ.get("OCTOLUX_BIN", ROOT / "target" / "release" / "octolux"
 OUT = ROOT / "target" / "tte"
 sys.path.insert(0, str(ROOT / "bench"))
 import scenes as aliases  # noqa: E402  (bench/scenes.json: the one table of scene aliases)
+from machine import cpu_line  # noqa: E402
 MI_PYTHON = Path(os.environ.get("OCTOLUX_MI_PYTHON", ROOT / ".venv-mitsuba" / "bin" / "python"))
 RENDER_PY = ROOT / "tools" / "mitsuba" / "render.py"
 LAB = ROOT / "docs" / "lab"
@@ -400,8 +401,9 @@ def main() -> int:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
         results = {"date": time.strftime("%Y-%m-%d"),
                    "about": f"`bench/time_to_error.py --budget {args.budget:g}` at {head}, "
-                            f"{time.strftime('%Y-%m-%d')}, {os.cpu_count()} CPUs",
+                            f"{time.strftime('%Y-%m-%d')}, {os.cpu_count()} CPUs; {cpu_line()}",
                    "scenes": {}}
+        log(cpu_line())
         if args.reuse and (OUT / "results.json").exists():
             results["scenes"] = json.loads((OUT / "results.json").read_text())["scenes"]
         for name in args.scenes:
