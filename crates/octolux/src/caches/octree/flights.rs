@@ -90,14 +90,9 @@ impl Flights {
 
 impl Octree {
     /// The leaves met by the segment `o + t d`, `t ∈ [0, t_max]`, clipped to the root cube, in
-    /// order, with the length of the segment inside each (in units of `t`; `d` need not be
-    /// unit): `f(node, length)`. The lengths add up to the clipped segment's.
-    pub fn segment_leaves(&self, o: Vec3, d: Vec3, t_max: f32, mut f: impl FnMut(u32, f32)) {
-        self.segment_cells(o, d, t_max, |node, _, _, t0, t1| f(node, t1 - t0));
-    }
-
-    /// [`Octree::segment_leaves`] with each leaf's cell (depth, integer coordinates) and the
+    /// order (`d` need not be unit), with each leaf's cell (depth, integer coordinates) and the
     /// segment's parameters where it enters and leaves it: `f(node, depth, ijk, t_in, t_out)`.
+    /// The lengths `t_out − t_in` add up to the clipped segment's.
     pub(super) fn segment_cells(&self, o: Vec3, d: Vec3, t_max: f32, mut f: impl FnMut(u32, u32, [u32; 3], f32, f32)) {
         if !(o.is_finite() && d.is_finite() && t_max > 0.0) {
             return;

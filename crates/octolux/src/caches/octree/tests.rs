@@ -648,7 +648,7 @@ fn the_normal_split_keeps_a_floor_and_a_wall_apart() {
 }
 
 /// The flight estimate keeps every length a flight travels in the root cube (`flights.rs`): the
-/// leaves `segment_leaves` reports tile the clipped segment, in order, each a leaf of the tree
+/// leaves `segment_cells` reports tile the clipped segment, in order, each a leaf of the tree
 /// holding the segment's midpoint there, and their lengths add up to the clipped length. So the
 /// track length `Φ ℓ` a flight deposits, over all leaves, is its power times its length in the
 /// cube: none lost at cell borders, none counted twice.
@@ -675,7 +675,8 @@ fn segment_leaves_conserve_the_track_length() {
         }
         let want = (t1 - t0).max(0.0);
         let (mut sum, mut t) = (0.0f32, t0);
-        tree.segment_leaves(o, d, t_max, |node, l| {
+        tree.segment_cells(o, d, t_max, |node, _, _, t_in, t_out| {
+            let l = t_out - t_in;
             assert!(l > 0.0, "a zero-length piece");
             let mid = o + d * (t + 0.5 * l);
             let leaf = tree.find_leaf(mid).expect("the piece lies in the tree").0;
