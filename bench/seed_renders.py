@@ -28,9 +28,11 @@ def check_bin() -> None:
         sys.exit(f"{BIN} missing: cargo build --release -p octolux-cli")
 
 
-def render(scene: str, depth: int, spp: int, res: str, seed: int, out: Path, extra: list[str] = ()) -> float:
-    """The path tracer at `depth` (Mitsuba's max_depth), 2 threads; returns its render time (s)."""
-    cmd = [str(BIN), "render", str(scene), "--integrator", "path", "--spp", str(spp), "--resolution", res,
+def render(scene: str, depth: int, spp: int, res: str, seed: int, out: Path, extra: list[str] = (),
+           integrator: str = "path", binary: Path = BIN) -> float:
+    """`integrator` (the path tracer by default) at `depth` (Mitsuba's max_depth), 2 threads;
+    returns its render time (s: out.json's `render.render_s`, a bake excluded)."""
+    cmd = [str(binary), "render", str(scene), "--integrator", integrator, "--spp", str(spp), "--resolution", res,
            "--max-depth", str(depth), "--seed", str(seed), "--threads", "2", "-q", "-o", str(out), *extra]
     p = subprocess.run(cmd, capture_output=True, text=True)
     if p.returncode != 0:

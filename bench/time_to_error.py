@@ -88,14 +88,19 @@ SEED = 7
 BEGIN, END = "<!-- tte:begin (bench/time_to_error.py --write-docs) -->", "<!-- tte:end -->"
 
 
-def add_variant(spec: str) -> str:
-    """--variant NAME=KEY=VALUE[,KEY=VALUE...]: an octree method with these --set keys (traced ladder)."""
+def _add(spec: str, table: dict[str, list[str]], lists: tuple[list[str], ...]) -> str:
+    """NAME=KEY=VALUE[,KEY=VALUE...]: NAME's --set options in `table`, NAME in each of `lists`."""
     name, _, keys = spec.partition("=")
-    VARIANTS[name] = [a for kv in filter(None, keys.split(",")) for a in ("--set", kv)]
-    for lst in (CACHES, METHODS, TRACED):
+    table[name] = [a for kv in filter(None, keys.split(",")) for a in ("--set", kv)]
+    for lst in lists:
         if name not in lst:
             lst.append(name)
     return name
+
+
+def add_variant(spec: str) -> str:
+    """--variant NAME=KEY=VALUE[,KEY=VALUE...]: an octree method with these --set keys (traced ladder)."""
+    return _add(spec, VARIANTS, (CACHES, METHODS, TRACED))
 
 
 # --path-variant: path-tracer methods with --set keys (the spp ladder, unbiased)
@@ -104,12 +109,7 @@ PATH_VARIANTS: dict[str, list[str]] = {}
 
 def add_path_variant(spec: str) -> str:
     """--path-variant NAME=KEY=VALUE[,KEY=VALUE...]: the path tracer with these --set keys."""
-    name, _, keys = spec.partition("=")
-    PATH_VARIANTS[name] = [a for kv in filter(None, keys.split(",")) for a in ("--set", kv)]
-    for lst in (METHODS, UNBIASED):
-        if name not in lst:
-            lst.append(name)
-    return name
+    return _add(spec, PATH_VARIANTS, (METHODS, UNBIASED))
 
 
 def log(msg: str) -> None:
