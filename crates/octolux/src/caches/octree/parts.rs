@@ -129,7 +129,7 @@ pub(super) fn cell_sizes(size: f32) -> [f32; MAX_DEPTH as usize + 1] {
 
 /// What the depth-first check of the node array collects.
 struct Walk<'a> {
-    nodes: &'a [[u32; 2]],
+    nodes: &'a [Node],
     h_max: u32,
     /// Next node index the build would allocate.
     next: usize,
@@ -143,10 +143,52 @@ struct Walk<'a> {
     cell_size: [f32; MAX_DEPTH as usize + 1],
 }
 
-impl Walk<'_> {
+impl<'a> Walk<'a> {
+    /// The check of `nodes` from the root (every invariant of the module docs on the nodes).
+    fn run(nodes: &'a [Node], h_max: u32, cell_size: [f32; MAX_DEPTH as usize + 1]) -> Result<Walk<'a>, PartsError> {
+        let mut walk = Walk {
+            nodes,
+            h_max,
+            next: 1,
+            next_value: 0,
+            leaves: 0,
+            max_depth: 0,
+            depth_histogram: vec![0; h_max as usize + 1],
+            own_photons: 0.0,
+            cells: 0.0,
+            cell_size,
+        };
+        walk.node(0, 0)?;
+        if walk.next != nodes.len() {
+            return Err(PartsError(format!("{} nodes, the tree reaches {}", nodes.len(), walk.next)));
+        }
+        Ok(walk)
+    }
+
+    /// `stats` with the structural statistics of the walked tree (module docs), `bytes` its
+    /// size as stored.
+    fn stats(&self, stats: OctreeStats, bytes: usize) -> OctreeStats {
+        let nv = self.next_value as usize;
+        let mean = |s: f64| if nv > 0 { s / nv as f64 } else { 0.0 };
+        OctreeStats {
+            bytes,
+            bytes_per_valid_leaf: if nv > 0 { bytes as f64 / nv as f64 } else { 0.0 },
+            leaves: self.leaves,
+            valid_leaves: nv,
+            mean_photons_per_leaf: mean(self.own_photons),
+            mean_cell_size: mean(self.cells),
+            depth_histogram: self.depth_histogram.clone(),
+            nodes: self.nodes.len(),
+            max_depth: self.max_depth,
+            min_leaf_size: self.cell_size[self.max_depth as usize],
+            h_max: self.h_max,
+            ..stats
+        }
+    }
+
     fn node(&mut self, id: usize, depth: u32) -> Result<(), PartsError> {
         let bad = |m: String| Err(PartsError(m));
-        let [link, photons] = self.nodes[id];
+        let Node { link, photons } = self.nodes[id];
         if link & LEAF_BIT != 0 {
             let value = link & !LEAF_BIT;
             self.leaves += 1;
@@ -180,7 +222,7 @@ impl Walk<'_> {
         for c in 0..8 {
             self.node(first + c, depth + 1)?;
         }
-        let sum: u64 = self.nodes[first..first + 8].iter().map(|n| n[1] as u64).sum();
+        let sum: u64 = self.nodes[first..first + 8].iter().map(|n| n.photons as u64).sum();
         if sum != photons as u64 {
             return bad(format!("node {id}: {photons} photons, its children hold {sum}"));
         }
@@ -249,22 +291,8 @@ impl Octree {
             }
         }
         let cell_size = cell_sizes(size);
-        let mut walk = Walk {
-            nodes: &nodes,
-            h_max: h,
-            next: 1,
-            next_value: 0,
-            leaves: 0,
-            max_depth: 0,
-            depth_histogram: vec![0; h as usize + 1],
-            own_photons: 0.0,
-            cells: 0.0,
-            cell_size,
-        };
-        walk.node(0, 0)?;
-        if walk.next != nodes.len() {
-            return bad(format!("{} nodes, the tree reaches {}", nodes.len(), walk.next));
-        }
+        let nodes: Vec<Node> = nodes.into_iter().map(|[link, photons]| Node { link, photons }).collect();
+        let walk = Walk::run(&nodes, h, cell_size)?;
         if walk.next_value as usize != n_values {
             return bad(format!("{} valid leaves, {n_values} values", walk.next_value));
         }
@@ -294,9 +322,6 @@ impl Octree {
                 }
             }
         }
-        let nv = n_values;
-        let mean = |s: f64| if nv > 0 { s / nv as f64 } else { 0.0 };
-        let min_leaf_size = cell_size[walk.max_depth as usize];
         let values = match values {
             LeafValueParts::Compressed(v) => LeafValues::Compressed(v),
             LeafValueParts::Full(v) => LeafValues::Full(v),
@@ -309,32 +334,15 @@ impl Octree {
             (a.filled, v, a.anchors)
         });
         let atmosphere_bytes = atmosphere_values.as_ref().map_or(0, |(f, v, q)| f.len() + v.bytes() + 3 * q.len());
-        let bytes = std::mem::size_of_val(nodes.as_slice())
-            + values.bytes()
-            + facing.len()
-            + std::mem::size_of_val(anchors.as_slice())
-            + atmosphere_bytes;
-        let stats = OctreeStats {
-            bytes,
-            bytes_per_valid_leaf: if nv > 0 { bytes as f64 / nv as f64 } else { 0.0 },
-            leaves: walk.leaves,
-            valid_leaves: nv,
-            mean_photons_per_leaf: mean(walk.own_photons),
-            mean_cell_size: mean(walk.cells),
-            depth_histogram: walk.depth_histogram,
-            nodes: nodes.len(),
-            max_depth: walk.max_depth,
-            min_leaf_size,
-            h_max: h,
-            ..stats
-        };
+        let stats = walk.stats(stats, stored_bytes(&nodes, &values, &facing, &anchors) + atmosphere_bytes);
+        let min_leaf_size = stats.min_leaf_size;
         let mut tree = Octree {
             origin,
             size,
             cell_size,
             inv_quant,
             h_max: h,
-            nodes: nodes.into_iter().map(|[link, photons]| Node { link, photons }).collect(),
+            nodes,
             values,
             facing,
             anchors,
@@ -349,6 +357,30 @@ impl Octree {
             tree.atmosphere = Some(super::atmosphere::Atmosphere::new(&tree, filled, values, anchors));
         }
         Ok(tree)
+    }
+}
+
+/// Bytes of a tree as stored: nodes, leaf values, facing bits and anchors (the atmosphere's
+/// are added by the caller).
+fn stored_bytes(nodes: &[Node], values: &LeafValues, facing: &[u8], anchors: &[LeafAnchors]) -> usize {
+    std::mem::size_of_val(nodes) + values.bytes() + facing.len() + std::mem::size_of_val(anchors)
+}
+
+impl Octree {
+    /// The structural statistics and the query box recounted from the tree as it is now, as
+    /// [`Octree::from_parts`] would count them (for a tree changed after its build, such as a
+    /// free-space tree refined to another depth). Fails only where the nodes break an
+    /// invariant of the module docs.
+    pub fn recount(&mut self) -> Result<(), PartsError> {
+        let walk = Walk::run(&self.nodes, self.h_max, self.cell_size)?;
+        let bytes =
+            stored_bytes(&self.nodes, &self.values, &self.facing, &self.anchors) + self.atmosphere.as_ref().map_or(0, |a| a.bytes());
+        let stats = walk.stats(std::mem::take(&mut self.stats), bytes);
+        self.query_half = 0.5 * self.settings.alpha * stats.min_leaf_size;
+        self.stats = stats;
+        // the query's lists follow the query box
+        self.flat = Default::default();
+        Ok(())
     }
 }
 
@@ -401,6 +433,28 @@ mod tests {
                 assert_eq!(a.map(|m| m.to_cols_array().map(f32::to_bits)), b.map(|m| m.to_cols_array().map(f32::to_bits)));
             }
         }
+    }
+
+    /// `recount` gives the statistics and the query box `from_parts` gives: on a built tree
+    /// whose structural statistics were spoilt, and on a free-space tree, whose start keeps
+    /// the global tree's depth until recounted.
+    #[test]
+    fn recount_matches_a_round_trip() {
+        let t = tree(Storage::Compressed);
+        let mut spoilt = t.clone();
+        spoilt.stats.max_depth = 0;
+        spoilt.stats.bytes = 1;
+        spoilt.stats.depth_histogram.clear();
+        spoilt.query_half = 0.0;
+        spoilt.recount().unwrap();
+        assert_eq!(spoilt.stats(), t.stats());
+        assert_eq!(spoilt.query_half.to_bits(), t.query_half.to_bits());
+        let mut free = t.free_space_tree();
+        let back = Octree::from_parts(free.to_parts()).unwrap();
+        assert_ne!(free.stats().max_depth, back.stats().max_depth, "the test needs a tree shallower than its start says");
+        free.recount().unwrap();
+        assert_eq!(free.stats(), back.stats());
+        assert_eq!(free.query_half.to_bits(), back.query_half.to_bits());
     }
 
     #[test]

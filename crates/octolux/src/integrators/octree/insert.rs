@@ -23,7 +23,6 @@
 
 use super::{shade_matrix, LeakTest, OctreeIntegrator, ANCHOR_LIFT};
 use crate::caches::octree::{AtmosphereStats, QueryLeaf};
-use crate::caches::Octree;
 use crate::integrators::common::RayCounters;
 use crate::integrators::pathloop::CacheVertex;
 use crate::math::{Color, Ray};
@@ -78,9 +77,8 @@ impl OctreeIntegrator {
         st.refine = refine;
         // its structural statistics (deepest leaf, smallest leaf) as a cache file reads them
         // back: the refinement splits down to the global octree's depth, not the tree's own
-        if let Ok(t) = Octree::from_parts(tree.to_parts()) {
-            tree = t;
-        }
+        let recounted = tree.recount();
+        debug_assert!(recounted.is_ok(), "the free-space tree: {recounted:?}");
         self.stats.volume = Some(tree.stats().clone());
         self.volume = Some(tree);
         self.stats.bytes = self.bytes();
