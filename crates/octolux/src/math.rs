@@ -155,6 +155,32 @@ impl Bounds3 {
         let c = self.center();
         (c, (self.max - c).length())
     }
+    /// Whether the segment `a`–`b` meets the box (slab test on the closed segment).
+    #[inline]
+    pub fn meets_segment(&self, a: Vec3, b: Vec3) -> bool {
+        let bx = self;
+        let d = b - a;
+        let (mut t0, mut t1) = (0.0f32, 1.0f32);
+        for k in 0..3 {
+            if d[k] == 0.0 {
+                if a[k] < bx.min[k] || a[k] > bx.max[k] {
+                    return false;
+                }
+                continue;
+            }
+            let inv = 1.0 / d[k];
+            let (mut lo, mut hi) = ((bx.min[k] - a[k]) * inv, (bx.max[k] - a[k]) * inv);
+            if lo > hi {
+                std::mem::swap(&mut lo, &mut hi);
+            }
+            t0 = t0.max(lo);
+            t1 = t1.min(hi);
+            if t0 > t1 {
+                return false;
+            }
+        }
+        true
+    }
     /// Volume of the intersection with another box (0 when disjoint).
     #[inline]
     pub fn overlap_volume(&self, o: &Bounds3) -> f32 {

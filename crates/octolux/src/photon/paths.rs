@@ -58,32 +58,6 @@ fn offsets(lens: impl Iterator<Item = usize>) -> Option<Vec<u32>> {
     Some(out)
 }
 
-/// Whether the segment `a`–`b` meets the box (slab test on the closed segment).
-#[inline]
-fn segment_meets(a: Vec3, b: Vec3, bx: &Bounds3) -> bool {
-    let d = b - a;
-    let (mut t0, mut t1) = (0.0f32, 1.0f32);
-    for k in 0..3 {
-        if d[k] == 0.0 {
-            if a[k] < bx.min[k] || a[k] > bx.max[k] {
-                return false;
-            }
-            continue;
-        }
-        let inv = 1.0 / d[k];
-        let (mut lo, mut hi) = ((bx.min[k] - a[k]) * inv, (bx.max[k] - a[k]) * inv);
-        if lo > hi {
-            std::mem::swap(&mut lo, &mut hi);
-        }
-        t0 = t0.max(lo);
-        t1 = t1.min(hi);
-        if t0 > t1 {
-            return false;
-        }
-    }
-    true
-}
-
 impl PhotonPaths {
     /// Trace the pass of `settings` in `scene`, keeping every path's photons and flight points.
     pub fn trace(scene: &Scene, settings: &PhotonSettings) -> Result<PhotonPaths, PhotonError> {
@@ -203,7 +177,7 @@ impl PhotonPaths {
                 (c * chunk..((c + 1) * chunk).min(n)).filter(move |&i| {
                     let pts = &self.points[self.p_start[i as usize] as usize..self.p_start[i as usize + 1] as usize];
                     pts.iter().skip(1).any(|&p| ends_in.iter().any(|b| inside(p, b)))
-                        || pts.windows(2).any(|s| crosses.iter().any(|b| segment_meets(s[0], s[1], b)) && blocked(s[0], s[1]))
+                        || pts.windows(2).any(|s| crosses.iter().any(|b| b.meets_segment(s[0], s[1])) && blocked(s[0], s[1]))
                 })
             })
             .collect()

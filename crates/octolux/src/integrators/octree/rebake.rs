@@ -118,11 +118,13 @@ impl TriangleClusters {
         TriangleClusters { order, tri_boxes, boxes }
     }
 
+    /// Whether the segment meets a triangle: a slab test against each cluster's padded box,
+    /// then against each of its triangles' (a long flight's own bounding box overlaps most
+    /// of them, its line few).
     fn meets(&self, tris: &[[Vec3; 3]], a: Vec3, b: Vec3) -> bool {
-        let (lo, hi) = (a.min(b), a.max(b));
-        let overlaps = |bx: &Bounds3| lo.cmple(bx.max).all() && hi.cmpge(bx.min).all();
         self.boxes.iter().zip(self.order.chunks(Self::SIZE)).any(|(cb, c)| {
-            overlaps(cb) && c.iter().any(|&i| overlaps(&self.tri_boxes[i as usize]) && segment_meets_triangle(a, b, &tris[i as usize]))
+            cb.meets_segment(a, b)
+                && c.iter().any(|&i| self.tri_boxes[i as usize].meets_segment(a, b) && segment_meets_triangle(a, b, &tris[i as usize]))
         })
     }
 }
