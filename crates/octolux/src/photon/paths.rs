@@ -45,6 +45,17 @@ pub struct PhotonPaths {
     /// Length given to a flight that leaves the scene (scene units): twice the diameter of the
     /// bounding sphere of the scene the pass was traced in.
     escape: f32,
+    /// The lists [`PhotonPaths::retrace`] replaced last, kept to be written over by the next:
+    /// lists of tens of megabytes allocated afresh each frame cost their page faults again.
+    spare: Spare,
+}
+
+/// Allocations kept for [`PhotonPaths::retrace`]'s next lists.
+#[derive(Default)]
+struct Spare {
+    global: Vec<Photon>,
+    caustic: Vec<Photon>,
+    points: Vec<Vec3>,
 }
 
 /// Offsets of the per-path lists, from their lengths.
@@ -75,6 +86,7 @@ impl PhotonPaths {
             points: Vec::new(),
             p_start: vec![0],
             escape,
+            spare: Spare::default(),
         };
         let n = settings.photons;
         let chunks: Vec<Vec<PathRecord>> = (0..n.div_ceil(CHUNK))
@@ -201,35 +213,76 @@ impl PhotonPaths {
                 moved.extend(old[same..].iter().chain(&new[same..]).map(|p| p.p));
             }
         }
-        self.global = splice(&self.global, &self.g_start, ids, new.iter().map(|r| r.global.as_slice()));
-        self.caustic = splice(&self.caustic, &self.c_start, ids, new.iter().map(|r| r.caustic.as_slice()));
-        self.points = splice(&self.points, &self.p_start, ids, new.iter().map(|r| r.points.as_slice()));
-        self.g_start = new_offsets(&self.g_start, ids, new.iter().map(|r| r.global.len())).ok_or(PhotonError::TooManyRecords)?;
-        self.c_start = new_offsets(&self.c_start, ids, new.iter().map(|r| r.caustic.len())).ok_or(PhotonError::TooManyRecords)?;
-        self.p_start = new_offsets(&self.p_start, ids, new.iter().map(|r| r.points.len())).ok_or(PhotonError::TooManyRecords)?;
+        // every new list's length fits its offsets before anything changes
+        let fits = |start: &[u32], len: fn(&PathRecord) -> usize| {
+            let old: u64 = ids.iter().map(|&i| (start[i as usize + 1] - start[i as usize]) as u64).sum();
+            let added: u64 = new.iter().map(|r| len(r) as u64).sum();
+            *start.last().unwrap_or(&0) as u64 - old + added <= u32::MAX as u64
+        };
+        if !(fits(&self.g_start, |r| r.global.len()) && fits(&self.c_start, |r| r.caustic.len()) && fits(&self.p_start, |r| r.points.len()))
+        {
+            return Err(PhotonError::TooManyRecords);
+        }
+        let sp = &mut self.spare;
+        splice(&mut self.global, &mut sp.global, &mut self.g_start, ids, new.iter().map(|r| r.global.as_slice()));
+        splice(&mut self.caustic, &mut sp.caustic, &mut self.c_start, ids, new.iter().map(|r| r.caustic.as_slice()));
+        splice(&mut self.points, &mut sp.points, &mut self.p_start, ids, new.iter().map(|r| r.points.as_slice()));
         Ok(moved)
     }
 }
 
-/// `list` (per-path ranges `start`) with the ranges of paths `ids` replaced by `new`.
-fn splice<'a, T: Copy + 'a>(list: &[T], start: &[u32], ids: &[u32], new: impl Iterator<Item = &'a [T]>) -> Vec<T> {
-    let mut out = Vec::with_capacity(list.len());
+/// `list` (per-path ranges `start`) with the ranges of paths `ids` (ascending) replaced by
+/// `new`, and `start` with them: the new list is written into `spare`'s allocation, which then
+/// takes the old list's. The caller checked that the new offsets fit in `u32`.
+fn splice<'a, T: Copy + 'a>(list: &mut Vec<T>, spare: &mut Vec<T>, start: &mut [u32], ids: &[u32], new: impl Iterator<Item = &'a [T]>) {
+    spare.clear();
     let mut from = 0usize;
+    // offsets before `shifted` already moved by `delta`
+    let (mut delta, mut shifted) = (0i64, 0usize);
     for (&i, n) in ids.iter().zip(new) {
         let i = i as usize;
-        out.extend_from_slice(&list[from..start[i] as usize]);
-        out.extend_from_slice(n);
-        from = start[i + 1] as usize;
+        let (s0, s1) = (start[i] as usize, start[i + 1] as usize);
+        spare.extend_from_slice(&list[from..s0]);
+        spare.extend_from_slice(n);
+        from = s1;
+        for o in &mut start[shifted..=i] {
+            *o = (*o as i64 + delta) as u32;
+        }
+        delta += n.len() as i64 - (s1 - s0) as i64;
+        shifted = i + 1;
     }
-    out.extend_from_slice(&list[from..]);
-    out
+    spare.extend_from_slice(&list[from..]);
+    for o in &mut start[shifted..] {
+        *o = (*o as i64 + delta) as u32;
+    }
+    std::mem::swap(list, spare);
 }
 
-/// Per-path offsets after [`splice`]: the lengths of paths `ids` replaced by `new_lens`.
-fn new_offsets(start: &[u32], ids: &[u32], new_lens: impl Iterator<Item = usize>) -> Option<Vec<u32>> {
-    let mut lens: Vec<usize> = start.windows(2).map(|w| (w[1] - w[0]) as usize).collect();
-    for (&i, l) in ids.iter().zip(new_lens) {
-        lens[i as usize] = l;
+#[cfg(test)]
+mod tests {
+    use super::{offsets, splice};
+    use crate::sampling::Sampler;
+
+    /// `splice` against rebuilding the lists from per-path vectors: random path lengths (0 to
+    /// 5), random ascending ids (the first and the last path among them at times), new lengths
+    /// shorter, equal and longer, the spare reused from one round to the next.
+    #[test]
+    fn splice_equals_rebuilding_the_lists() {
+        let mut s = Sampler::new(11, 0, 0);
+        let mut pick = |n: u32| ((s.next_1d() * n as f32) as u32).min(n - 1);
+        let mut paths: Vec<Vec<u32>> = (0..200).map(|i| (0..pick(6)).map(|k| i * 10 + k).collect()).collect();
+        let mut list: Vec<u32> = paths.concat();
+        let mut start = offsets(paths.iter().map(Vec::len)).unwrap();
+        let mut spare = Vec::new();
+        for round in 0..20u32 {
+            let ids: Vec<u32> = (0..200).filter(|_| pick(4) == 0).collect();
+            let new: Vec<Vec<u32>> = ids.iter().map(|&i| (0..pick(6)).map(|k| 100_000 * (round + 1) + i * 10 + k).collect()).collect();
+            for (&i, n) in ids.iter().zip(&new) {
+                paths[i as usize] = n.clone();
+            }
+            splice(&mut list, &mut spare, &mut start, &ids, new.iter().map(Vec::as_slice));
+            assert_eq!(list, paths.concat(), "round {round}");
+            assert_eq!(start, offsets(paths.iter().map(Vec::len)).unwrap(), "round {round}");
+        }
     }
-    offsets(lens.into_iter())
 }
