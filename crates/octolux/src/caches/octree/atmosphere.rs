@@ -4,10 +4,10 @@
 //! docs/guide/baking.md ("A volumetric solution").
 //!
 //! # Flights first
-//! [`Octree::fill_atmosphere_with`] takes the photon-flight estimates of the atmospheric leaves
+//! [`Octree::fill_atmosphere`] takes the photon-flight estimates of the atmospheric leaves
 //! (`flights.rs`: the light that passes through a cell) as sources that stay fixed; the
 //! diffusion below fills what they leave: the leaves few flights cross and the valid leaves'
-//! missing matrices. [`Octree::fill_atmosphere`] alone diffuses from the surfaces only.
+//! missing matrices. Without flights it diffuses from the surfaces only.
 //!
 //! # What is diffused
 //! A valid leaf's matrix `k` (one of `+X, −X, +Y, −Y, +Z, −Z`) is the irradiance vector of the
@@ -256,17 +256,12 @@ impl Octree {
     }
 
     /// Diffuse the six matrices into every leaf that lacks them (module docs). `visible(a, b)`
-    /// says whether the segment between two points is free of surfaces (a shadow ray). Replaces
+    /// says whether the segment between two points is free of surfaces (a shadow ray). The
+    /// atmospheric leaves crossed by enough photon `flights` take their flight estimate
+    /// (`flights.rs`) and keep it: they are sources of the diffusion like the valid leaves' own
+    /// matrices, and the leaves without one are filled from them and from the surfaces. Replaces
     /// any previous fill.
-    pub fn fill_atmosphere(&mut self, visible: &(dyn Fn(Vec3, Vec3) -> bool + Sync)) -> AtmosphereStats {
-        self.fill_atmosphere_with(visible, None)
-    }
-
-    /// [`Octree::fill_atmosphere`] where the atmospheric leaves crossed by enough photon flights
-    /// take their flight estimate (`flights.rs`) and keep it: they are sources of the
-    /// diffusion like the valid leaves' own matrices, and the leaves without one are filled
-    /// from them and from the surfaces.
-    pub fn fill_atmosphere_with(&mut self, visible: &(dyn Fn(Vec3, Vec3) -> bool + Sync), flights: Option<&Flights>) -> AtmosphereStats {
+    pub fn fill_atmosphere(&mut self, visible: &(dyn Fn(Vec3, Vec3) -> bool + Sync), flights: Option<&Flights>) -> AtmosphereStats {
         let t0 = std::time::Instant::now();
         self.atmosphere = None;
         let leaves = self.leaves();

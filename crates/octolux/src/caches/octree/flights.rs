@@ -52,7 +52,7 @@ const CHUNK: usize = 4096;
 const NONE: u32 = u32::MAX;
 
 /// The flight estimate of a tree's atmospheric leaves ([`Octree::flights`]), for
-/// [`Octree::fill_atmosphere_with`].
+/// [`Octree::fill_atmosphere`].
 #[derive(Clone, Debug, Default)]
 pub struct Flights {
     /// Per node: index into `values` (an atmospheric leaf crossed at least [`FLIGHT_MIN`]

@@ -203,7 +203,7 @@ impl Octree {
     /// The start of a free-space tree over this tree's root cube, with its settings (module
     /// docs, "The free-space tree"): every cell of depth [`FREE_SPACE_BASE_DEPTH`] an
     /// atmospheric leaf, no photon, no surface value. [`Octree::refine_free_space`] splits it
-    /// down to this tree's deepest leaf, and [`Octree::fill_atmosphere_with`] gives its
+    /// down to this tree's deepest leaf, and [`Octree::fill_atmosphere`] gives its
     /// leaves their values.
     pub fn free_space_tree(&self) -> Octree {
         let mut t = Octree {

@@ -73,7 +73,7 @@ impl OctreeIntegrator {
         let mut tree = self.global.free_space_tree();
         let refine = tree.refine_free_space(|t| map_flights(scene, &photons, |c| t.octant_sums(reflected(c))).unwrap_or_default());
         let flights = map_flights(scene, &photons, |c| tree.flight_sums(reflected(c))).ok().map(|chunks| tree.flights_from(chunks));
-        let mut st = tree.fill_atmosphere_with(&visible, flights.as_ref());
+        let mut st = tree.fill_atmosphere(&visible, flights.as_ref());
         st.refine = refine;
         // its structural statistics (deepest leaf, smallest leaf) as a cache file reads them
         // back: the refinement splits down to the global octree's depth, not the tree's own
