@@ -16,11 +16,18 @@ use std::path::PathBuf;
 #[command(
     name = "octolux",
     version,
+    long_version = long_version(),
     about = "Offline renderer with a photon-built octree of incident radiance (Pacanowski, Granier & Schlick 2005)"
 )]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
+}
+
+/// `octolux --version`: the version and the level of the hot kernels (`octolux::cpu`).
+fn long_version() -> &'static str {
+    static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TEXT.get_or_init(|| format!("{}\n{}", env!("CARGO_PKG_VERSION"), octolux::cpu::describe()))
 }
 
 #[derive(Subcommand)]

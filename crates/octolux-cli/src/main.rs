@@ -234,6 +234,10 @@ fn main() -> std::process::ExitCode {
         say!("error: {msg}");
         return std::process::ExitCode::FAILURE;
     }
+    if let Err(msg) = octolux::cpu::forced() {
+        say!("error: {msg}");
+        return std::process::ExitCode::FAILURE;
+    }
     match run(Cli::parse()) {
         Ok(code) => code,
         Err(e) => {

@@ -210,6 +210,7 @@ fn render<'py>(
             integrator: made.integrator.name(),
             integrator_settings: serde_json::to_value(&settings).map_err(|e| job::JobError(e.to_string()))?,
             backend: scene.scene.backend_name(),
+            kernels: octolux::cpu::level().name(),
             threads,
             triangles: scene.scene.triangle_count(),
             seed,

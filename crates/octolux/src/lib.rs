@@ -6,6 +6,7 @@
 pub mod accel;
 pub mod budget;
 pub mod caches;
+pub mod cpu;
 pub mod film;
 pub mod flicker;
 pub mod image;

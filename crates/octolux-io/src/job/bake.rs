@@ -93,6 +93,8 @@ pub struct BakeReport {
     pub command_line: Vec<String>,
     pub scene: String,
     pub backend: String,
+    /// The level the hot kernels ran at (`octolux::cpu`: `baseline` or `avx2`).
+    pub kernels: &'static str,
     pub threads: usize,
     /// The `octree` settings baked, tagged with `type`: a valid `--settings` file.
     pub integrator_settings: Value,
@@ -176,6 +178,7 @@ pub fn bake(scene: &Scene, scene_name: &str, settings: OctreeIntegratorSettings,
         command_line: Vec::new(),
         scene: scene_name.to_string(),
         backend: scene.backend_name(),
+        kernels: octolux::cpu::level().name(),
         threads: rayon::current_num_threads(),
         integrator_settings: serde_json::to_value(IntegratorSettings::Octree(o.settings.clone())).map_err(|e| JobError(e.to_string()))?,
         timings: BakeTimings { fingerprint_s, build_s, atmosphere_s, write_s: t3.elapsed().as_secs_f64(), ..Default::default() },

@@ -284,6 +284,7 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
             integrator: integrator.name(),
             integrator_settings: serde_json::to_value(&integrator_settings).context("the settings")?,
             backend: scene.backend_name(),
+            kernels: octolux::cpu::level().name(),
             threads,
             triangles: scene.triangle_count(),
             seed: job.integrator.seed,

@@ -28,6 +28,8 @@ pub struct StatsFile<'a> {
     /// The integrator's settings as used, tagged with `type`: a valid `--settings` file.
     pub integrator_settings: serde_json::Value,
     pub backend: String,
+    /// The level the hot kernels ran at (`octolux::cpu`: `baseline` or `avx2`).
+    pub kernels: &'static str,
     pub threads: usize,
     pub triangles: usize,
     pub seed: u64,

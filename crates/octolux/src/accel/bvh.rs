@@ -184,6 +184,54 @@ impl RayData {
         (mask, tns)
     }
 
+    /// The box test of a node at the kernel level `AVX` (`crate::cpu`): with `AVX` a BVH8
+    /// node's eight boxes in one AVX register ([`RayData::hit_node8_avx`]), else
+    /// [`RayData::hit_node`]. `AVX` is set only in code compiled for AVX2 and run where the CPU
+    /// has it ([`Bvh::intersect`]).
+    #[inline(always)]
+    fn node_test<const H: usize, const AVX: bool>(&self, n: &Node<H>, tmax: f32) -> (u32, [Vec4; H]) {
+        #[cfg(target_arch = "x86_64")]
+        if AVX && H == 2 {
+            // SAFETY: `H == 2`, so `n` is a `Node<2>`; the CPU has AVX2 and FMA (above).
+            let (mask, t) = unsafe { self.hit_node8_avx(&*(n as *const Node<H>).cast::<Node<2>>(), tmax) };
+            let mut tns = [Vec4::ZERO; H];
+            for (out, t) in tns.iter_mut().zip(t) {
+                *out = t;
+            }
+            return (mask, tns);
+        }
+        self.hit_node(n, tmax)
+    }
+
+    /// [`RayData::hit_node`] of a BVH8 node, its eight lanes in AVX registers: the same IEEE
+    /// operations in the same order on each lane (`maxps`/`minps` operand order included), so
+    /// the mask and the entry distances are bit-identical to the SSE version's.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn hit_node8_avx(&self, n: &Node<2>, tmax: f32) -> (u32, [Vec4; 2]) {
+        use std::arch::x86_64::*;
+        let [nx, ny, nz] = self.near;
+        // a plane's eight lanes are the two `Vec4`s of `b[k]`, contiguous
+        let plane = |k: usize| _mm256_loadu_ps(n.b[k].as_ptr().cast::<f32>());
+        let (ox, oy, oz) = (_mm256_set1_ps(self.o[0].x), _mm256_set1_ps(self.o[1].x), _mm256_set1_ps(self.o[2].x));
+        let (ix, iy, iz) = (_mm256_set1_ps(self.inv[0].x), _mm256_set1_ps(self.inv[1].x), _mm256_set1_ps(self.inv[2].x));
+        let tnx = _mm256_mul_ps(_mm256_sub_ps(plane(nx), ox), ix);
+        let tny = _mm256_mul_ps(_mm256_sub_ps(plane(ny), oy), iy);
+        let tnz = _mm256_mul_ps(_mm256_sub_ps(plane(nz), oz), iz);
+        let tfx = _mm256_mul_ps(_mm256_sub_ps(plane(nx ^ 1), ox), ix);
+        let tfy = _mm256_mul_ps(_mm256_sub_ps(plane(ny ^ 1), oy), iy);
+        let tfz = _mm256_mul_ps(_mm256_sub_ps(plane(nz ^ 1), oz), iz);
+        let near = _mm256_max_ps(_mm256_max_ps(tnx, tny), _mm256_max_ps(tnz, _mm256_set1_ps(self.tmin)));
+        let far = _mm256_min_ps(_mm256_min_ps(tfx, tfy), _mm256_min_ps(tfz, _mm256_set1_ps(tmax)));
+        let tn = _mm256_mul_ps(near, _mm256_set1_ps(NEAR_SCALE));
+        let tf = _mm256_mul_ps(far, _mm256_set1_ps(FAR_SCALE));
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OS>(tn, tf)) as u32;
+        let mut out = [Vec4::ZERO; 2];
+        _mm256_storeu_ps(out.as_mut_ptr().cast::<f32>(), tn);
+        (mask, out)
+    }
+
     /// Intersect four triangles: returns the lane mask of hits with `t` in `[tmin, tmax]`,
     /// `t`, and the unnormalised weights `V`, `W` of `p1`, `p2` with their sum `det`.
     #[inline(always)]
@@ -393,9 +441,45 @@ impl<const H: usize> Bvh<H> {
         &self.tris[first..first + count]
     }
 
-    /// Closest hit with `t` in `[ray.tmin, ray.tmax]`.
+    /// Closest hit with `t` in `[ray.tmin, ray.tmax]`, at the kernel level of `crate::cpu`.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<TriHit> {
+        #[cfg(target_arch = "x86_64")]
+        if H == 2 && crate::cpu::level() == crate::cpu::KernelLevel::Avx2 {
+            // SAFETY: the CPU has AVX2 and FMA (`cpu::level` never exceeds what it detects).
+            return unsafe { self.intersect_avx2(ray) };
+        }
+        self.intersect_with::<false>(ray)
+    }
+
+    /// Whether any triangle is hit with `t` in `[ray.tmin, ray.tmax]`, at the kernel level of
+    /// `crate::cpu`.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if H == 2 && crate::cpu::level() == crate::cpu::KernelLevel::Avx2 {
+            // SAFETY: as in `intersect`.
+            return unsafe { self.occluded_avx2(ray) };
+        }
+        self.occluded_with::<false>(ray)
+    }
+
+    /// The traversals compiled for AVX2 (the whole loop, so that the box test inlines).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn intersect_avx2(&self, ray: &Ray) -> Option<TriHit> {
+        self.intersect_with::<true>(ray)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn occluded_avx2(&self, ray: &Ray) -> bool {
+        self.occluded_with::<true>(ray)
+    }
+
+    /// Closest hit (module docs, "Traversal"), the box test at level `AVX`.
+    #[inline(always)]
+    fn intersect_with<const AVX: bool>(&self, ray: &Ray) -> Option<TriHit> {
         if self.nodes.is_empty() || !(ray.tmin <= ray.tmax) {
             return None;
         }
@@ -407,7 +491,7 @@ impl<const H: usize> Bvh<H> {
         loop {
             if cur & LEAF_BIT == 0 {
                 let node = &self.nodes[cur as usize];
-                let (mask, tn) = r.hit_node(node, tmax);
+                let (mask, tn) = r.node_test::<H, AVX>(node, tmax);
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {
                         node.child(mask.trailing_zeros() as usize)
@@ -450,9 +534,9 @@ impl<const H: usize> Bvh<H> {
         }
     }
 
-    /// Whether any triangle is hit with `t` in `[ray.tmin, ray.tmax]`.
-    #[inline]
-    pub fn occluded(&self, ray: &Ray) -> bool {
+    /// Any hit (module docs, "Traversal"), the box test at level `AVX`.
+    #[inline(always)]
+    fn occluded_with<const AVX: bool>(&self, ray: &Ray) -> bool {
         if self.nodes.is_empty() || !(ray.tmin <= ray.tmax) {
             return false;
         }
@@ -463,7 +547,7 @@ impl<const H: usize> Bvh<H> {
         loop {
             if cur & LEAF_BIT == 0 {
                 let node = &self.nodes[cur as usize];
-                let (mask, _) = r.hit_node(node, tmax);
+                let (mask, _) = r.node_test::<H, AVX>(node, tmax);
                 if mask != 0 {
                     cur = if mask & (mask - 1) == 0 {
                         node.child(mask.trailing_zeros() as usize)
@@ -486,6 +570,9 @@ impl<const H: usize> Bvh<H> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;
 
 fn make_tri4(chunk: &[PrimRef], vertices: &[Vec3], triangles: &[[u32; 3]]) -> Tri4 {
     let mut t = Tri4 { p: [[Vec4::ZERO; 3]; 3], prim: [0; 4] };
