@@ -26,7 +26,10 @@
 //! their entry distance and culled on pop once a closer hit is known); occlusion pushes hit
 //! children unsorted and stops at the first hit (as Embree's any-hit traversal). Pushed children
 //! are prefetched. Box tests are conservative like Embree's robust mode (entry distance scaled by
-//! `1 - 3 ulp`, exit by `1 + 3 ulp`). The stack is a fixed, uninitialised array.
+//! `1 - 3 ulp`, exit by `1 + 3 ulp`). The stack is a fixed, uninitialised array. At the `avx2`
+//! kernel level (`crate::cpu`) the BVH8's traversal is a second copy compiled for AVX2 whose
+//! box test takes a node's eight boxes in one register, with the same per-lane operations:
+//! its hits are the baseline's, bit for bit (`bvh/tests.rs`).
 //!
 //! Triangle test: the watertight algorithm of Woop, Benthin & Wald (JCGT 2013): vertices are
 //! translated to the ray origin and sheared so that the ray becomes the +z axis of a permuted

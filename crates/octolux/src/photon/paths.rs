@@ -31,7 +31,8 @@ struct PathRecord {
 }
 
 /// The photon pass, path by path (module docs). Memory: the photons (48 bytes each), 12
-/// bytes per flight point and 12 bytes per path.
+/// bytes per flight point and 12 bytes per path; after a [`PhotonPaths::retrace`], up to
+/// twice the photons and flight points (the lists it keeps for the next).
 pub struct PhotonPaths {
     settings: PhotonSettings,
     guide: Option<DiscGuide>,
