@@ -63,10 +63,11 @@ enum Inner {
         state: u64,
         inc: u64,
     },
-    /// `key`: hash of (seed, index); `sample`: the Sobol' index; `slot`: draws so far.
+    /// `key`: hash of (seed, index); `sample_rev`: the Sobol' index, its bits reversed (as
+    /// the scramble reads it, `sobol::sample_2d_rev`); `slot`: draws so far.
     Sobol {
         key: u64,
-        sample: u32,
+        sample_rev: u32,
         slot: u32,
     },
 }
@@ -95,7 +96,7 @@ impl Sampler {
             SamplerKind::Independent => Sampler::new(seed, index, sample),
             SamplerKind::Sobol => {
                 let key = mix64(seed ^ mix64(index.wrapping_add(0x5851_f42d_4c95_7f2d)));
-                Sampler { inner: Inner::Sobol { key, sample: sample as u32, slot: 0 } }
+                Sampler { inner: Inner::Sobol { key, sample_rev: (sample as u32).reverse_bits(), slot: 0 } }
             }
         }
     }
@@ -108,8 +109,12 @@ impl Sampler {
     pub fn split(&self, j: u32, k: u32) -> Sampler {
         match self.inner {
             Inner::Pcg { state, inc } => Sampler::new(mix64(state ^ inc.rotate_left(17)), j as u64, k as u64),
-            Inner::Sobol { key, sample, slot } => Sampler {
-                inner: Inner::Sobol { key: mix64(key ^ 0x2545_f491_4f6c_dd1d), sample: sample.wrapping_mul(k).wrapping_add(j), slot },
+            Inner::Sobol { key, sample_rev, slot } => Sampler {
+                inner: Inner::Sobol {
+                    key: mix64(key ^ 0x2545_f491_4f6c_dd1d),
+                    sample_rev: sample_rev.reverse_bits().wrapping_mul(k).wrapping_add(j).reverse_bits(),
+                    slot,
+                },
             },
         }
     }
@@ -133,7 +138,7 @@ impl Sampler {
                 let rot = (old >> 59) as u32;
                 xorshifted.rotate_right(rot)
             }
-            Inner::Sobol { key, sample, slot } => sobol::sample_1d(*sample, Self::next_slot(*key, slot)),
+            Inner::Sobol { key, sample_rev, slot } => sobol::sample_1d_rev(*sample_rev, Self::next_slot(*key, slot)),
         }
     }
 
@@ -152,8 +157,8 @@ impl Sampler {
                 let x = self.next_1d();
                 Vec2::new(x, self.next_1d())
             }
-            Inner::Sobol { key, sample, slot } => {
-                let (x, y) = sobol::sample_2d(*sample, Self::next_slot(*key, slot));
+            Inner::Sobol { key, sample_rev, slot } => {
+                let (x, y) = sobol::sample_2d_rev(*sample_rev, Self::next_slot(*key, slot));
                 Vec2::new(to_unit(x), to_unit(y))
             }
         }

@@ -54,6 +54,29 @@ const SOBOL_DIM1_BYTES: [[u32; 256]; 4] = {
     t
 };
 
+/// [`SOBOL_DIM1_BYTES`] with every entry's bits reversed: the reversal is linear over GF(2)
+/// too, so the tables give `sobol_dim1(i).reverse_bits()` without reversing.
+const SOBOL_DIM1_REV_BYTES: [[u32; 256]; 4] = {
+    let mut t = SOBOL_DIM1_BYTES;
+    let mut b = 0;
+    while b < 4 {
+        let mut v = 0;
+        while v < 256 {
+            t[b][v] = t[b][v].reverse_bits();
+            v += 1;
+        }
+        b += 1;
+    }
+    t
+};
+
+/// `sobol_dim1(i).reverse_bits()`, from [`SOBOL_DIM1_REV_BYTES`].
+#[inline]
+fn sobol_dim1_rev(i: u32) -> u32 {
+    let t = &SOBOL_DIM1_REV_BYTES;
+    t[0][(i & 0xff) as usize] ^ t[1][((i >> 8) & 0xff) as usize] ^ t[2][((i >> 16) & 0xff) as usize] ^ t[3][(i >> 24) as usize]
+}
+
 /// Sobol' dimension 1 of index `i` (32-bit fixed point in [0, 1)).
 #[inline]
 pub fn sobol_dim1(i: u32) -> u32 {
@@ -98,16 +121,29 @@ fn keys(key: u64) -> (u32, u32, u32) {
 /// Sample `index` of the 2D slot keyed by `key`, as two 32-bit fractions.
 #[inline]
 pub fn sample_2d(index: u32, key: u64) -> (u32, u32) {
+    sample_2d_rev(index.reverse_bits(), key)
+}
+
+/// [`sample_2d`] of the index whose bits reversed are `index_rev` (a sampler keeps it so, for
+/// all the slots of a sample): the same numbers with three bit reversals instead of five.
+#[inline]
+pub fn sample_2d_rev(index_rev: u32, key: u64) -> (u32, u32) {
     let (ks, kx, ky) = keys(key);
-    let i = owen_scramble(index, ks);
-    (scrambled_dim0(i, kx), owen_scramble(sobol_dim1(i), ky))
+    let i = lk_hash(index_rev, ks).reverse_bits();
+    (scrambled_dim0(i, kx), lk_hash(sobol_dim1_rev(i), ky).reverse_bits())
 }
 
 /// Sample `index` of the 1D slot keyed by `key`, as a 32-bit fraction.
 #[inline]
 pub fn sample_1d(index: u32, key: u64) -> u32 {
+    sample_1d_rev(index.reverse_bits(), key)
+}
+
+/// [`sample_1d`] of the index whose bits reversed are `index_rev`.
+#[inline]
+pub fn sample_1d_rev(index_rev: u32, key: u64) -> u32 {
     let (ks, kx, _) = keys(key);
-    scrambled_dim0(owen_scramble(index, ks), kx)
+    scrambled_dim0(lk_hash(index_rev, ks).reverse_bits(), kx)
 }
 
 #[cfg(test)]
@@ -127,6 +163,24 @@ mod tests {
         let mut s = super::super::Sampler::new(1, 2, 3);
         for i in (0..4096).chain((0..4096).map(|_| s.next_u32())) {
             assert_eq!(sobol_dim1(i), slow(i), "index {i}");
+        }
+    }
+
+    /// The samplers' form (the index kept bit-reversed, dimension 1 from reversed tables)
+    /// gives the numbers of the definition: the index Owen-scrambled, dimension 0 its radical
+    /// inverse scrambled, dimension 1 scrambled (module docs).
+    #[test]
+    fn the_reversed_forms_give_the_defined_numbers() {
+        let mut s = super::super::Sampler::new(4, 5, 6);
+        for n in 0..20_000u32 {
+            let index = if n < 4096 { n } else { s.next_u32() };
+            let key = (s.next_u32() as u64) << 32 | s.next_u32() as u64;
+            let (ks, kx, ky) = keys(key);
+            let i = owen_scramble(index, ks);
+            let want = (owen_scramble(i.reverse_bits(), kx), owen_scramble(sobol_dim1(i), ky));
+            assert_eq!(sample_2d_rev(index.reverse_bits(), key), want, "index {index}, key {key:#x}");
+            assert_eq!(sample_1d_rev(index.reverse_bits(), key), want.0, "index {index}, key {key:#x}");
+            assert_eq!(sobol_dim1_rev(index), sobol_dim1(index).reverse_bits());
         }
     }
 
