@@ -13,7 +13,8 @@ seeds (both factors resampled together).
 `--variant LABEL=ARGS` (repeatable) compares any renders instead, the first being the
 baseline: ARGS are the octolux options, `integrator=NAME` picks the integrator and `bin=PATH`
 the binary (another build, for a before/after comparison), e.g.
-`--variant before="integrator=octree bin=/tmp/octolux-old --set mode=unbiased"`.
+`--variant before="integrator=octree bin=target/octolux-before --set mode=unbiased"` (a
+relative `bin` is taken from the repository root).
 
 Usage: .venv-py/bin/python bench/split_gain.py [--scenes classroom sponza ...] [--splits 1 2 4 8]
        [--variant LABEL=ARGS ...] [--seeds 24] [--spp 4] [--res 160x90]
@@ -31,7 +32,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 from machine import cpu_line  # noqa: E402
-from seed_renders import BIN, check_bin, read, render, scenes_at  # noqa: E402
+from seed_renders import BIN, ROOT, check_bin, read, render, scenes_at  # noqa: E402
 
 
 def variants(a: argparse.Namespace) -> list[tuple[str, str, Path, list[str]]]:
@@ -46,7 +47,7 @@ def variants(a: argparse.Namespace) -> list[tuple[str, str, Path, list[str]]]:
             if t.startswith("integrator="):
                 integrator = t.split("=", 1)[1]
             elif t.startswith("bin="):
-                binary = Path(t.split("=", 1)[1])
+                binary = ROOT / t.split("=", 1)[1]  # an absolute PATH stays as it is
             else:
                 opts.append(t)
         out.append((label, integrator, binary, opts))
