@@ -118,14 +118,10 @@ fn keys(key: u64) -> (u32, u32, u32) {
     (a as u32, (a >> 32) as u32, b as u32)
 }
 
-/// Sample `index` of the 2D slot keyed by `key`, as two 32-bit fractions.
-#[inline]
-pub fn sample_2d(index: u32, key: u64) -> (u32, u32) {
-    sample_2d_rev(index.reverse_bits(), key)
-}
-
-/// [`sample_2d`] of the index whose bits reversed are `index_rev` (a sampler keeps it so, for
-/// all the slots of a sample): the same numbers with three bit reversals instead of five.
+/// Sample `index` of the 2D slot keyed by `key`, as two 32-bit fractions, given the index
+/// with its bits reversed, `index_rev` (a sampler keeps it so, for all the slots of a sample):
+/// the scrambled index `i`, its radical inverse scrambled, Sobol' dimension 1 of `i`
+/// scrambled, with three bit reversals where the definition takes five.
 #[inline]
 pub fn sample_2d_rev(index_rev: u32, key: u64) -> (u32, u32) {
     let (ks, kx, ky) = keys(key);
@@ -133,13 +129,8 @@ pub fn sample_2d_rev(index_rev: u32, key: u64) -> (u32, u32) {
     (scrambled_dim0(i, kx), lk_hash(sobol_dim1_rev(i), ky).reverse_bits())
 }
 
-/// Sample `index` of the 1D slot keyed by `key`, as a 32-bit fraction.
-#[inline]
-pub fn sample_1d(index: u32, key: u64) -> u32 {
-    sample_1d_rev(index.reverse_bits(), key)
-}
-
-/// [`sample_1d`] of the index whose bits reversed are `index_rev`.
+/// Sample `index` of the 1D slot keyed by `key`, as a 32-bit fraction, given `index_rev` as
+/// for [`sample_2d_rev`].
 #[inline]
 pub fn sample_1d_rev(index_rev: u32, key: u64) -> u32 {
     let (ks, kx, _) = keys(key);
