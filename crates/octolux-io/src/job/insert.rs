@@ -22,10 +22,9 @@
 use super::{bail, Context, Frontend, Result};
 use glam::{Mat4, Vec3};
 use octolux::integrators::octree::insert::{InsertAo, Inserted};
-use octolux::integrators::octree::rebake::{ObjectMove, RebakeStats};
+use octolux::integrators::octree::rebake::{ObjectMove, RebakeState, RebakeStats};
 use octolux::integrators::octree::OctreeIntegrator;
 use octolux::math::{Bounds3, Ray};
-use octolux::photon::paths::PhotonPaths;
 use octolux::scene::material::Material;
 use octolux::scene::object_path::ObjectPath;
 use octolux::scene::{Geometry, Scene, SceneDesc, ShapeDesc};
@@ -215,9 +214,9 @@ impl Insertion {
 }
 
 /// The re-bake of an inserted object over the frames (`--insert-light rebake`): the photon
-/// pass kept path by path, and where the object was in the last frame.
+/// pass kept path by path with the leaves' sums, and where the object was in the last frame.
 pub struct Rebaking {
-    paths: PhotonPaths,
+    state: RebakeState,
     last: Option<Bounds3>,
 }
 
@@ -233,7 +232,7 @@ impl Rebaking {
             paths.flight_points(),
             t.elapsed().as_secs_f64()
         ));
-        Ok(Rebaking { paths, last: None })
+        Ok(Rebaking { state: RebakeState::new(paths), last: None })
     }
 
     /// Update `o` for `scene`, the baked scene with the object moved by `m` (its shapes
@@ -250,10 +249,10 @@ impl Rebaking {
         let now = [ins.bounds(m)];
         let was: Vec<Bounds3> = self.last.iter().copied().collect();
         let change = ObjectMove { was: &was, now: &now, shapes };
-        let st = o.rebake(&mut self.paths, scene, &change).with_context(|| format!("--insert {}: the re-bake", ins.file))?;
+        let st = o.rebake(&mut self.state, scene, &change).with_context(|| format!("--insert {}: the re-bake", ins.file))?;
         fe.info(&format!(
-            "octree: re-bake for --insert {}: {} of {} photon paths traced again, {} photons moved, {} leaves estimated ({} kept) in {:.3} s",
-            ins.file, st.paths_retraced, st.paths, st.photons_moved, st.leaves_estimated, st.leaves_copied, st.t_s
+            "octree: re-bake for --insert {}: {} of {} photon paths traced again, {} photons moved, {} leaves estimated, {} updated ({} kept) in {:.3} s",
+            ins.file, st.paths_retraced, st.paths, st.photons_moved, st.leaves_estimated, st.leaves_updated, st.leaves_copied, st.t_s
         ));
         self.last = Some(now[0]);
         Ok(st)

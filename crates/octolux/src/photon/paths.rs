@@ -197,21 +197,23 @@ impl PhotonPaths {
     }
 
     /// Trace the paths `ids` (ascending) again in `scene` and put their photons and flights in
-    /// place of the old ones (module docs). Returns the positions of the photons removed and of
-    /// those added (both maps): per path, those after the photons its old and new traces share.
-    pub fn retrace(&mut self, scene: &Scene, ids: &[u32]) -> Result<Vec<Vec3>, PhotonError> {
+    /// place of the old ones (module docs). Returns the photons removed and those added, of the
+    /// global and of the caustic map: per path, those after the photons its old and new traces
+    /// share, in the order of the paths.
+    pub fn retrace(&mut self, scene: &Scene, ids: &[u32]) -> Result<[MovedPhotons; 2], PhotonError> {
         debug_assert!(ids.windows(2).all(|w| w[0] < w[1]), "path ids ascending");
         let new: Vec<PathRecord> = ids.par_iter().map(|&i| self.trace_one(scene, i as u64)).collect();
-        let mut moved = Vec::new();
+        let mut moved = [MovedPhotons::default(), MovedPhotons::default()];
         for (&i, r) in ids.iter().zip(&new) {
             let i = i as usize;
             // a path is the same up to its first meeting with the change: only the photons
             // after the common prefix moved
             let old_g = &self.global[self.g_start[i] as usize..self.g_start[i + 1] as usize];
             let old_c = &self.caustic[self.c_start[i] as usize..self.c_start[i + 1] as usize];
-            for (old, new) in [(old_g, &r.global[..]), (old_c, &r.caustic[..])] {
+            for ((old, new), m) in [(old_g, &r.global[..]), (old_c, &r.caustic[..])].into_iter().zip(&mut moved) {
                 let same = old.iter().zip(new).take_while(|(a, b)| a == b).count();
-                moved.extend(old[same..].iter().chain(&new[same..]).map(|p| p.p));
+                m.removed.extend_from_slice(&old[same..]);
+                m.added.extend_from_slice(&new[same..]);
             }
         }
         // every new list's length fits its offsets before anything changes
@@ -229,6 +231,24 @@ impl PhotonPaths {
         splice(&mut self.caustic, &mut sp.caustic, &mut self.c_start, ids, new.iter().map(|r| r.caustic.as_slice()));
         splice(&mut self.points, &mut sp.points, &mut self.p_start, ids, new.iter().map(|r| r.points.as_slice()));
         Ok(moved)
+    }
+}
+
+/// The photons a [`PhotonPaths::retrace`] took out of one map and put in.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MovedPhotons {
+    pub removed: Vec<Photon>,
+    pub added: Vec<Photon>,
+}
+
+impl MovedPhotons {
+    /// How many moved: removed plus added.
+    pub fn len(&self) -> usize {
+        self.removed.len() + self.added.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
     }
 }
 

@@ -217,12 +217,37 @@ fn assign<K: SortKey>(keys: &[K], h: u32, topology: &[Node]) -> Tree {
     t
 }
 
+/// The tree [`assign`] gives for photons sorted by key with `own[node]` of them in each leaf
+/// node of `topology` (`incremental.rs`: the counts updated by the photons that moved).
+pub(super) fn assign_counts(topology: &[Node], own: &[u32]) -> Tree {
+    fn rec(t: &mut Tree, own: &[u32], id: usize, lo: u32, depth: u32, ijk: [u32; 3]) -> u32 {
+        if t.nodes[id].is_leaf() {
+            let hi = lo + own[id];
+            t.nodes[id].photons = own[id];
+            push_leaf(&mut t.nodes, &mut t.start, &mut t.leaves, &mut t.valid, LeafBuild { node: id as u32, lo, hi, depth, ijk });
+            return hi;
+        }
+        let first = t.nodes[id].link as usize;
+        let mut hi = lo;
+        for c in 0..8u32 {
+            let cijk = [2 * ijk[0] + (c & 1), 2 * ijk[1] + ((c >> 1) & 1), 2 * ijk[2] + ((c >> 2) & 1)];
+            hi = rec(t, own, first + c as usize, hi, depth + 1, cijk);
+        }
+        t.nodes[id].photons = hi - lo;
+        hi
+    }
+    let mut t = Tree { nodes: topology.to_vec(), start: vec![0; topology.len()], leaves: Vec::new(), valid: Vec::new() };
+    rec(&mut t, own, 0, 0, 0, [0; 3]);
+    t
+}
+
 /// Which leaves [`estimates`] estimates: all of them on a new subdivision, or, on a given
-/// topology, those `select` picks (the others get `None`).
+/// topology, those `select` picks (the others get `None`), with their [`LeafState`]s when
+/// `capture` asks for them (`incremental.rs`).
 #[derive(Clone, Copy)]
 pub(super) enum Leaves<'a> {
     Subdivide,
-    Fixed { topology: &'a [Node], select: &'a (dyn Fn(&LeafBuild) -> bool + Sync) },
+    Fixed { topology: &'a [Node], select: &'a (dyn Fn(&LeafBuild) -> bool + Sync), capture: bool },
 }
 
 /// Steps 2-4 on sorted photons: subdivision (or a given topology), triangle lists, per-leaf
@@ -268,7 +293,8 @@ fn estimates<R: PhotonRec, K: SortKey>(
         .enumerate()
         .map_init(Scratch::default, |sc, (v, leaf)| match which {
             Leaves::Fixed { select, .. } if !select(leaf) => None,
-            _ => Some(ctx.estimate(leaf, v, sc)),
+            Leaves::Fixed { capture, .. } => Some(ctx.estimate(leaf, v, sc, capture)),
+            Leaves::Subdivide => Some(ctx.estimate(leaf, v, sc, false)),
         })
         .collect();
     let n = recs.len();

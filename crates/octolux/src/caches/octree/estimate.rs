@@ -31,7 +31,7 @@ pub(super) struct Scratch {
 /// once per leaf: half-axis `k` (order `+X, −X, +Y, −Y, +Z, −Z`) holds, in the order of the
 /// areas, those whose normal has a non-zero component of its sign on its axis, with their
 /// weights `n_a² A`, and the sum of the weights (f32, summed in that order).
-#[derive(Default)]
+#[derive(Clone, Debug, Default)]
 struct SideAreas {
     /// Entries of half-axis `k`: `start[k]..start[k + 1]`.
     start: [usize; 7],
@@ -76,6 +76,126 @@ pub(super) struct LeafEstimate {
     pub normals: [Vec3; 6],
     /// Mean position and normal of the photons of the leaf's own cell.
     pub anchor: super::LeafAnchors,
+    /// What an incremental update needs (`incremental.rs`), when asked for.
+    pub state: Option<Box<LeafState>>,
+}
+
+/// How a valid leaf weighs each photon it gathers: fixed by its gathering box, the settings and
+/// the lit surfaces in the box (not by the other photons, as long as the lit sides stay).
+#[derive(Clone, Debug)]
+pub(super) struct LeafWeights {
+    /// The estimator after the fallback (`Cosine` when the box holds no lit surface).
+    estimator: Estimator,
+    by_normal: bool,
+    /// `1 / ΔA` of the gathering box (`Paper`, `Cosine`).
+    inv_da: f32,
+    min_cos: f32,
+    /// Lower bound on the area a photon stands for (`EstimateCtx::estimate`).
+    a_min: f32,
+    lit_total: f32,
+    /// The lit oriented areas in the box (`GeometryArea`).
+    pub areas: Vec<OrientedArea>,
+    sides: SideAreas,
+}
+
+impl LeafWeights {
+    /// Add photon `r` to the sums (the estimate's loop).
+    #[inline(always)]
+    fn add<R: PhotonRec>(&self, acc: &mut Accumulator, r: &R) {
+        if self.by_normal && self.estimator == Estimator::GeometryArea {
+            add_by_surface(&mut acc.zero, r.w(), r.c(), r.ng(), &self.sides, self.min_cos, self.a_min, 1.0);
+        } else {
+            let w = r.w();
+            let weight = self.weight(w);
+            if self.by_normal {
+                add_by_normal(&mut acc.zero, w, r.c(), weight, r.ng(), 1.0);
+            } else {
+                acc.add(w, r.c(), weight);
+            }
+        }
+    }
+
+    /// Add `sign` times photon `r`'s terms to the f64 axis sums `totals` (an incremental update:
+    /// the same terms as [`LeafWeights::add`], summed in f64 in the update's order).
+    pub fn add_signed<R: PhotonRec>(&self, totals: &mut [[DVec3; 3]; 6], r: &R, sign: f64) {
+        if self.by_normal && self.estimator == Estimator::GeometryArea {
+            add_by_surface(totals, r.w(), r.c(), r.ng(), &self.sides, self.min_cos, self.a_min, sign);
+        } else {
+            let w = r.w();
+            let weight = self.weight(w);
+            if self.by_normal {
+                add_by_normal(totals, w, r.c(), weight, r.ng(), sign);
+            } else {
+                let wd = Vec3A::from(w) * weight;
+                let cols = [wd * r.c().x, wd * r.c().y, wd * r.c().z];
+                for a in 0..3 {
+                    if w[a] != 0.0 {
+                        let m = &mut totals[2 * a + (w[a] < 0.0) as usize];
+                        for (mc, cc) in m.iter_mut().zip(&cols) {
+                            *mc += DVec3::from(Vec3::from(*cc)) * sign;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn weight(&self, w: Vec3) -> f32 {
+        match self.estimator {
+            // `w` carries the cosine weight
+            Estimator::Paper | Estimator::Cosine => self.inv_da,
+            Estimator::GeometryArea => 1.0 / projected_lit_area(&self.areas, w).max(self.min_cos * self.lit_total.max(self.a_min)),
+        }
+    }
+
+    /// Whether the geometry-area estimator's lit sides may change when a photon of normal `ng`
+    /// comes or goes: a group of coplanar triangles is lit on its back when a photon arrived
+    /// there from behind, and on its front unless it is lit only on its back (`lit_areas`),
+    /// so only a photon facing against a lit side (`ng · n ≤ −0.9`, with a margin) can change
+    /// them. Not for the other estimators, which read no lit sides.
+    pub fn may_change_sides(&self, ng: Vec3) -> bool {
+        self.estimator == Estimator::GeometryArea && self.areas.iter().any(|e| ng.dot(e.n) <= -0.89)
+    }
+}
+
+/// A valid leaf's estimate kept as sums, for an incremental update (`incremental.rs`): what
+/// the photons of its gathering box add up to, and how it weighs a photon.
+#[derive(Clone, Debug)]
+pub(super) struct LeafState {
+    /// The six axis matrices' columns in f64, before the conversion to f32.
+    pub totals: [[DVec3; 3]; 6],
+    /// Sums of the positions and normals of the photons of the leaf's own cell, and their count.
+    pub pos: DVec3,
+    pub nrm: DVec3,
+    pub own: u32,
+    pub gathered: u32,
+    pub weights: LeafWeights,
+    pub facing: u8,
+    pub normals: [Vec3; 6],
+    pub fallback: bool,
+}
+
+impl LeafState {
+    /// The leaf's estimate from the sums (no sampled photons: each sample is the mean).
+    pub fn estimate(&self, cell_min: Vec3, cell_size: f32) -> LeafEstimate {
+        let k = self.own.max(1) as f64;
+        let mean = super::Anchor::encode((self.pos / k).as_vec3(), (self.nrm / k).as_vec3(), cell_min, cell_size);
+        LeafEstimate {
+            m: matrices(&self.totals),
+            gathered: self.gathered,
+            fallback: self.fallback,
+            facing: self.facing,
+            normals: self.normals,
+            anchor: super::LeafAnchors { mean, samples: [mean; super::ANCHOR_SAMPLES] },
+            state: None,
+        }
+    }
+}
+
+/// The matrices from their f64 columns.
+fn matrices(totals: &[[DVec3; 3]; 6]) -> FullLeaf {
+    std::array::from_fn(|k| Mat3::from_cols(totals[k][0].as_vec3(), totals[k][1].as_vec3(), totals[k][2].as_vec3()))
 }
 
 /// What every leaf estimate reads (shared by the rayon jobs).
@@ -123,63 +243,6 @@ impl Accumulator {
         self.count = 0;
     }
 
-    /// [`Split::Normal`]: straight into the axis matrices on the side of `ng` (f64; the
-    /// weights differ per axis, so the octant sums do not apply).
-    #[inline]
-    fn add_by_normal(&mut self, w: Vec3, c: Vec3, weight: f32, ng: Vec3) {
-        let n2 = ng * ng;
-        let norm = n2.dot(n2);
-        if !(norm > 0.0) {
-            return;
-        }
-        let wd = DVec3::from(w * weight);
-        for a in 0..3 {
-            if ng[a] != 0.0 {
-                let g = (n2[a] / norm) as f64;
-                let m = &mut self.zero[2 * a + (ng[a] < 0.0) as usize];
-                m[0] += wd * (g * c.x as f64);
-                m[1] += wd * (g * c.y as f64);
-                m[2] += wd * (g * c.z as f64);
-            }
-        }
-    }
-
-    /// [`Split::Normal`] with [`Estimator::GeometryArea`]: matrix `(a, s)` estimates the
-    /// light on the surfaces facing the half-axis `(a, s)`, weighted by `n_a²`:
-    /// `M_a^s = Σ_p ng_a² Φ_p w_p / A⊥_a^s(w_p)` with `A⊥_a^s(w) = Σ_t n_{t,a}² A_t (n_t·w)₊`
-    /// over the lit pieces whose normal has the sign `s` on axis `a`. Each photon is thus
-    /// divided by the area of the surfaces it can have landed on in that matrix, not by all
-    /// the surfaces of the cell (which would average a dim face with the bright floor
-    /// beside it). For one plane of normal `N`: `M_a^{s(N_a)} = ∫ L w dω` for every axis, so
-    /// the query's `Σ_a N_a² = 1` returns it exactly.
-    #[inline(always)]
-    fn add_by_surface(&mut self, w: Vec3, c: Vec3, ng: Vec3, sides: &SideAreas, min_cos: f32, a_min: f32) {
-        for a in 0..3 {
-            if ng[a] == 0.0 {
-                continue;
-            }
-            let neg = ng[a] < 0.0;
-            let k = 2 * a + neg as usize;
-            let (lo, hi) = (sides.start[k], sides.start[k + 1]);
-            let mut proj = 0.0f32;
-            for (g, n) in sides.g[lo..hi].iter().zip(&sides.n[lo..hi]) {
-                proj += g * n.dot(w).max(0.0);
-            }
-            // `ng_a² min_cos a_min`: the photon's own surface, of normal `ng`, has at least
-            // `a_min` in the box (see `EstimateCtx::estimate`)
-            let den = proj.max(min_cos * sides.total[k]).max(ng[a] * ng[a] * min_cos * a_min);
-            if !(den > 0.0) {
-                continue;
-            }
-            let f = (ng[a] * ng[a] / den) as f64;
-            let wd = DVec3::from(w) * f;
-            let m = &mut self.zero[k];
-            m[0] += wd * c.x as f64;
-            m[1] += wd * c.y as f64;
-            m[2] += wd * c.z as f64;
-        }
-    }
-
     #[inline(always)]
     fn add(&mut self, w: Vec3, c: Vec3, weight: f32) {
         let wd = Vec3A::from(w) * weight;
@@ -207,10 +270,11 @@ impl Accumulator {
         }
     }
 
-    fn finish(mut self) -> FullLeaf {
+    /// The six axis matrices' columns in f64: each the sum of its `zero` sums and of the 4
+    /// octants on its side.
+    fn totals(mut self) -> [[DVec3; 3]; 6] {
         self.flush();
-        let mut m = [Mat3::ZERO; 6];
-        for (k, mk) in m.iter_mut().enumerate() {
+        std::array::from_fn(|k| {
             let (axis, neg) = (k / 2, k % 2);
             let mut cols = self.zero[k];
             for (o, t) in self.total.iter().enumerate() {
@@ -220,9 +284,71 @@ impl Accumulator {
                     }
                 }
             }
-            *mk = Mat3::from_cols(cols[0].as_vec3(), cols[1].as_vec3(), cols[2].as_vec3());
+            cols
+        })
+    }
+
+    #[cfg(test)]
+    fn finish(self) -> FullLeaf {
+        matrices(&self.totals())
+    }
+}
+
+/// [`Split::Normal`]: straight into the axis matrices on the side of `ng` (f64; the
+/// weights differ per axis, so the octant sums do not apply).
+#[inline]
+fn add_by_normal(zero: &mut [[DVec3; 3]; 6], w: Vec3, c: Vec3, weight: f32, ng: Vec3, sign: f64) {
+    let n2 = ng * ng;
+    let norm = n2.dot(n2);
+    if !(norm > 0.0) {
+        return;
+    }
+    let wd = DVec3::from(w * weight) * sign;
+    for a in 0..3 {
+        if ng[a] != 0.0 {
+            let g = (n2[a] / norm) as f64;
+            let m = &mut zero[2 * a + (ng[a] < 0.0) as usize];
+            m[0] += wd * (g * c.x as f64);
+            m[1] += wd * (g * c.y as f64);
+            m[2] += wd * (g * c.z as f64);
         }
-        m
+    }
+}
+
+/// [`Split::Normal`] with [`Estimator::GeometryArea`]: matrix `(a, s)` estimates the
+/// light on the surfaces facing the half-axis `(a, s)`, weighted by `n_a²`:
+/// `M_a^s = Σ_p ng_a² Φ_p w_p / A⊥_a^s(w_p)` with `A⊥_a^s(w) = Σ_t n_{t,a}² A_t (n_t·w)₊`
+/// over the lit pieces whose normal has the sign `s` on axis `a`. Each photon is thus
+/// divided by the area of the surfaces it can have landed on in that matrix, not by all
+/// the surfaces of the cell (which would average a dim face with the bright floor
+/// beside it). For one plane of normal `N`: `M_a^{s(N_a)} = ∫ L w dω` for every axis, so
+/// the query's `Σ_a N_a² = 1` returns it exactly.
+#[allow(clippy::too_many_arguments)] // a photon's fields and the leaf's weights
+#[inline(always)]
+fn add_by_surface(zero: &mut [[DVec3; 3]; 6], w: Vec3, c: Vec3, ng: Vec3, sides: &SideAreas, min_cos: f32, a_min: f32, sign: f64) {
+    for a in 0..3 {
+        if ng[a] == 0.0 {
+            continue;
+        }
+        let neg = ng[a] < 0.0;
+        let k = 2 * a + neg as usize;
+        let (lo, hi) = (sides.start[k], sides.start[k + 1]);
+        let mut proj = 0.0f32;
+        for (g, n) in sides.g[lo..hi].iter().zip(&sides.n[lo..hi]) {
+            proj += g * n.dot(w).max(0.0);
+        }
+        // `ng_a² min_cos a_min`: the photon's own surface, of normal `ng`, has at least
+        // `a_min` in the box (see `EstimateCtx::estimate`)
+        let den = proj.max(min_cos * sides.total[k]).max(ng[a] * ng[a] * min_cos * a_min);
+        if !(den > 0.0) {
+            continue;
+        }
+        let f = (ng[a] * ng[a] / den) as f64 * sign;
+        let wd = DVec3::from(w) * f;
+        let m = &mut zero[k];
+        m[0] += wd * c.x as f64;
+        m[1] += wd * c.y as f64;
+        m[2] += wd * c.z as f64;
     }
 }
 
@@ -293,8 +419,9 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
 
     /// Mean position and mean normal of the photons of the leaf's own cell (the incident
     /// directions stand for the normal when the records carry none), summed in f64, and
-    /// [`super::ANCHOR_SAMPLES`] of its photons with their incident directions.
-    fn anchor(&self, leaf: &LeafBuild) -> super::LeafAnchors {
+    /// [`super::ANCHOR_SAMPLES`] of its photons with their incident directions; and the sums
+    /// of the positions and normals.
+    fn anchor(&self, leaf: &LeafBuild) -> (super::LeafAnchors, DVec3, DVec3) {
         let normal = |i: u32| {
             let r = &self.recs[i as usize];
             let ng = r.ng();
@@ -320,10 +447,11 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
             let i = leaf.lo + ((count as u64 * (2 * j as u64 + 1)) / (2 * super::ANCHOR_SAMPLES as u64)) as u32;
             super::Anchor::encode(self.pos[i as usize], self.recs[i as usize].w().normalize_or_zero(), cmin, s)
         });
-        super::LeafAnchors { mean, samples }
+        (super::LeafAnchors { mean, samples }, p, n)
     }
 
-    pub fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch) -> LeafEstimate {
+    /// The leaf's estimate; with `capture`, also its [`LeafState`].
+    pub fn estimate(&self, leaf: &LeafBuild, value: usize, sc: &mut Scratch, capture: bool) -> LeafEstimate {
         let (ebox, enlarged, margin) = self.gather_box_margin(leaf);
         // Lower bound on the area the photons stand for. The leaf's photons lie in its own
         // cell, so some surface passes through a point q of the cell, and the ball of radius
@@ -360,41 +488,32 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
                 fallback = true;
             }
         }
-        let areas = &sc.areas;
-        let mut acc = Accumulator::new();
         let by_normal = self.settings.split == Split::Normal;
+        let mut sides = std::mem::take(&mut sc.sides);
+        if by_normal && estimator == Estimator::GeometryArea {
+            sides.fill(&sc.areas);
+        }
+        let weights = LeafWeights { estimator, by_normal, inv_da, min_cos, a_min, lit_total, areas: std::mem::take(&mut sc.areas), sides };
+        let mut acc = Accumulator::new();
         if by_normal && estimator == Estimator::GeometryArea {
             // per-matrix areas: no single weight
-            sc.sides.fill(areas);
-            let sides = &sc.sides;
+            let sides = &weights.sides;
             let mut add = |i: u32| {
                 let r = &recs[i as usize];
-                acc.add_by_surface(r.w(), r.c(), r.ng(), sides, min_cos, a_min);
+                add_by_surface(&mut acc.zero, r.w(), r.c(), r.ng(), sides, min_cos, a_min, 1.0);
             };
             for &(lo, hi) in &sc.segs {
                 (lo..hi).for_each(&mut add);
             }
             sc.singles.iter().for_each(|&i| add(i));
         } else {
-            let mut add = |i: u32| {
-                let r = &recs[i as usize];
-                let w = r.w();
-                let weight = match estimator {
-                    // `w` carries the cosine weight
-                    Estimator::Paper | Estimator::Cosine => inv_da,
-                    Estimator::GeometryArea => 1.0 / projected_lit_area(areas, w).max(min_cos * lit_total.max(a_min)),
-                };
-                if by_normal {
-                    acc.add_by_normal(w, r.c(), weight, r.ng());
-                } else {
-                    acc.add(w, r.c(), weight);
-                }
-            };
+            let mut add = |i: u32| weights.add(&mut acc, &recs[i as usize]);
             for &(lo, hi) in &sc.segs {
                 (lo..hi).for_each(&mut add);
             }
             sc.singles.iter().for_each(|&i| add(i));
         }
+        let areas = &weights.areas;
         let mut normals: [Vec3; 6] = std::array::from_fn(|k| {
             let mut v = Vec3::ZERO;
             v[k / 2] = if k % 2 == 0 { 1.0 } else { -1.0 };
@@ -421,7 +540,18 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         } else {
             ALL_FACING
         };
-        LeafEstimate { m: acc.finish(), gathered: photons as u32, fallback, facing, normals, anchor: self.anchor(leaf) }
+        let totals = acc.totals();
+        let (anchor, pos, nrm) = self.anchor(leaf);
+        let state = if capture {
+            let own = leaf.hi - leaf.lo;
+            Some(Box::new(LeafState { totals, pos, nrm, own, gathered: photons as u32, weights, facing, normals, fallback }))
+        } else {
+            // the scratch keeps the allocations
+            sc.areas = weights.areas;
+            sc.sides = weights.sides;
+            None
+        };
+        LeafEstimate { m: matrices(&totals), gathered: photons as u32, fallback, facing, normals, anchor, state }
     }
 }
 
@@ -438,100 +568,4 @@ fn compact(lo: u32, pos: &[Vec3], out: &mut [u32], inside: impl Fn(Vec3) -> bool
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The half-axis lists give `add_by_surface` the same sums, bit for bit, as the loop over
-    /// all the lit areas that tests each normal's sign per photon (the form before the lists),
-    /// with normals of both signs and with zero components, in the areas and in `ng`.
-    #[test]
-    fn side_lists_give_the_sums_of_the_loop_over_all_areas() {
-        use crate::sampling::square_to_uniform_sphere;
-        let mut s = crate::sampling::Sampler::new(5, 5, 5);
-        let mut areas = Vec::new();
-        for i in 0..40 {
-            let mut n = square_to_uniform_sphere(s.next_2d());
-            if i % 5 == 0 {
-                n[i % 3] = 0.0; // in no list of that axis
-            }
-            if i % 7 == 0 {
-                n = if i % 2 == 0 { Vec3::Z } else { -Vec3::Z };
-            }
-            areas.push(OrientedArea { n, area: 0.01 + s.next_1d() });
-        }
-        let mut sides = SideAreas::default();
-        sides.fill(&areas);
-        assert!((0..6).all(|k| sides.start[k + 1] > sides.start[k]), "every half-axis has areas");
-        let (min_cos, a_min) = (0.1, 0.05);
-        let mut acc = Accumulator::new();
-        let mut direct = [[DVec3::ZERO; 3]; 6];
-        for i in 0..2000 {
-            let w = square_to_uniform_sphere(s.next_2d());
-            let mut ng = square_to_uniform_sphere(s.next_2d());
-            if i % 4 == 0 {
-                ng[i % 3] = 0.0;
-            }
-            let c = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
-            acc.add_by_surface(w, c, ng, &sides, min_cos, a_min);
-            for a in 0..3 {
-                if ng[a] == 0.0 {
-                    continue;
-                }
-                let neg = ng[a] < 0.0;
-                let (mut proj, mut total) = (0.0f32, 0.0f32);
-                for e in &areas {
-                    if e.n[a] != 0.0 && (e.n[a] < 0.0) == neg {
-                        let g = e.n[a] * e.n[a] * e.area;
-                        total += g;
-                        proj += g * e.n.dot(w).max(0.0);
-                    }
-                }
-                let den = proj.max(min_cos * total).max(ng[a] * ng[a] * min_cos * a_min);
-                if !(den > 0.0) {
-                    continue;
-                }
-                let wd = DVec3::from(w) * (ng[a] * ng[a] / den) as f64;
-                let m = &mut direct[2 * a + neg as usize];
-                m[0] += wd * c.x as f64;
-                m[1] += wd * c.y as f64;
-                m[2] += wd * c.z as f64;
-            }
-        }
-        for (k, (got, want)) in acc.zero.iter().zip(&direct).enumerate() {
-            for (j, (g, d)) in got.iter().zip(want).enumerate() {
-                assert_eq!(g.to_array().map(f64::to_bits), d.to_array().map(f64::to_bits), "matrix {k}, column {j}");
-            }
-        }
-    }
-
-    #[test]
-    fn accumulator_matches_the_direct_sums() {
-        let mut s = crate::sampling::Sampler::new(2, 2, 2);
-        let mut acc = Accumulator::new();
-        let mut direct = [[DVec3::ZERO; 3]; 6];
-        for i in 0..1000 {
-            let mut w = crate::sampling::square_to_uniform_sphere(s.next_2d());
-            if i % 10 == 0 {
-                w[i % 3] = 0.0; // zero components: in no matrix of that axis
-            }
-            let c = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
-            let weight = 0.5 + s.next_1d();
-            acc.add(w, c, weight);
-            for a in 0..3 {
-                if w[a] != 0.0 {
-                    let k = 2 * a + (w[a] < 0.0) as usize;
-                    for j in 0..3 {
-                        direct[k][j] += (w * weight * c[j]).as_dvec3();
-                    }
-                }
-            }
-        }
-        let m = acc.finish();
-        for k in 0..6 {
-            let expect = Mat3::from_cols(direct[k][0].as_vec3(), direct[k][1].as_vec3(), direct[k][2].as_vec3());
-            let d = m[k] - expect;
-            let err = d.x_axis.abs().max(d.y_axis.abs()).max(d.z_axis.abs()).max_element();
-            assert!(err < 1e-3, "{k}: {err}");
-        }
-    }
-}
+mod tests;

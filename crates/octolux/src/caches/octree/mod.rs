@@ -86,6 +86,7 @@ mod flights;
 #[cfg(test)]
 mod free_space_tests;
 mod geometry;
+mod incremental;
 mod parts;
 mod planes;
 mod query;
@@ -103,6 +104,7 @@ pub(crate) const ALL_FACING: u8 = 0b11_1111;
 pub use atmosphere::{AtmosphereStats, FREE_SPACE_BYTES, NO_ANCHOR, PROBE_LIFT, SMOOTHING_SWEEPS};
 pub use flights::{FlightSums, Flights, FLIGHT_MIN};
 pub use geometry::AnalyticSphere;
+pub use incremental::LeafSums;
 pub use parts::{AtmosphereParts, LeafValueParts, OctreeParts, PartsError, ATMOSPHERIC, LEAF_LINK};
 pub use planes::{LeafPlane, LeafPlanes, Segment, MAX_PLANES};
 pub use refine::{OctantSums, RefineStats, FREE_SPACE_BASE_DEPTH, REFINE_FLOOR, REFINE_TAU};

@@ -20,6 +20,7 @@
 
 use super::build::{assemble, sort_assign_estimate, Frame, LeafOut, Leaves};
 use super::cells::{quantize, LeafBuild};
+use super::estimate::LeafState;
 use super::sort::KeyFn;
 use super::{Estimator, Octree, OctreeError, Surfaces, NO_VALUE};
 use crate::math::Bounds3;
@@ -34,6 +35,9 @@ pub struct Changes<'a> {
     pub points: &'a [Vec3],
 }
 
+/// The states of the leaves a refit estimated, by node (`incremental.rs`).
+pub(super) type Captured = Vec<(u32, Box<LeafState>)>;
+
 /// What a [`Octree::refit`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RefitStats {
@@ -41,11 +45,14 @@ pub struct RefitStats {
     pub estimated: usize,
     /// Valid leaves whose value was copied.
     pub copied: usize,
+    /// Valid leaves whose sums the photons that moved updated ([`Octree::refit_incremental`]).
+    pub updated: usize,
 }
 
 impl Octree {
-    /// The leaf whose (half-open) cell holds `p`; `None` outside the root cube.
-    fn leaf_node(&self, p: Vec3) -> Option<u32> {
+    /// The leaf whose (half-open) cell holds `p`, with its depth and cell coordinates: the leaf
+    /// the build's keys put it in; `None` outside the root cube.
+    pub(super) fn leaf_node(&self, p: Vec3) -> Option<(u32, u32, [u32; 3])> {
         let (o, e) = (self.origin, self.origin + Vec3::splat(self.size));
         if !(p.cmpge(o).all() && p.cmple(e).all()) {
             return None;
@@ -55,12 +62,22 @@ impl Octree {
         loop {
             let n = self.nodes[node as usize];
             if n.is_leaf() || depth >= self.h_max {
-                return Some(node);
+                let s = self.h_max - depth;
+                return Some((node, depth, [q[0] >> s, q[1] >> s, q[2] >> s]));
             }
             let s = self.h_max - depth - 1;
             node = n.link + (((q[0] >> s) & 1) | (((q[1] >> s) & 1) << 1) | (((q[2] >> s) & 1) << 2));
             depth += 1;
         }
+    }
+
+    /// The largest box a leaf gathers from (`estimate.rs`: its cell enlarged by `1 + ε` about
+    /// its centre, or the cell itself), padded by 1e-4 of it.
+    pub(super) fn gather_bound(&self, depth: u32, ijk: [u32; 3]) -> Bounds3 {
+        let s = self.cell_size[depth as usize];
+        let centre = self.view().cell_min(depth, ijk) + Vec3::splat(0.5 * s);
+        let half = Vec3::splat(0.5 * s * (1.0 + self.settings.epsilon.max(0.0)) * (1.0 + 1e-4));
+        Bounds3 { min: centre - half, max: centre + half }
     }
 
     /// This tree's topology with `photons` (module docs). `surfaces`: the scene's, as the
@@ -73,6 +90,18 @@ impl Octree {
         surfaces: Option<Surfaces<'_>>,
         changed: Option<Changes<'_>>,
     ) -> Result<(Octree, RefitStats), OctreeError> {
+        self.refit_capture(photons, surfaces, changed, false).map(|(t, st, _)| (t, st))
+    }
+
+    /// [`Octree::refit`]; with `capture`, also the [`LeafState`]s of the leaves estimated, by
+    /// node.
+    pub(super) fn refit_capture(
+        &self,
+        photons: &[Photon],
+        surfaces: Option<Surfaces<'_>>,
+        changed: Option<Changes<'_>>,
+        capture: bool,
+    ) -> Result<(Octree, RefitStats, Captured), OctreeError> {
         let settings = &self.settings;
         if settings.estimator == Estimator::GeometryArea && surfaces.is_none() {
             return Err(OctreeError::MissingGeometry);
@@ -81,11 +110,10 @@ impl Octree {
             return Err(OctreeError::TooManyPhotons(photons.len()));
         }
         let view = self.view();
-        let eps = settings.epsilon;
         // the leaves holding a moved photon (the same node ids in the refitted tree)
         let mut marked = vec![false; self.nodes.len()];
         for &p in changed.map_or(&[][..], |c| c.points) {
-            if let Some(node) = self.leaf_node(p) {
+            if let Some((node, ..)) = self.leaf_node(p) {
                 marked[node as usize] = true;
             }
         }
@@ -94,10 +122,7 @@ impl Octree {
         // leaf holding a moved photon: a superset of the leaves whose input changed
         let meets_change = |leaf: &LeafBuild| {
             let Some(c) = changed else { return true };
-            let s = self.cell_size[leaf.depth as usize];
-            let centre = view.cell_min(leaf.depth, leaf.ijk) + Vec3::splat(0.5 * s);
-            let half = Vec3::splat(0.5 * s * (1.0 + eps.max(0.0)) * (1.0 + 1e-4));
-            let (lo, hi) = (centre - half, centre + half);
+            let Bounds3 { min: lo, max: hi } = self.gather_bound(leaf.depth, leaf.ijk);
             if c.boxes.iter().any(|b| lo.cmple(b.max).all() && b.min.cmple(hi).all()) {
                 return true;
             }
@@ -108,16 +133,18 @@ impl Octree {
         let old_value = |leaf: &LeafBuild| self.nodes[leaf.node as usize].value();
         let select = |leaf: &LeafBuild| old_value(leaf) == NO_VALUE || meets_change(leaf);
         let kf = KeyFn { origin: self.origin, inv_quant: self.inv_quant, h: self.h_max };
-        let which = Leaves::Fixed { topology: &self.nodes, select: &select };
+        let which = Leaves::Fixed { topology: &self.nodes, select: &select, capture };
         let (tree, n_kept, est) = sort_assign_estimate(photons, kf, self.size, &self.cell_size, settings, surfaces, which);
         let mut stats = RefitStats::default();
+        let mut states = Vec::new();
         let outs: Vec<LeafOut> = tree
             .valid
             .iter()
             .zip(est)
             .map(|(leaf, e)| match e {
-                Some(e) => {
+                Some(mut e) => {
                     stats.estimated += 1;
+                    states.extend(e.state.take().map(|s| (leaf.node, s)));
                     LeafOut::New(Box::new(e))
                 }
                 None => {
@@ -138,6 +165,6 @@ impl Octree {
         let mut out = assemble(tree, n_kept, outs, frame, settings);
         // the copied leaves keep what this tree holds (only the means, when read so from a cache)
         out.leak_samples = self.leak_samples;
-        Ok((out, stats))
+        Ok((out, stats, states))
     }
 }

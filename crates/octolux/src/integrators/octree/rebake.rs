@@ -10,24 +10,32 @@
 //!    those with a flight ending where the object was (it may have stopped them) and those
 //!    with a flight its new shapes meet (they stop it now); any other path is the same in
 //!    the new scene. It traces exactly those again, and replaces their photons.
-//! 3. Each octree is re-estimated on its own topology ([`crate::caches::Octree::refit`]), only in the leaves
-//!    whose gathering boxes meet a moved photon or the object's boxes; the others keep their
-//!    values.
+//! 3. Each octree is updated on its own topology: the first time by
+//!    [`crate::caches::Octree::refit_with_sums`] (every leaf estimated, its sums kept in the
+//!    [`RebakeState`]), then by [`crate::caches::Octree::refit_incremental`] (the moved photons
+//!    subtracted from and added to the sums of the leaves that gather them; the leaves around
+//!    the object estimated from their photons; `caches/octree/incremental.rs`). With the
+//!    `visible_sample` leak test, whose sampled photons the sums do not keep,
+//!    [`crate::caches::Octree::refit`] re-estimates the leaves whose boxes meet a moved photon
+//!    or the object's boxes instead.
 //!
-//! The result equals a re-bake of the scene with the object on the same topology, bit for bit
-//! (test `an_incremental_update_equals_a_rebake_on_the_same_topology`); the cost grows with
-//! the photons the object touches (the search is a pass over the kept flight points, the photon
-//! sort a pass over the photons). The object is then shaded like any surface of the scene: its
+//! The result equals a re-bake of the scene with the object on the same topology up to the order
+//! of the sums' additions (test `an_incremental_update_equals_a_rebake_on_the_same_topology`:
+//! the same photons and nodes, values within 1e-5 of a leaf's largest); the cost grows with
+//! the photons the object touches (the search is still a pass over the kept flight points).
+//! The object is then shaded like any surface of the scene: its
 //! leaves hold its own photons. What a re-bake on the same topology cannot give: finer leaves on
 //! the object than the empty cells it sits in had (a small object in a large cell gets one
 //! cell's six matrices), volumetric values (the refitted trees hold none), and a caustic
 //! octree where the bake had none (caustic photons the object makes are then kept in the path
 //! records but not rendered).
 
-use super::{estimator_surfaces, BuildError, OctreeIntegrator};
-use crate::caches::octree::{Changes, Estimator, Surfaces};
+use super::{estimator_surfaces, BuildError, LeakTest, OctreeIntegrator};
+use crate::caches::octree::{Changes, Estimator, LeafSums, OctreeError, RefitStats, Surfaces};
+use crate::caches::Octree;
 use crate::math::Bounds3;
-use crate::photon::paths::PhotonPaths;
+use crate::photon::paths::{MovedPhotons, PhotonPaths};
+use crate::photon::Photon;
 use crate::scene::Scene;
 use glam::Vec3;
 use serde::Serialize;
@@ -141,6 +149,52 @@ fn segment_meets_sphere(a: Vec3, b: Vec3, c: Vec3, r: f32) -> bool {
     (a + d * t - c).length_squared() <= r * r && !(inside(a) && inside(b))
 }
 
+/// What a re-bake keeps between frames: the photon pass path by path and, per octree, the sums
+/// behind its leaves ([`LeafSums`]: taken at the first update, then updated with the trees).
+/// Made for one integrator from [`OctreeIntegrator::photon_paths`]; pass it only to that
+/// integrator's [`OctreeIntegrator::rebake`].
+pub struct RebakeState {
+    paths: PhotonPaths,
+    sums: [Option<LeafSums>; 2],
+}
+
+impl RebakeState {
+    pub fn new(paths: PhotonPaths) -> RebakeState {
+        RebakeState { paths, sums: [None, None] }
+    }
+
+    /// The photon pass of the scene as last updated.
+    pub fn paths(&self) -> &PhotonPaths {
+        &self.paths
+    }
+}
+
+/// `tree` refitted to `photons` after `moved`: from the sums in `sums` where the leak test
+/// reads no sampled photons (`incremental`; sums taken by a full refit the first time),
+/// by [`Octree::refit`] of the leaves around the changes otherwise.
+fn refit_tree(
+    tree: &Octree,
+    sums: &mut Option<LeafSums>,
+    photons: &[Photon],
+    moved: &MovedPhotons,
+    surfaces: Option<Surfaces<'_>>,
+    changes: Changes<'_>,
+    incremental: bool,
+) -> Result<(Octree, RefitStats), OctreeError> {
+    if !incremental {
+        *sums = None;
+        return tree.refit(photons, surfaces, Some(changes));
+    }
+    match sums {
+        Some(s) => tree.refit_incremental(s, photons, &moved.removed, &moved.added, surfaces, changes.boxes),
+        None => {
+            let (t, st, s) = tree.refit_with_sums(photons, surfaces)?;
+            *sums = Some(s);
+            Ok((t, st))
+        }
+    }
+}
+
 /// What [`OctreeIntegrator::rebake`] did (out.json's `insert.rebake`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct RebakeStats {
@@ -149,8 +203,10 @@ pub struct RebakeStats {
     pub paths: usize,
     /// Photons removed plus photons added (both maps).
     pub photons_moved: usize,
-    /// Valid leaves estimated anew and copied (both trees).
+    /// Valid leaves estimated anew from their photons, updated by the photons that moved
+    /// (their sums), and copied (both trees).
     pub leaves_estimated: usize,
+    pub leaves_updated: usize,
     pub leaves_copied: usize,
     /// Seconds: finding the paths, tracing them, re-estimating the trees (with the query's
     /// lists), and all of it.
@@ -167,11 +223,12 @@ impl OctreeIntegrator {
         Ok(PhotonPaths::trace(scene, &self.settings.traced_photons())?)
     }
 
-    /// Update the octrees for `scene`, which differs from the scene of `paths` (as kept so
-    /// far) by the object `change` moves: retrace the paths it can alter, re-estimate the
-    /// leaves around what moved (module docs). `paths` then holds `scene`'s pass.
-    pub fn rebake(&mut self, paths: &mut PhotonPaths, scene: &Scene, change: &ObjectMove<'_>) -> Result<RebakeStats, BuildError> {
+    /// Update the octrees for `scene`, which differs from the scene of `state`'s paths (as
+    /// kept so far) by the object `change` moves: retrace the paths it can alter, update the
+    /// leaves the moved photons reach (module docs). `state` then holds `scene`'s pass.
+    pub fn rebake(&mut self, state: &mut RebakeState, scene: &Scene, change: &ObjectMove<'_>) -> Result<RebakeStats, BuildError> {
         let t0 = Instant::now();
+        let paths = &mut state.paths;
         // a hit on the object lies within float rounding of its bounds, maybe outside them
         let pad = Vec3::splat(1e-4 * paths.escape());
         let grow = |b: &[Bounds3]| -> Vec<Bounds3> {
@@ -196,13 +253,19 @@ impl OctreeIntegrator {
             (Vec::new(), Vec::new())
         };
         let surfaces = Some(Surfaces { triangles: &tris, spheres: &spheres });
-        let changes = Changes { boxes, points: &moved };
-        let (global, g) = self.global.refit(paths.global(), surfaces, Some(changes)).map_err(BuildError::Global)?;
+        let points: Vec<Vec3> = moved.iter().flat_map(|m| m.removed.iter().chain(&m.added)).map(|p| p.p).collect();
+        let changes = Changes { boxes, points: &points };
+        // the sums cannot follow the sampled photons the `visible_sample` test reads
+        let incremental = self.leak() != LeakTest::VisibleSample;
+        let [sg, sc] = &mut state.sums;
+        let (global, g) =
+            refit_tree(&self.global, sg, paths.global(), &moved[0], surfaces, changes, incremental).map_err(BuildError::Global)?;
         let mut st = RebakeStats {
             paths_retraced: ids.len(),
             paths: paths.len(),
-            photons_moved: moved.len(),
+            photons_moved: points.len(),
             leaves_estimated: g.estimated,
+            leaves_updated: g.updated,
             leaves_copied: g.copied,
             t_find_s,
             t_trace_s,
@@ -210,8 +273,10 @@ impl OctreeIntegrator {
         };
         self.global = global;
         if let Some(c) = &self.caustic {
-            let (caustic, s) = c.refit(paths.caustic(), surfaces, Some(changes)).map_err(BuildError::Caustic)?;
+            let (caustic, s) =
+                refit_tree(c, sc, paths.caustic(), &moved[1], surfaces, changes, incremental).map_err(BuildError::Caustic)?;
             st.leaves_estimated += s.estimated;
+            st.leaves_updated += s.updated;
             st.leaves_copied += s.copied;
             self.caustic = Some(caustic);
         }
