@@ -22,12 +22,29 @@ use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
 
-/// The photons and flight points of one path.
+/// The photons and flight points of consecutive paths in flat lists, with each path's ends
+/// (one set of allocations per batch, not three per path).
 #[derive(Default)]
-struct PathRecord {
+struct Batch {
     global: Vec<Photon>,
     caustic: Vec<Photon>,
     points: Vec<Vec3>,
+    /// Per path: where its global photons, caustic photons and flight points end.
+    ends: Vec<[usize; 3]>,
+}
+
+impl Batch {
+    /// Path `k`'s global photons, caustic photons and flight points.
+    fn path(&self, k: usize) -> (&[Photon], &[Photon], &[Vec3]) {
+        let s = if k == 0 { [0; 3] } else { self.ends[k - 1] };
+        let e = self.ends[k];
+        (&self.global[s[0]..e[0]], &self.caustic[s[1]..e[1]], &self.points[s[2]..e[2]])
+    }
+
+    /// Every path of `batches`, in order.
+    fn paths(batches: &[Batch]) -> impl Iterator<Item = (&[Photon], &[Photon], &[Vec3])> {
+        batches.iter().flat_map(|b| (0..b.ends.len()).map(move |k| b.path(k)))
+    }
 }
 
 /// The photon pass, path by path (module docs). Memory: the photons (48 bytes each), 12
@@ -58,6 +75,9 @@ struct Spare {
     caustic: Vec<Photon>,
     points: Vec<Vec3>,
 }
+
+/// Paths traced together in a [`PhotonPaths::retrace`] job.
+const RETRACE_BATCH: usize = 512;
 
 /// Offsets of the per-path lists, from their lengths.
 fn offsets(lens: impl Iterator<Item = usize>) -> Option<Vec<u32>> {
@@ -90,21 +110,24 @@ impl PhotonPaths {
             spare: Spare::default(),
         };
         let n = settings.photons;
-        let chunks: Vec<Vec<PathRecord>> = (0..n.div_ceil(CHUNK))
+        let batches: Vec<Batch> = (0..n.div_ceil(CHUNK))
             .into_par_iter()
-            .map(|c| (c * CHUNK..((c + 1) * CHUNK).min(n)).map(|i| paths.trace_one(scene, i)).collect())
+            .map(|c| {
+                let mut b = Batch::default();
+                (c * CHUNK..((c + 1) * CHUNK).min(n)).for_each(|i| paths.trace_into(scene, i, &mut b));
+                b
+            })
             .collect();
-        let records: Vec<PathRecord> = chunks.into_iter().flatten().collect();
-        paths.set(&records)?;
+        paths.set(&batches)?;
         Ok(paths)
     }
 
-    /// Path `i` traced in `scene`.
-    fn trace_one(&self, scene: &Scene, i: u64) -> PathRecord {
-        let mut r = PathRecord::default();
+    /// Path `i` traced in `scene`, appended to `b`.
+    fn trace_into(&self, scene: &Scene, i: u64, b: &mut Batch) {
         let inv_n = 1.0 / self.settings.photons as f32;
         let escape = self.escape;
-        let PathRecord { global, caustic, points } = &mut r;
+        let Batch { global, caustic, points, ends } = b;
+        let first = points.len();
         trace_path(
             scene,
             &self.settings,
@@ -114,23 +137,23 @@ impl PhotonPaths {
             self.guide.as_ref(),
             |hit| store(&hit, global, caustic),
             |f| {
-                if points.is_empty() {
+                if points.len() == first {
                     points.push(f.o);
                 }
                 points.push(f.o + f.d * if f.t.is_finite() { f.t } else { escape });
             },
         );
-        r
+        ends.push([global.len(), caustic.len(), points.len()]);
     }
 
-    /// Replace every list by `records` (one per path, in order).
-    fn set(&mut self, records: &[PathRecord]) -> Result<(), PhotonError> {
-        self.g_start = offsets(records.iter().map(|r| r.global.len())).ok_or(PhotonError::TooManyRecords)?;
-        self.c_start = offsets(records.iter().map(|r| r.caustic.len())).ok_or(PhotonError::TooManyRecords)?;
-        self.p_start = offsets(records.iter().map(|r| r.points.len())).ok_or(PhotonError::TooManyRecords)?;
-        self.global = records.iter().flat_map(|r| r.global.iter().copied()).collect();
-        self.caustic = records.iter().flat_map(|r| r.caustic.iter().copied()).collect();
-        self.points = records.iter().flat_map(|r| r.points.iter().copied()).collect();
+    /// Replace every list by the paths of `batches` (in order).
+    fn set(&mut self, batches: &[Batch]) -> Result<(), PhotonError> {
+        self.g_start = offsets(Batch::paths(batches).map(|p| p.0.len())).ok_or(PhotonError::TooManyRecords)?;
+        self.c_start = offsets(Batch::paths(batches).map(|p| p.1.len())).ok_or(PhotonError::TooManyRecords)?;
+        self.p_start = offsets(Batch::paths(batches).map(|p| p.2.len())).ok_or(PhotonError::TooManyRecords)?;
+        self.global = batches.iter().flat_map(|b| b.global.iter().copied()).collect();
+        self.caustic = batches.iter().flat_map(|b| b.caustic.iter().copied()).collect();
+        self.points = batches.iter().flat_map(|b| b.points.iter().copied()).collect();
         Ok(())
     }
 
@@ -202,24 +225,31 @@ impl PhotonPaths {
     /// share, in the order of the paths.
     pub fn retrace(&mut self, scene: &Scene, ids: &[u32]) -> Result<[MovedPhotons; 2], PhotonError> {
         debug_assert!(ids.windows(2).all(|w| w[0] < w[1]), "path ids ascending");
-        let new: Vec<PathRecord> = ids.par_iter().map(|&i| self.trace_one(scene, i as u64)).collect();
+        let new: Vec<Batch> = ids
+            .par_chunks(RETRACE_BATCH)
+            .map(|c| {
+                let mut b = Batch::default();
+                c.iter().for_each(|&i| self.trace_into(scene, i as u64, &mut b));
+                b
+            })
+            .collect();
         let mut moved = [MovedPhotons::default(), MovedPhotons::default()];
-        for (&i, r) in ids.iter().zip(&new) {
+        for (&i, (new_g, new_c, _)) in ids.iter().zip(Batch::paths(&new)) {
             let i = i as usize;
             // a path is the same up to its first meeting with the change: only the photons
             // after the common prefix moved
             let old_g = &self.global[self.g_start[i] as usize..self.g_start[i + 1] as usize];
             let old_c = &self.caustic[self.c_start[i] as usize..self.c_start[i + 1] as usize];
-            for ((old, new), m) in [(old_g, &r.global[..]), (old_c, &r.caustic[..])].into_iter().zip(&mut moved) {
+            for ((old, new), m) in [(old_g, new_g), (old_c, new_c)].into_iter().zip(&mut moved) {
                 let same = old.iter().zip(new).take_while(|(a, b)| a == b).count();
                 m.removed.extend_from_slice(&old[same..]);
                 m.added.extend_from_slice(&new[same..]);
             }
         }
         // every new list's length fits its offsets before anything changes
-        let fits = |start: &[u32], len: fn(&PathRecord) -> usize| {
+        let fits = |start: &[u32], len: fn(&Batch) -> usize| {
             let old: u64 = ids.iter().map(|&i| (start[i as usize + 1] - start[i as usize]) as u64).sum();
-            let added: u64 = new.iter().map(|r| len(r) as u64).sum();
+            let added: u64 = new.iter().map(|b| len(b) as u64).sum();
             *start.last().unwrap_or(&0) as u64 - old + added <= u32::MAX as u64
         };
         if !(fits(&self.g_start, |r| r.global.len()) && fits(&self.c_start, |r| r.caustic.len()) && fits(&self.p_start, |r| r.points.len()))
@@ -227,9 +257,9 @@ impl PhotonPaths {
             return Err(PhotonError::TooManyRecords);
         }
         let sp = &mut self.spare;
-        splice(&mut self.global, &mut sp.global, &mut self.g_start, ids, new.iter().map(|r| r.global.as_slice()));
-        splice(&mut self.caustic, &mut sp.caustic, &mut self.c_start, ids, new.iter().map(|r| r.caustic.as_slice()));
-        splice(&mut self.points, &mut sp.points, &mut self.p_start, ids, new.iter().map(|r| r.points.as_slice()));
+        splice(&mut self.global, &mut sp.global, &mut self.g_start, ids, Batch::paths(&new).map(|p| p.0));
+        splice(&mut self.caustic, &mut sp.caustic, &mut self.c_start, ids, Batch::paths(&new).map(|p| p.1));
+        splice(&mut self.points, &mut sp.points, &mut self.p_start, ids, Batch::paths(&new).map(|p| p.2));
         Ok(moved)
     }
 }
