@@ -24,6 +24,7 @@ pub(super) struct Scratch {
     pos: Vec<Vec3>,
     ng: Vec<Vec3>,
     areas: Vec<OrientedArea>,
+    back_only: Vec<Vec3>,
     sides: SideAreas,
 }
 
@@ -95,6 +96,8 @@ pub(super) struct LeafWeights {
     lit_total: f32,
     /// The lit oriented areas in the box (`GeometryArea`).
     pub areas: Vec<OrientedArea>,
+    /// The winding normals of the groups of coplanar triangles lit on their back alone.
+    back_only: Vec<Vec3>,
     sides: SideAreas,
 }
 
@@ -151,11 +154,14 @@ impl LeafWeights {
 
     /// Whether the geometry-area estimator's lit sides may change when a photon of normal `ng`
     /// comes or goes: a group of coplanar triangles is lit on its back when a photon arrived
-    /// there from behind, and on its front unless it is lit only on its back (`lit_areas`),
-    /// so only a photon facing against a lit side (`ng · n ≤ −0.9`, with a margin) can change
-    /// them. Not for the other estimators, which read no lit sides.
+    /// there from behind (`ng · n ≤ −0.9` for its winding normal `n`), and on its front unless
+    /// it is lit only on its back (`lit_areas`). So only a photon facing against a lit side
+    /// (it lights the other), or one from behind a group lit on its back alone (the last such
+    /// gone, the group turns to its front), can change them; with a margin on the 0.9. Not for
+    /// the other estimators, which read no lit sides.
     pub fn may_change_sides(&self, ng: Vec3) -> bool {
-        self.estimator == Estimator::GeometryArea && self.areas.iter().any(|e| ng.dot(e.n) <= -0.89)
+        self.estimator == Estimator::GeometryArea
+            && (self.areas.iter().any(|e| ng.dot(e.n) <= -0.89) || self.back_only.iter().any(|&n| ng.dot(n) <= -0.89))
     }
 }
 
@@ -481,7 +487,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
                 sc.ng.push(recs[i as usize].ng());
             }
             let ids = self.tri_lists.get(value).map(Vec::as_slice).unwrap_or(&[]);
-            lit_areas(self.triangles, ids, self.spheres, &ebox, &sc.pos, &sc.ng, &mut sc.areas);
+            lit_areas(self.triangles, ids, self.spheres, &ebox, &sc.pos, &sc.ng, &mut sc.areas, &mut sc.back_only);
             lit_total = sc.areas.iter().map(|a| a.area).sum();
             if !(lit_total > 0.0) {
                 estimator = Estimator::Cosine;
@@ -493,7 +499,8 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         if by_normal && estimator == Estimator::GeometryArea {
             sides.fill(&sc.areas);
         }
-        let weights = LeafWeights { estimator, by_normal, inv_da, min_cos, a_min, lit_total, areas: std::mem::take(&mut sc.areas), sides };
+        let (areas, back_only) = (std::mem::take(&mut sc.areas), std::mem::take(&mut sc.back_only));
+        let weights = LeafWeights { estimator, by_normal, inv_da, min_cos, a_min, lit_total, areas, back_only, sides };
         let mut acc = Accumulator::new();
         if by_normal && estimator == Estimator::GeometryArea {
             // per-matrix areas: no single weight
@@ -548,6 +555,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         } else {
             // the scratch keeps the allocations
             sc.areas = weights.areas;
+            sc.back_only = weights.back_only;
             sc.sides = weights.sides;
             None
         };

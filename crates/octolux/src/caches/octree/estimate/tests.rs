@@ -95,3 +95,42 @@ fn accumulator_matches_the_direct_sums() {
         assert!(err < 1e-3, "{k}: {err}");
     }
 }
+
+/// Which moved photons may change a leaf's lit sides (`incremental.rs` then estimates the leaf
+/// from its photons): on a floor lit on its front, a photon from behind (it would light the
+/// back) and not one from the front; on a floor lit on its back alone, a photon from the front
+/// (it would light the front) and one from behind (the last of them gone, the front is lit).
+#[test]
+fn photons_that_may_change_the_lit_sides() {
+    use super::super::geometry::lit_areas;
+    let b = Bounds3 { min: Vec3::ZERO, max: Vec3::ONE };
+    let tris = [
+        [Vec3::new(-1.0, -1.0, 0.3), Vec3::new(2.0, -1.0, 0.3), Vec3::new(2.0, 2.0, 0.3)],
+        [Vec3::new(-1.0, -1.0, 0.3), Vec3::new(2.0, 2.0, 0.3), Vec3::new(-1.0, 2.0, 0.3)],
+    ];
+    let weights = |ng: Vec3| {
+        let (mut areas, mut back_only) = (Vec::new(), Vec::new());
+        lit_areas(&tris, &[0, 1], &[], &b, &[Vec3::new(0.5, 0.5, 0.3)], &[ng], &mut areas, &mut back_only);
+        let lit_total = areas.iter().map(|a| a.area).sum();
+        let (by_normal, sides) = (true, SideAreas::default());
+        LeafWeights {
+            estimator: Estimator::GeometryArea,
+            by_normal,
+            inv_da: 1.0,
+            min_cos: 0.1,
+            a_min: 0.0,
+            lit_total,
+            areas,
+            back_only,
+            sides,
+        }
+    };
+    let front = weights(Vec3::Z);
+    assert!(front.may_change_sides(-Vec3::Z) && !front.may_change_sides(Vec3::Z));
+    assert!(!front.may_change_sides(Vec3::new(0.0, 0.6, 0.8)), "a photon of another surface");
+    let back = weights(-Vec3::Z);
+    assert_eq!(back.back_only, vec![Vec3::Z]);
+    assert!(back.may_change_sides(Vec3::Z) && back.may_change_sides(-Vec3::Z));
+    let paper = LeafWeights { estimator: Estimator::Paper, ..weights(-Vec3::Z) };
+    assert!(!paper.may_change_sides(Vec3::Z), "the paper's estimator reads no lit sides");
+}
