@@ -28,7 +28,7 @@
 //! the counts (`Enlarge::All`, or no enlargement); the result keeps no sampled photons for the
 //! leak test (each sample is the mean: `OctreeParts::without_leak_samples`).
 
-use super::build::{assemble, assign_counts, sort_assign_estimate, Frame, LeafOut, Leaves};
+use super::build::{assemble, assign_counts, sort_assign_estimate, LeafOut, Leaves};
 use super::cells::LeafBuild;
 use super::estimate::{LeafEstimate, LeafState};
 use super::sort::{KeyFn, PhotonRec, RecNg};
@@ -243,16 +243,7 @@ impl Octree {
         }
         sums.min_depth = tree.valid.iter().map(|l| l.depth).min().unwrap_or(0);
         let n_kept = own.iter().map(|&c| c as usize).sum();
-        let frame = Frame {
-            origin: self.origin,
-            size: self.size,
-            cell_size: self.cell_size,
-            inv_quant: self.inv_quant,
-            h: self.h_max,
-            surface_area: self.stats.surface_area,
-            photons: photons.len(),
-        };
-        let mut out = assemble(tree, n_kept, outs, frame, settings);
+        let mut out = assemble(tree, n_kept, outs, self.frame(photons.len()), settings);
         out.leak_samples = false;
         for a in &mut out.anchors {
             a.samples = [a.mean; super::ANCHOR_SAMPLES];
@@ -390,28 +381,8 @@ fn update(st: &mut LeafState, moved: &Moved, i: u32, node: u32, uses_ng: bool) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::caches::octree::test_photons::box_photons as photons;
     use crate::caches::octree::{LeafValueParts, OctreeSettings, Storage};
-    use crate::sampling::{square_to_uniform_sphere, Sampler};
-
-    /// Photons on the floor and two walls of a unit box (seed `seed`).
-    fn photons(n: usize, seed: u64) -> Vec<Photon> {
-        let mut s = Sampler::new(seed, 0, 0);
-        (0..n)
-            .map(|i| {
-                let (u, v) = (s.next_1d(), s.next_1d());
-                let (p, ng) = match i % 3 {
-                    0 => (Vec3::new(u, 0.0, v), Vec3::Y),
-                    1 => (Vec3::new(0.0, u, v), Vec3::X),
-                    _ => (Vec3::new(u, v, 1.0), -Vec3::Z),
-                };
-                let mut wi = square_to_uniform_sphere(s.next_2d());
-                if wi.dot(ng) < 0.0 {
-                    wi = -wi;
-                }
-                Photon { p, wi, power: Vec3::new(1.0, 0.5, 0.25) * 1e-3 * (1.0 + u), ng }
-            })
-            .collect()
-    }
 
     fn full_values(t: &Octree) -> Vec<[glam::Mat3; 6]> {
         match t.to_parts().values {

@@ -96,6 +96,8 @@ mod settings;
 mod sort;
 mod stream;
 #[cfg(test)]
+mod test_photons;
+#[cfg(test)]
 mod tests;
 
 /// Every matrix of the leaf carries a value.

@@ -392,24 +392,8 @@ mod tests {
     use crate::photon::Photon;
     use crate::sampling::{square_to_uniform_sphere, Sampler};
 
-    /// Photons on the floor and walls of a unit box, lit from above.
     fn photons(n: usize) -> Vec<Photon> {
-        let mut s = Sampler::new(7, 0, 0);
-        (0..n)
-            .map(|i| {
-                let (u, v) = (s.next_1d(), s.next_1d());
-                let (p, ng) = match i % 3 {
-                    0 => (Vec3::new(u, 0.0, v), Vec3::Y),
-                    1 => (Vec3::new(0.0, u, v), Vec3::X),
-                    _ => (Vec3::new(u, v, 1.0), -Vec3::Z),
-                };
-                let mut wi = square_to_uniform_sphere(s.next_2d());
-                if wi.dot(ng) < 0.0 {
-                    wi = -wi;
-                }
-                Photon { p, wi, power: Vec3::new(1.0, 0.5, 0.25) * 1e-3, ng }
-            })
-            .collect()
+        super::super::test_photons::box_photons(n, 7)
     }
 
     fn tree(storage: Storage) -> Octree {

@@ -71,6 +71,20 @@ impl Octree {
         }
     }
 
+    /// This tree's root cube and depth, for a tree assembled on its topology from `photons`
+    /// photons.
+    pub(super) fn frame(&self, photons: usize) -> Frame {
+        Frame {
+            origin: self.origin,
+            size: self.size,
+            cell_size: self.cell_size,
+            inv_quant: self.inv_quant,
+            h: self.h_max,
+            surface_area: self.stats.surface_area,
+            photons,
+        }
+    }
+
     /// The largest box a leaf gathers from (`estimate.rs`: its cell enlarged by `1 + ε` about
     /// its centre, or the cell itself), padded by 1e-4 of it.
     pub(super) fn gather_bound(&self, depth: u32, ijk: [u32; 3]) -> Bounds3 {
@@ -153,16 +167,7 @@ impl Octree {
                 }
             })
             .collect();
-        let frame = Frame {
-            origin: self.origin,
-            size: self.size,
-            cell_size: self.cell_size,
-            inv_quant: self.inv_quant,
-            h: self.h_max,
-            surface_area: self.stats.surface_area,
-            photons: photons.len(),
-        };
-        let mut out = assemble(tree, n_kept, outs, frame, settings);
+        let mut out = assemble(tree, n_kept, outs, self.frame(photons.len()), settings);
         // the copied leaves keep what this tree holds (only the means, when read so from a cache)
         out.leak_samples = self.leak_samples;
         Ok((out, stats, states))
