@@ -8,7 +8,7 @@
 
 use super::cells::{LeafBuild, TreeView};
 use super::compress::FullLeaf;
-use super::geometry::{lit_areas, projected_lit_area, AnalyticSphere, OrientedArea};
+use super::geometry::{lit_areas, projected_lit_area, AnalyticSphere, GroupHits, OrientedArea};
 use super::settings::{Enlarge, Estimator, Split};
 use super::sort::PhotonRec;
 use super::{OctreeSettings, ALL_FACING};
@@ -24,7 +24,6 @@ pub(super) struct Scratch {
     pos: Vec<Vec3>,
     ng: Vec<Vec3>,
     areas: Vec<OrientedArea>,
-    back_only: Vec<Vec3>,
     sides: SideAreas,
 }
 
@@ -96,8 +95,9 @@ pub(super) struct LeafWeights {
     lit_total: f32,
     /// The lit oriented areas in the box (`GeometryArea`).
     pub areas: Vec<OrientedArea>,
-    /// The winding normals of the groups of coplanar triangles lit on their back alone.
-    back_only: Vec<Vec3>,
+    /// The groups of coplanar triangles in the box with their photons counted per side
+    /// (`GeometryArea`, when the estimate keeps its [`LeafState`]).
+    groups: Vec<GroupHits>,
     sides: SideAreas,
 }
 
@@ -152,16 +152,16 @@ impl LeafWeights {
         }
     }
 
-    /// Whether the geometry-area estimator's lit sides may change when a photon of normal `ng`
-    /// comes or goes: a group of coplanar triangles is lit on its back when a photon arrived
-    /// there from behind (`ng · n ≤ −0.9` for its winding normal `n`), and on its front unless
-    /// it is lit only on its back (`lit_areas`). So only a photon facing against a lit side
-    /// (it lights the other), or one from behind a group lit on its back alone (the last such
-    /// gone, the group turns to its front), can change them; with a margin on the 0.9. Not for
-    /// the other estimators, which read no lit sides.
-    pub fn may_change_sides(&self, ng: Vec3) -> bool {
-        self.estimator == Estimator::GeometryArea
-            && (self.areas.iter().any(|e| ng.dot(e.n) <= -0.89) || self.back_only.iter().any(|&n| ng.dot(n) <= -0.89))
+    /// Count the photon at `p` of normal `ng` in (`sign` +1) or out (−1) of the groups whose
+    /// lit sides the geometry-area estimator reads (none for the other estimators).
+    pub fn count_sides(&mut self, p: Vec3, ng: Vec3, sign: i32) {
+        self.groups.iter_mut().for_each(|g| g.count(p, ng, sign));
+    }
+
+    /// Whether the sides the counted photons light differ from those of the estimate (its
+    /// weights no longer hold).
+    pub fn sides_changed(&self) -> bool {
+        self.groups.iter().any(GroupHits::changed)
     }
 }
 
@@ -477,6 +477,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         let mut estimator = self.settings.estimator;
         let mut fallback = false;
         let mut lit_total = 0.0f32;
+        let mut groups = Vec::new();
         let recs = self.recs;
         if estimator == Estimator::GeometryArea {
             sc.pos.clear();
@@ -487,7 +488,7 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
                 sc.ng.push(recs[i as usize].ng());
             }
             let ids = self.tri_lists.get(value).map(Vec::as_slice).unwrap_or(&[]);
-            lit_areas(self.triangles, ids, self.spheres, &ebox, &sc.pos, &sc.ng, &mut sc.areas, &mut sc.back_only);
+            lit_areas(self.triangles, ids, self.spheres, &ebox, &sc.pos, &sc.ng, &mut sc.areas, capture.then_some(&mut groups));
             lit_total = sc.areas.iter().map(|a| a.area).sum();
             if !(lit_total > 0.0) {
                 estimator = Estimator::Cosine;
@@ -499,8 +500,8 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         if by_normal && estimator == Estimator::GeometryArea {
             sides.fill(&sc.areas);
         }
-        let (areas, back_only) = (std::mem::take(&mut sc.areas), std::mem::take(&mut sc.back_only));
-        let weights = LeafWeights { estimator, by_normal, inv_da, min_cos, a_min, lit_total, areas, back_only, sides };
+        let areas = std::mem::take(&mut sc.areas);
+        let weights = LeafWeights { estimator, by_normal, inv_da, min_cos, a_min, lit_total, areas, groups, sides };
         let mut acc = Accumulator::new();
         if by_normal && estimator == Estimator::GeometryArea {
             // per-matrix areas: no single weight
@@ -555,7 +556,6 @@ impl<R: PhotonRec> EstimateCtx<'_, R> {
         } else {
             // the scratch keeps the allocations
             sc.areas = weights.areas;
-            sc.back_only = weights.back_only;
             sc.sides = weights.sides;
             None
         };

@@ -175,6 +175,7 @@ pub(crate) fn clipped_area(t: &[Vec3; 3], b: &Bounds3) -> f64 {
 }
 
 /// Precomputed data of a triangle for the "does this photon lie on it" test.
+#[derive(Clone, Debug)]
 struct OnTriangle {
     v0: Vec3,
     n: Vec3,
@@ -211,6 +212,7 @@ impl OnTriangle {
 }
 
 /// Triangles of a cell sharing one oriented plane (same winding normal, same offset).
+#[derive(Clone, Debug)]
 struct PlaneGroup {
     n: Vec3,
     d: f32,
@@ -219,11 +221,51 @@ struct PlaneGroup {
 }
 
 impl PlaneGroup {
+    /// Whether the photon at `p` of normal `g` lies on a triangle of the group with
+    /// `sign · g·n ≥ 0.9`.
+    #[inline]
+    fn hit(&self, sign: f32, p: Vec3, g: Vec3, plane_tol: f32) -> bool {
+        sign * g.dot(self.n) >= 0.9 && (p.dot(self.n) - self.d).abs() <= plane_tol && self.tris.iter().any(|t| t.contains(p, plane_tol))
+    }
+
     /// Whether some photon lies on a triangle of the group with `sign · ng·n ≥ 0.9`.
     fn hit_from(&self, sign: f32, pos: &[Vec3], ng: &[Vec3], plane_tol: f32) -> bool {
-        pos.iter().zip(ng).any(|(&p, &g)| {
-            sign * g.dot(self.n) >= 0.9 && (p.dot(self.n) - self.d).abs() <= plane_tol && self.tris.iter().any(|t| t.contains(p, plane_tol))
-        })
+        pos.iter().zip(ng).any(|(&p, &g)| self.hit(sign, p, g, plane_tol))
+    }
+}
+
+/// A group of coplanar triangles of a leaf with the photons that light each of its sides
+/// (`lit_areas`: lit on its back when a photon arrived from behind, on its front unless lit on
+/// its back alone), for an incremental update (`incremental.rs`): the counts follow the photons
+/// that come and go, and the lit sides change only when a count reaches or leaves zero.
+#[derive(Clone, Debug)]
+pub(crate) struct GroupHits {
+    group: PlaneGroup,
+    plane_tol: f32,
+    front: u32,
+    back: u32,
+    /// The sides lit when the leaf was estimated: (front, back).
+    lit: (bool, bool),
+}
+
+impl GroupHits {
+    fn sides(front: u32, back: u32) -> (bool, bool) {
+        (back == 0 || front > 0, back > 0)
+    }
+
+    /// Count the photon at `p` of normal `ng` in (`sign` +1) or out (−1).
+    pub fn count(&mut self, p: Vec3, ng: Vec3, sign: i32) {
+        let step = |c: u32| (c as i64 + sign as i64).max(0) as u32;
+        if self.group.hit(1.0, p, ng, self.plane_tol) {
+            self.front = step(self.front);
+        } else if self.group.hit(-1.0, p, ng, self.plane_tol) {
+            self.back = step(self.back);
+        }
+    }
+
+    /// Whether the sides the counts light differ from those lit when the leaf was estimated.
+    pub fn changed(&self) -> bool {
+        Self::sides(self.front, self.back) != self.lit
     }
 }
 
@@ -232,9 +274,9 @@ impl PlaneGroup {
 /// with the same winding (a photon anywhere on the group's triangles lights the side for
 /// the whole group: robust to photons sparser than triangles on planar surfaces, while an
 /// object's face resting on a floor, coplanar but of opposite winding and without photons
-/// of its own, stays a separate group). Entries with equal normals are merged. `back_only`
-/// gets the winding normals of the groups lit on their back alone (what a group's lit sides
-/// depend on: `incremental.rs`).
+/// of its own, stays a separate group). Entries with equal normals are merged.
+/// With `hits`, each group of triangles comes back with its photons counted per side
+/// ([`GroupHits`]).
 #[allow(clippy::too_many_arguments)] // the cell's surfaces, its photons and the two outputs
 pub(crate) fn lit_areas(
     triangles: &[[Vec3; 3]],
@@ -244,10 +286,12 @@ pub(crate) fn lit_areas(
     photon_pos: &[Vec3],
     photon_ng: &[Vec3],
     out: &mut Vec<OrientedArea>,
-    back_only: &mut Vec<Vec3>,
+    mut hits: Option<&mut Vec<GroupHits>>,
 ) {
     out.clear();
-    back_only.clear();
+    if let Some(h) = hits.as_deref_mut() {
+        h.clear();
+    }
     let edge = cell.extent().max_element();
     let plane_tol = 1e-4 * edge + 1e-5 * (1.0 + cell.min.abs().max(cell.max.abs()).max_element());
     let mut groups: Vec<PlaneGroup> = Vec::new();
@@ -289,17 +333,27 @@ pub(crate) fn lit_areas(
             out.push(OrientedArea { n, area });
         }
     };
-    for g in &groups {
-        let back = g.hit_from(-1.0, photon_pos, photon_ng, plane_tol);
-        let front = !back || g.hit_from(1.0, photon_pos, photon_ng, plane_tol);
+    for g in groups {
+        // with `hits`, every photon counted (the sides are those `hit_from` finds)
+        let counts = hits.is_some().then(|| {
+            let count = |sign: f32| photon_pos.iter().zip(photon_ng).filter(|&(&p, &ng)| g.hit(sign, p, ng, plane_tol)).count() as u32;
+            (count(1.0), count(-1.0))
+        });
+        let (front, back) = match counts {
+            Some((nf, nb)) => GroupHits::sides(nf, nb),
+            None => {
+                let back = g.hit_from(-1.0, photon_pos, photon_ng, plane_tol);
+                (!back || g.hit_from(1.0, photon_pos, photon_ng, plane_tol), back)
+            }
+        };
         if front {
             push(g.n, g.area);
         }
         if back {
             push(-g.n, g.area);
         }
-        if back && !front {
-            back_only.push(g.n);
+        if let (Some(h), Some((nf, nb))) = (hits.as_deref_mut(), counts) {
+            h.push(GroupHits { group: g, plane_tol, front: nf, back: nb, lit: (front, back) });
         }
     }
     for s in spheres {

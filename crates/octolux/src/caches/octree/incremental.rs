@@ -13,11 +13,11 @@
 //! photons, as [`Octree::refit`] does, where the sums cannot follow:
 //! - its box meets a box where the surfaces changed (its lit areas change);
 //! - it had no photons before (no sums; it gathers unmoved photons of its neighbours too);
-//! - a moved photon may change its lit sides: the geometry-area estimator lights a group of
+//! - the moved photons change its lit sides: the geometry-area estimator lights a group of
 //!   coplanar triangles on its back where photons arrived from behind, and on its front unless
-//!   it is lit on its back alone (`geometry.rs`, `lit_areas`), so a photon facing against a lit
-//!   side, or one from behind a group lit on its back alone, may light or unlight one
-//!   (`LeafWeights::may_change_sides`);
+//!   it is lit on its back alone (`geometry.rs`, `lit_areas`); the sums keep each group's
+//!   photons counted per side (`GroupHits`), and the sides change when a count reaches or
+//!   leaves zero;
 //! - its box meets an analytic sphere (whose lit part follows its photons) and a moved photon.
 //!
 //! Those leaves take the photons of the leaves their boxes meet (a pass over the positions, in
@@ -170,21 +170,43 @@ impl Octree {
         }) {
             range[k as usize] = w;
         }
-        let spheres = surfaces.map_or(&[][..], |s| s.spheres);
+        // estimated again: the leaves whose boxes meet where the surfaces changed, ...
         let meets = |b: &Bounds3, c: &Bounds3| b.min.cmple(c.max).all() && c.min.cmple(b.max).all();
-        let refresh = |leaf: &LeafBuild| {
-            let Some(st) = &sums.states[leaf.node as usize] else { return true };
+        let mut boxed = vec![false; self.nodes.len()];
+        for leaf in &tree.valid {
             let b = self.gather_bound(leaf.depth, leaf.ijk);
-            if boxes.iter().any(|c| meets(&b, c)) {
+            boxed[leaf.node as usize] = boxes.iter().any(|c| meets(&b, c));
+        }
+        // ... those whose lit sides the moved photons change (their groups' photons counted per
+        // side; not where the leaf is estimated again anyway) ...
+        let sides_changed: Vec<bool> = sums
+            .states
+            .par_iter_mut()
+            .enumerate()
+            .map(|(node, st)| {
+                let (lo, hi) = range[node];
+                let Some(st) = st.as_mut().filter(|_| lo < hi && !boxed[node]) else { return false };
+                for &(_, i) in &pairs[lo as usize..hi as usize] {
+                    let (ph, sign) = moved.photon(i);
+                    st.weights.count_sides(ph.p, ph.ng, sign as i32);
+                }
+                st.weights.sides_changed()
+            })
+            .collect();
+        // ... those without sums, and those near an analytic sphere that a moved photon reaches
+        let spheres = surfaces.map_or(&[][..], |s| s.spheres);
+        let refresh = |leaf: &LeafBuild| {
+            let node = leaf.node as usize;
+            if sums.states[node].is_none() || sides_changed[node] || boxed[node] {
                 return true;
             }
-            let (lo, hi) = range[leaf.node as usize];
+            let (lo, hi) = range[node];
+            let b = self.gather_bound(leaf.depth, leaf.ijk);
             lo < hi
-                && (pairs[lo as usize..hi as usize].iter().any(|&(_, i)| st.weights.may_change_sides(moved.photon(i).0.ng))
-                    || spheres.iter().any(|s| {
-                        let r = Vec3::splat(s.radius.abs());
-                        meets(&b, &Bounds3 { min: s.center - r, max: s.center + r })
-                    }))
+                && spheres.iter().any(|s| {
+                    let r = Vec3::splat(s.radius.abs());
+                    meets(&b, &Bounds3 { min: s.center - r, max: s.center + r })
+                })
         };
         let fresh: Vec<bool> = {
             let mut f = vec![false; self.nodes.len()];
@@ -348,6 +370,18 @@ impl Octree {
         let inside = |p: Vec3| p.cmpge(all.min).all() && p.cmple(all.max).all();
         let subset: Vec<Photon> =
             photons.par_iter().filter(|ph| inside(ph.p) && self.leaf_node(ph.p).is_some_and(|(n, ..)| near[n as usize])).copied().collect();
+        // the triangles near them (the build's lists per leaf are then the same, in the same order)
+        let near_tris: Vec<[Vec3; 3]> = surfaces.map_or(Vec::new(), |s| {
+            s.triangles
+                .par_iter()
+                .filter(|t| {
+                    let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+                    lo.cmple(all.max).all() && all.min.cmple(hi).all()
+                })
+                .copied()
+                .collect()
+        });
+        let surfaces = surfaces.map(|s| Surfaces { triangles: &near_tris, spheres: s.spheres });
         let kf = KeyFn { origin: self.origin, inv_quant: self.inv_quant, h: self.h_max };
         let select = |l: &LeafBuild| fresh[l.node as usize];
         let which = Leaves::Fixed { topology: &self.nodes, select: &select, capture: true };

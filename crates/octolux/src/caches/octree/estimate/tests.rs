@@ -96,21 +96,22 @@ fn accumulator_matches_the_direct_sums() {
     }
 }
 
-/// Which moved photons may change a leaf's lit sides (`incremental.rs` then estimates the leaf
-/// from its photons): on a floor lit on its front, a photon from behind (it would light the
-/// back) and not one from the front; on a floor lit on its back alone, a photon from the front
-/// (it would light the front) and one from behind (the last of them gone, the front is lit).
+/// A leaf's lit sides under moved photons (`incremental.rs` estimates the leaf from its photons
+/// when they change): on a floor lit on its front, a photon from behind lights its back, one
+/// from the front changes nothing; on a floor lit on its back alone, its last photon gone, the
+/// front is lit; the paper's estimator counts nothing.
 #[test]
-fn photons_that_may_change_the_lit_sides() {
+fn moved_photons_change_the_lit_sides_when_a_count_crosses_zero() {
     use super::super::geometry::lit_areas;
     let b = Bounds3 { min: Vec3::ZERO, max: Vec3::ONE };
     let tris = [
         [Vec3::new(-1.0, -1.0, 0.3), Vec3::new(2.0, -1.0, 0.3), Vec3::new(2.0, 2.0, 0.3)],
         [Vec3::new(-1.0, -1.0, 0.3), Vec3::new(2.0, 2.0, 0.3), Vec3::new(-1.0, 2.0, 0.3)],
     ];
+    let on = Vec3::new(0.5, 0.5, 0.3);
     let weights = |ng: Vec3| {
-        let (mut areas, mut back_only) = (Vec::new(), Vec::new());
-        lit_areas(&tris, &[0, 1], &[], &b, &[Vec3::new(0.5, 0.5, 0.3)], &[ng], &mut areas, &mut back_only);
+        let (mut areas, mut groups) = (Vec::new(), Vec::new());
+        lit_areas(&tris, &[0, 1], &[], &b, &[on], &[ng], &mut areas, Some(&mut groups));
         let lit_total = areas.iter().map(|a| a.area).sum();
         let (by_normal, sides) = (true, SideAreas::default());
         LeafWeights {
@@ -121,16 +122,23 @@ fn photons_that_may_change_the_lit_sides() {
             a_min: 0.0,
             lit_total,
             areas,
-            back_only,
+            groups,
             sides,
         }
     };
-    let front = weights(Vec3::Z);
-    assert!(front.may_change_sides(-Vec3::Z) && !front.may_change_sides(Vec3::Z));
-    assert!(!front.may_change_sides(Vec3::new(0.0, 0.6, 0.8)), "a photon of another surface");
-    let back = weights(-Vec3::Z);
-    assert_eq!(back.back_only, vec![Vec3::Z]);
-    assert!(back.may_change_sides(Vec3::Z) && back.may_change_sides(-Vec3::Z));
-    let paper = LeafWeights { estimator: Estimator::Paper, ..weights(-Vec3::Z) };
-    assert!(!paper.may_change_sides(Vec3::Z), "the paper's estimator reads no lit sides");
+    let mut front = weights(Vec3::Z);
+    front.count_sides(Vec3::new(0.2, 0.2, 0.3), Vec3::Z, 1);
+    assert!(!front.sides_changed(), "another photon on the lit side");
+    front.count_sides(Vec3::new(0.2, 0.2, 0.8), -Vec3::Z, 1);
+    assert!(!front.sides_changed(), "a photon off the plane");
+    front.count_sides(Vec3::new(0.7, 0.2, 0.3), -Vec3::Z, 1);
+    assert!(front.sides_changed(), "a photon from behind lights the back");
+    front.count_sides(Vec3::new(0.7, 0.2, 0.3), -Vec3::Z, -1);
+    assert!(!front.sides_changed(), "gone again: the sides of the estimate");
+    let mut back = weights(-Vec3::Z);
+    back.count_sides(on, -Vec3::Z, -1);
+    assert!(back.sides_changed(), "the last photon from behind gone: the front is lit");
+    let mut paper = LeafWeights { estimator: Estimator::Paper, groups: Vec::new(), ..weights(-Vec3::Z) };
+    paper.count_sides(on, -Vec3::Z, -1);
+    assert!(!paper.sides_changed(), "the paper's estimator reads no lit sides");
 }

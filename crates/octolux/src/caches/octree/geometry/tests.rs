@@ -96,27 +96,37 @@ fn lit_sides_follow_the_photons() {
     let ids = [0u32, 1];
     let (mut out, mut back) = (Vec::new(), Vec::new());
     // no photons: front assumed
-    lit_areas(&tris, &ids, &[], &b, &[], &[], &mut out, &mut back);
+    lit_areas(&tris, &ids, &[], &b, &[], &[], &mut out, Some(&mut back));
     assert_eq!(out.len(), 1);
-    assert!((out[0].area - 1.0).abs() < 1e-5 && out[0].n == Vec3::Z && back.is_empty());
+    assert!((out[0].area - 1.0).abs() < 1e-5 && out[0].n == Vec3::Z);
+    assert!(back.len() == 1 && (back[0].front, back[0].back, back[0].lit) == (0, 0, (true, false)));
     // photons on the back only: back side only, and the group said lit on its back alone
     let pos = [Vec3::new(0.5, 0.5, 0.3)];
-    lit_areas(&tris, &ids, &[], &b, &pos, &[-Vec3::Z], &mut out, &mut back);
+    lit_areas(&tris, &ids, &[], &b, &pos, &[-Vec3::Z], &mut out, Some(&mut back));
     assert_eq!(out.len(), 1);
     assert!(out[0].n == -Vec3::Z);
-    assert_eq!(back, vec![Vec3::Z], "the back-only group's winding normal");
+    assert!(back.len() == 1 && (back[0].front, back[0].back, back[0].lit) == (0, 1, (false, true)), "{back:?}");
+    // the photon gone, the front is lit again; another from behind changes nothing
+    let mut g = back[0].clone();
+    g.count(pos[0], -Vec3::Z, -1);
+    assert!(g.changed() && g.back == 0);
+    g.count(pos[0], -Vec3::Z, 1);
+    g.count(Vec3::new(0.1, 0.9, 0.3), -Vec3::Z, 1);
+    assert!(!g.changed() && g.back == 2);
+    g.count(Vec3::new(0.1, 0.9, 0.3), Vec3::Z, 1);
+    assert!(g.changed() && g.front == 1, "a photon from the front lights it too");
     // both sides
     let pos = [Vec3::new(0.5, 0.5, 0.3), Vec3::new(0.2, 0.7, 0.3)];
-    lit_areas(&tris, &ids, &[], &b, &pos, &[-Vec3::Z, Vec3::Z], &mut out, &mut back);
+    lit_areas(&tris, &ids, &[], &b, &pos, &[-Vec3::Z, Vec3::Z], &mut out, Some(&mut back));
     assert_eq!(out.len(), 2);
-    assert!(back.is_empty());
+    assert!(back.len() == 1 && (back[0].front, back[0].back) == (1, 1));
     // a sheet lit from both sides counts once for every direction
     let w = Vec3::new(0.3, -0.2, -0.7).normalize();
     assert!((projected_lit_area(&out, w) - w.z.abs()).abs() < 1e-5);
     assert!((projected_lit_area(&out, -w) - w.z.abs()).abs() < 1e-5);
     // one back photon lights the back of the whole coplanar group (both triangles)
     let pos = [Vec3::new(0.7, 0.2, 0.3), Vec3::new(0.2, 0.7, 0.3)];
-    lit_areas(&tris, &ids, &[], &b, &pos, &[-Vec3::Z, Vec3::Z], &mut out, &mut back);
+    lit_areas(&tris, &ids, &[], &b, &pos, &[-Vec3::Z, Vec3::Z], &mut out, Some(&mut back));
     assert!((projected_lit_area(&out, -Vec3::Z) - 1.0).abs() < 1e-5 && (projected_lit_area(&out, Vec3::Z) - 1.0).abs() < 1e-5);
     // an object's bottom face resting on the floor (coplanar, wound -z, no photons on
     // it): floor photons around it do not light its upper side
@@ -124,13 +134,13 @@ fn lit_sides_follow_the_photons() {
     with_box.push([Vec3::new(0.4, 0.4, 0.3), Vec3::new(0.4, 0.6, 0.3), Vec3::new(0.6, 0.6, 0.3)]);
     with_box.push([Vec3::new(0.4, 0.4, 0.3), Vec3::new(0.6, 0.6, 0.3), Vec3::new(0.6, 0.4, 0.3)]);
     let pos = [Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.8, 0.9, 0.3)];
-    lit_areas(&with_box, &[0, 1, 2, 3], &[], &b, &pos, &[Vec3::Z, Vec3::Z], &mut out, &mut back);
+    lit_areas(&with_box, &[0, 1, 2, 3], &[], &b, &pos, &[Vec3::Z, Vec3::Z], &mut out, Some(&mut back));
     let w = Vec3::new(0.1, 0.2, 0.9).normalize();
     assert!((projected_lit_area(&out, w) - w.z).abs() < 1e-5, "{out:?}");
     assert!((projected_lit_area(&out, -Vec3::Z) - 0.04).abs() < 1e-5, "{out:?}");
     // a back-facing photon off the plane does not count
     let pos = [Vec3::new(0.5, 0.5, 0.6)];
-    lit_areas(&tris, &ids, &[], &b, &pos, &[-Vec3::Z], &mut out, &mut back);
+    lit_areas(&tris, &ids, &[], &b, &pos, &[-Vec3::Z], &mut out, Some(&mut back));
     assert_eq!(out.len(), 1);
     assert!(out[0].n == Vec3::Z);
 }
