@@ -94,7 +94,7 @@ pub(super) struct LeafWeights {
     a_min: f32,
     lit_total: f32,
     /// The lit oriented areas in the box (`GeometryArea`).
-    pub areas: Vec<OrientedArea>,
+    areas: Vec<OrientedArea>,
     /// The groups of coplanar triangles in the box with their photons counted per side
     /// (`GeometryArea`, when the estimate keeps its [`LeafState`]).
     groups: Vec<GroupHits>,
