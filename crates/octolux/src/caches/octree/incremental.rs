@@ -92,14 +92,7 @@ impl Octree {
         for (node, s) in states {
             by_node[node as usize] = Some(s);
         }
-        let mut min_depth = u32::MAX;
-        let view = tree.view();
-        view.visit(tree.origin, tree.origin + Vec3::splat(tree.size), |node, depth, _, _| {
-            if tree.nodes[node as usize].photons > 0 {
-                min_depth = min_depth.min(depth);
-            }
-        });
-        let min_depth = if min_depth == u32::MAX { 0 } else { min_depth };
+        let min_depth = tree.stats.depth_histogram.iter().position(|&n| n > 0).unwrap_or(0) as u32;
         Ok((tree, stats, LeafSums { states: by_node, min_depth }))
     }
 
@@ -158,24 +151,22 @@ impl Octree {
                 (false, None) => return full(sums),
             }
         }
-        let pairs = self.route(&moved, &sums.states, sums.min_depth);
+        let (at, reached) = self.route(&moved, &sums.states, sums.min_depth);
+        // the moved photons leaf `node` gathers
+        let range = |node: usize| &reached[at[node] as usize..at[node + 1] as usize];
         let tree = assign_counts(&self.nodes, &own);
 
-        // the leaves estimated from their photons (module docs)
-        let mut range = vec![(0u32, 0u32); self.nodes.len()];
-        for (k, w) in pairs.chunk_by(|a, b| a.0 == b.0).scan(0u32, |at, w| {
-            let r = (*at, *at + w.len() as u32);
-            *at = r.1;
-            Some((w[0].0, r))
-        }) {
-            range[k as usize] = w;
-        }
         // estimated again: the leaves whose boxes meet where the surfaces changed, ...
         let meets = |b: &Bounds3, c: &Bounds3| b.min.cmple(c.max).all() && c.min.cmple(b.max).all();
-        let mut boxed = vec![false; self.nodes.len()];
+        let spheres = surfaces.map_or(&[][..], |s| s.spheres);
+        let (mut boxed, mut near_sphere) = (vec![false; self.nodes.len()], vec![false; self.nodes.len()]);
         for leaf in &tree.valid {
             let b = self.gather_bound(leaf.depth, leaf.ijk);
             boxed[leaf.node as usize] = boxes.iter().any(|c| meets(&b, c));
+            near_sphere[leaf.node as usize] = spheres.iter().any(|s| {
+                let r = Vec3::splat(s.radius.abs());
+                meets(&b, &Bounds3 { min: s.center - r, max: s.center + r })
+            });
         }
         // ... those whose lit sides the moved photons change (their groups' photons counted per
         // side; not where the leaf is estimated again anyway) ...
@@ -184,9 +175,8 @@ impl Octree {
             .par_iter_mut()
             .enumerate()
             .map(|(node, st)| {
-                let (lo, hi) = range[node];
-                let Some(st) = st.as_mut().filter(|_| lo < hi && !boxed[node]) else { return false };
-                for &(_, i) in &pairs[lo as usize..hi as usize] {
+                let Some(st) = st.as_mut().filter(|_| !range(node).is_empty() && !boxed[node]) else { return false };
+                for &i in range(node) {
                     let (ph, sign) = moved.photon(i);
                     st.weights.count_sides(ph.p, ph.ng, sign as i32);
                 }
@@ -194,25 +184,12 @@ impl Octree {
             })
             .collect();
         // ... those without sums, and those near an analytic sphere that a moved photon reaches
-        let spheres = surfaces.map_or(&[][..], |s| s.spheres);
-        let refresh = |leaf: &LeafBuild| {
+        let mut fresh = vec![false; self.nodes.len()];
+        for leaf in &tree.valid {
             let node = leaf.node as usize;
-            if sums.states[node].is_none() || sides_changed[node] || boxed[node] {
-                return true;
-            }
-            let (lo, hi) = range[node];
-            let b = self.gather_bound(leaf.depth, leaf.ijk);
-            lo < hi
-                && spheres.iter().any(|s| {
-                    let r = Vec3::splat(s.radius.abs());
-                    meets(&b, &Bounds3 { min: s.center - r, max: s.center + r })
-                })
-        };
-        let fresh: Vec<bool> = {
-            let mut f = vec![false; self.nodes.len()];
-            tree.valid.iter().filter(|l| refresh(l)).for_each(|l| f[l.node as usize] = true);
-            f
-        };
+            fresh[node] =
+                sums.states[node].is_none() || sides_changed[node] || boxed[node] || (near_sphere[node] && !range(node).is_empty());
+        }
         let mut estimates = self.estimate_fresh(photons, surfaces, &tree.valid, &fresh);
         if tree.valid.iter().any(|l| fresh[l.node as usize] && estimates[l.node as usize].is_none()) {
             return full(sums);
@@ -222,9 +199,8 @@ impl Octree {
         let uses_ng = settings.estimator == Estimator::GeometryArea || settings.split == Split::Normal;
         let valid_now: Vec<bool> = own.iter().zip(&self.nodes).map(|(&c, n)| n.is_leaf() && c > 0).collect();
         sums.states.par_iter_mut().enumerate().for_each(|(node, st)| {
-            let (lo, hi) = range[node];
-            if let (Some(st), true, false, true) = (st, lo < hi, fresh[node], valid_now[node]) {
-                for &(_, i) in &pairs[lo as usize..hi as usize] {
+            if let (Some(st), false, true) = (st, fresh[node], valid_now[node]) {
+                for &i in range(node) {
                     update(st, &moved, i, node as u32, uses_ng);
                 }
             }
@@ -241,7 +217,7 @@ impl Octree {
                     kept.extend(e.state.take().map(|s| (node, s)));
                     outs.push(LeafOut::New(e));
                 }
-                (None, Some(st)) if range[node].0 < range[node].1 => {
+                (None, Some(st)) if !range(node).is_empty() => {
                     stats.updated += 1;
                     let cmin = self.view().cell_min(leaf.depth, leaf.ijk);
                     outs.push(LeafOut::New(Box::new(st.estimate(cmin, self.cell_size[leaf.depth as usize]))));
@@ -273,9 +249,10 @@ impl Octree {
         Ok((out, stats))
     }
 
-    /// Each moved photon with the leaves whose sums it enters (module docs): `(leaf node,
-    /// index in moved)`, sorted. Only leaves with sums are listed.
-    fn route(&self, moved: &Moved, states: &[Option<Box<LeafState>>], min_depth: u32) -> Vec<(u32, u32)> {
+    /// The moved photons each leaf's sums take (module docs), by leaf: leaf `node` takes the
+    /// moved photons `reached[at[node]..at[node + 1]]`, returned as `(at, reached)`. Only
+    /// leaves with sums take any.
+    fn route(&self, moved: &Moved, states: &[Option<Box<LeafState>>], min_depth: u32) -> (Vec<u32>, Vec<u32>) {
         let view = self.view();
         let eps = self.settings.epsilon;
         let enlarged = eps > 0.0;
@@ -328,18 +305,18 @@ impl Octree {
             .collect();
         // grouped by leaf (a counting sort: within a leaf, the order of the list above, which
         // depends on nothing but the photons)
-        let mut start = vec![0u32; self.nodes.len() + 1];
-        pairs.iter().for_each(|&(l, _)| start[l as usize + 1] += 1);
-        for k in 1..start.len() {
-            start[k] += start[k - 1];
+        let mut at = vec![0u32; self.nodes.len() + 1];
+        pairs.iter().for_each(|&(l, _)| at[l as usize + 1] += 1);
+        for k in 1..at.len() {
+            at[k] += at[k - 1];
         }
-        let mut sorted = vec![(0u32, 0u32); pairs.len()];
+        let mut next = at.clone();
+        let mut reached = vec![0u32; pairs.len()];
         for &(l, i) in &pairs {
-            let at = &mut start[l as usize];
-            sorted[*at as usize] = (l, i);
-            *at += 1;
+            reached[next[l as usize] as usize] = i;
+            next[l as usize] += 1;
         }
-        sorted
+        (at, reached)
     }
 
     /// The estimates of the leaves `fresh` marks among `valid`, by node, from the photons inside
