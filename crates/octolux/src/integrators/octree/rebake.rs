@@ -253,17 +253,19 @@ impl OctreeIntegrator {
             (Vec::new(), Vec::new())
         };
         let surfaces = Some(Surfaces { triangles: &tris, spheres: &spheres });
-        let points: Vec<Vec3> = moved.iter().flat_map(|m| m.removed.iter().chain(&m.added)).map(|p| p.p).collect();
-        let changes = Changes { boxes, points: &points };
         // the sums cannot follow the sampled photons the `visible_sample` test reads
         let incremental = self.leak() != LeakTest::VisibleSample;
+        // the moved photons' positions: what the refit without sums looks around
+        let points: Vec<Vec3> =
+            if incremental { Vec::new() } else { moved.iter().flat_map(|m| m.removed.iter().chain(&m.added)).map(|p| p.p).collect() };
+        let changes = Changes { boxes, points: &points };
         let [sg, sc] = &mut state.sums;
         let (global, g) =
             refit_tree(&self.global, sg, paths.global(), &moved[0], surfaces, changes, incremental).map_err(BuildError::Global)?;
         let mut st = RebakeStats {
             paths_retraced: ids.len(),
             paths: paths.len(),
-            photons_moved: points.len(),
+            photons_moved: moved.iter().map(MovedPhotons::len).sum(),
             leaves_estimated: g.estimated,
             leaves_updated: g.updated,
             leaves_copied: g.copied,
