@@ -47,7 +47,7 @@ pub(crate) struct Tables {
     pub exp_scale: [f32; 256],
 }
 
-pub(crate) fn tables() -> &'static Tables {
+fn tables() -> &'static Tables {
     static T: OnceLock<Tables> = OnceLock::new();
     T.get_or_init(|| {
         let mut t = Tables { cos_t: [0.0; 256], sin_t: [0.0; 256], cos_p: [0.0; 256], sin_p: [0.0; 256], exp_scale: [0.0; 256] };

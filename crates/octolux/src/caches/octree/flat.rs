@@ -22,7 +22,7 @@
 //! cells of different depths is the same `f32` at every depth: the scalings are powers of two).
 
 use super::cells::quantize;
-use super::compress::{tables, MATRIX_BYTES};
+use super::compress::{decompress_factors, MATRIX_BYTES};
 use super::{LeafValues, Octree, QueryLeaf, NO_VALUE};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -112,20 +112,15 @@ impl FlatQuery {
             flat[a..a + l.len()].copy_from_slice(l);
         }
         let decoded = match &tree.values {
-            LeafValues::Compressed(c) => {
-                let t = tables();
-                c.iter()
-                    .map(|leaf| {
-                        std::array::from_fn(|k| {
-                            let b = &leaf[k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES];
-                            let (st, ct) = (t.sin_t[b[0] as usize], t.cos_t[b[0] as usize]);
-                            let d = Vec3::new(st * t.cos_p[b[1] as usize], st * t.sin_p[b[1] as usize], ct);
-                            let f = t.exp_scale[b[5] as usize];
-                            [d, Vec3::new(b[2] as f32 + 0.5, b[3] as f32 + 0.5, b[4] as f32 + 0.5) * f]
-                        })
+            LeafValues::Compressed(c) => c
+                .iter()
+                .map(|leaf| {
+                    std::array::from_fn(|k| {
+                        let (d, c) = decompress_factors(&leaf[k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]);
+                        [d, c]
                     })
-                    .collect()
-            }
+                })
+                .collect(),
             LeafValues::Full(_) => Vec::new(),
         };
         let grid_depth = tree.h_max.min(GRID_DEPTH);

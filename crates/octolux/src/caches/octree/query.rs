@@ -106,16 +106,20 @@ impl Octree {
         e
     }
 
-    /// `M_{k,a}^{s(N_a)}` of one leaf for the three axes.
+    /// `M_{k,a}^{s(N_a)}` of one leaf for the three axes: `D Cᵀ` from the factors decoded once
+    /// per tree (`flat.rs`), as [`decompress_matrix`] forms it.
     #[inline]
     fn leaf_matrix(&self, v: usize, sel: &([usize; 3], [f32; 3])) -> [Mat3; 3] {
-        std::array::from_fn(|a| {
-            let k = sel.0[a];
-            match &self.values {
-                LeafValues::Compressed(c) => decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]),
-                LeafValues::Full(f) => f[v][k],
+        match &self.values {
+            LeafValues::Compressed(_) => {
+                let leaf = &self.flat().decoded[v];
+                std::array::from_fn(|a| {
+                    let [d, c] = leaf[sel.0[a]];
+                    Mat3::from_cols(d * c.x, d * c.y, d * c.z)
+                })
             }
-        })
+            LeafValues::Full(f) => std::array::from_fn(|a| f[v][sel.0[a]]),
+        }
     }
 
     /// The §7 blend, per axis: `M(N) = Σ_a N_a² (Σ_k γ_k M_{k,a}) / (Σ_k γ_k)` where `k` runs
