@@ -31,6 +31,8 @@ struct Batch {
     points: Vec<Vec3>,
     /// Per path: where its global photons, caustic photons and flight points end.
     ends: Vec<[usize; 3]>,
+    /// Per path: the cells of [`CellGrid`] its flights may cross.
+    masks: Vec<u64>,
 }
 
 impl Batch {
@@ -48,7 +50,7 @@ impl Batch {
 }
 
 /// The photon pass, path by path (module docs). Memory: the photons (48 bytes each), 12
-/// bytes per flight point and 12 bytes per path; after a [`PhotonPaths::retrace`], up to
+/// bytes per flight point and 20 bytes per path; after a [`PhotonPaths::retrace`], up to
 /// twice the photons and flight points (the lists it keeps for the next).
 pub struct PhotonPaths {
     settings: PhotonSettings,
@@ -60,6 +62,10 @@ pub struct PhotonPaths {
     c_start: Vec<u32>,
     points: Vec<Vec3>,
     p_start: Vec<u32>,
+    /// Per path: the cells of `grid` its flights' bounding boxes meet, so that
+    /// [`PhotonPaths::paths_changed`] tests the flights of only the paths near a change.
+    masks: Vec<u64>,
+    grid: CellGrid,
     /// Length given to a flight that leaves the scene (scene units): twice the diameter of the
     /// bounding sphere of the scene the pass was traced in.
     escape: f32,
@@ -97,6 +103,7 @@ impl PhotonPaths {
         let guide = disc_guide(scene, settings).0;
         let (_, radius) = scene.lights.scene_sphere();
         let escape = (4.0 * radius).max(1e-3);
+        let grid = CellGrid::new(scene.bounds);
         let mut paths = PhotonPaths {
             settings: *settings,
             guide,
@@ -106,6 +113,8 @@ impl PhotonPaths {
             c_start: vec![0],
             points: Vec::new(),
             p_start: vec![0],
+            masks: Vec::new(),
+            grid,
             escape,
             spare: Spare::default(),
         };
@@ -126,8 +135,10 @@ impl PhotonPaths {
     fn trace_into(&self, scene: &Scene, i: u64, b: &mut Batch) {
         let inv_n = 1.0 / self.settings.photons as f32;
         let escape = self.escape;
-        let Batch { global, caustic, points, ends } = b;
+        let Batch { global, caustic, points, ends, masks } = b;
         let first = points.len();
+        let mut mask = 0u64;
+        let grid = self.grid;
         trace_path(
             scene,
             &self.settings,
@@ -140,10 +151,13 @@ impl PhotonPaths {
                 if points.len() == first {
                     points.push(f.o);
                 }
-                points.push(f.o + f.d * if f.t.is_finite() { f.t } else { escape });
+                let end = f.o + f.d * if f.t.is_finite() { f.t } else { escape };
+                mask |= grid.mask(f.o.min(end), f.o.max(end));
+                points.push(end);
             },
         );
         ends.push([global.len(), caustic.len(), points.len()]);
+        masks.push(mask);
     }
 
     /// Replace every list by the paths of `batches` (in order).
@@ -154,6 +168,7 @@ impl PhotonPaths {
         self.global = batches.iter().flat_map(|b| b.global.iter().copied()).collect();
         self.caustic = batches.iter().flat_map(|b| b.caustic.iter().copied()).collect();
         self.points = batches.iter().flat_map(|b| b.points.iter().copied()).collect();
+        self.masks = batches.iter().flat_map(|b| b.masks.iter().copied()).collect();
         Ok(())
     }
 
@@ -204,6 +219,8 @@ impl PhotonPaths {
             return Vec::new();
         }
         let inside = |p: Vec3, b: &Bounds3| p.cmpge(b.min).all() && p.cmple(b.max).all();
+        // a flight that ends in or crosses a box has a bounding box that meets it
+        let near = ends_in.iter().chain(&crosses).fold(0u64, |m, b| m | self.grid.mask(b.min, b.max));
         let n = self.len() as u32;
         let chunk = CHUNK as u32;
         (0..n.div_ceil(chunk))
@@ -211,6 +228,9 @@ impl PhotonPaths {
             .flat_map_iter(|c| {
                 let (ends_in, crosses) = (&ends_in, &crosses);
                 (c * chunk..((c + 1) * chunk).min(n)).filter(move |&i| {
+                    if self.masks[i as usize] & near == 0 {
+                        return false;
+                    }
                     let pts = &self.points[self.p_start[i as usize] as usize..self.p_start[i as usize + 1] as usize];
                     pts.iter().skip(1).any(|&p| ends_in.iter().any(|b| inside(p, b)))
                         || pts.windows(2).any(|s| crosses.iter().any(|b| b.meets_segment(s[0], s[1])) && blocked(s[0], s[1]))
@@ -234,6 +254,9 @@ impl PhotonPaths {
             })
             .collect();
         let mut moved = [MovedPhotons::default(), MovedPhotons::default()];
+        for (&i, m) in ids.iter().zip(new.iter().flat_map(|b| &b.masks)) {
+            self.masks[i as usize] = *m;
+        }
         for (&i, (new_g, new_c, _)) in ids.iter().zip(Batch::paths(&new)) {
             let i = i as usize;
             // a path is the same up to its first meeting with the change: only the photons
@@ -261,6 +284,41 @@ impl PhotonPaths {
         splice(&mut self.caustic, &mut sp.caustic, &mut self.c_start, ids, Batch::paths(&new).map(|p| p.1));
         splice(&mut self.points, &mut sp.points, &mut self.p_start, ids, Batch::paths(&new).map(|p| p.2));
         Ok(moved)
+    }
+}
+
+/// A partition of the scene's box into 4×4×4 cells, one bit each of a `u64` (x fastest): the
+/// cells a box meets, a point outside the scene's box counting in the border cell nearest to
+/// it, so that two boxes that meet share a cell.
+#[derive(Clone, Copy, Debug)]
+struct CellGrid {
+    min: Vec3,
+    /// Cells per scene unit.
+    scale: Vec3,
+}
+
+impl CellGrid {
+    fn new(b: Bounds3) -> CellGrid {
+        let scale = (4.0 / (b.max - b.min)).min(Vec3::splat(f32::MAX));
+        if b.min.is_finite() && scale.is_finite() && scale.cmpgt(Vec3::ZERO).all() {
+            CellGrid { min: b.min, scale }
+        } else {
+            // a degenerate scene: one cell
+            CellGrid { min: Vec3::ZERO, scale: Vec3::ZERO }
+        }
+    }
+
+    /// The cells the box `lo`..`hi` meets (every cell when it is not finite).
+    #[inline]
+    fn mask(&self, lo: Vec3, hi: Vec3) -> u64 {
+        if !(lo.is_finite() && hi.is_finite()) {
+            return u64::MAX;
+        }
+        let cell = |p: Vec3| ((p - self.min) * self.scale).floor().clamp(Vec3::ZERO, Vec3::splat(3.0));
+        let (a, b) = (cell(lo), cell(hi));
+        // the cells of each axis' range, over every cell of the other two axes
+        let range = |a: f32, b: f32, one: u64, step: u32| (a as u32..=b as u32).fold(0u64, |m, k| m | (one << (step * k)));
+        range(a.x, b.x, 0x1111_1111_1111_1111, 1) & range(a.y, b.y, 0x000F_000F_000F_000F, 4) & range(a.z, b.z, 0xFFFF, 16)
     }
 }
 
@@ -311,8 +369,40 @@ fn splice<'a, T: Copy + 'a>(list: &mut Vec<T>, spare: &mut Vec<T>, start: &mut [
 
 #[cfg(test)]
 mod tests {
-    use super::{offsets, splice};
+    use super::{offsets, splice, CellGrid};
+    use crate::math::Bounds3;
     use crate::sampling::Sampler;
+    use glam::Vec3;
+
+    /// Random boxes within and around the grid's box (points, thin and wide ones, far outside):
+    /// two that meet share a cell, and some that do not meet share none (the test can fail).
+    #[test]
+    fn boxes_that_meet_share_a_cell() {
+        let mut s = Sampler::new(3, 0, 0);
+        let grid = CellGrid::new(Bounds3 { min: Vec3::new(-1.0, 0.0, 2.0), max: Vec3::new(3.0, 0.5, 4.0) });
+        let mut random_box = || {
+            let c = Vec3::new(-3.0, -1.0, 0.0) + Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * Vec3::new(8.0, 2.5, 6.0);
+            let h = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * Vec3::new(3.0, 1.0, 2.0) * s.next_1d();
+            Bounds3 { min: c - h, max: c + h }
+        };
+        let (mut met, mut apart) = (0, 0);
+        for _ in 0..20_000 {
+            let (a, b) = (random_box(), random_box());
+            let shared = grid.mask(a.min, a.max) & grid.mask(b.min, b.max) != 0;
+            if a.min.cmple(b.max).all() && b.min.cmple(a.max).all() {
+                assert!(shared, "{a:?} and {b:?} meet");
+                met += 1;
+            } else if !shared {
+                apart += 1;
+            }
+        }
+        assert!(met > 500 && apart > 1000, "{met} met, {apart} apart without a shared cell");
+        assert_eq!(grid.mask(Vec3::NAN, Vec3::ONE), u64::MAX);
+        assert_eq!(grid.mask(Vec3::splat(-1e30), Vec3::splat(1e30)), u64::MAX);
+        // a degenerate scene: one cell for everything
+        let flat = CellGrid::new(Bounds3 { min: Vec3::ZERO, max: Vec3::new(1.0, 0.0, 1.0) });
+        assert_eq!(flat.mask(Vec3::ZERO, Vec3::ZERO), 1);
+    }
 
     /// `splice` against rebuilding the lists from per-path vectors: random path lengths (0 to
     /// 5), random ascending ids (the first and the last path among them at times), new lengths
