@@ -314,12 +314,33 @@ impl CellGrid {
         if !(lo.is_finite() && hi.is_finite()) {
             return u64::MAX;
         }
-        let cell = |p: Vec3| ((p - self.min) * self.scale).floor().clamp(Vec3::ZERO, Vec3::splat(3.0));
+        // clamped before the truncation, which is then the floor
+        let cell = |p: Vec3| ((p - self.min) * self.scale).clamp(Vec3::ZERO, Vec3::splat(3.0)).as_uvec3();
         let (a, b) = (cell(lo), cell(hi));
-        // the cells of each axis' range, over every cell of the other two axes
-        let range = |a: f32, b: f32, one: u64, step: u32| (a as u32..=b as u32).fold(0u64, |m, k| m | (one << (step * k)));
-        range(a.x, b.x, 0x1111_1111_1111_1111, 1) & range(a.y, b.y, 0x000F_000F_000F_000F, 4) & range(a.z, b.z, 0xFFFF, 16)
+        let r = |axis: usize, a: u32, b: u32| RANGES[axis][a as usize][b as usize];
+        r(0, a.x, b.x) & r(1, a.y, b.y) & r(2, a.z, b.z)
     }
+}
+
+/// Per axis, per first and last cell of a range along it: the bits of the cells in that range,
+/// over every cell of the other two axes ([`CellGrid`]'s layout, x fastest).
+const RANGES: [[[u64; 4]; 4]; 3] = [axis_ranges(0x1111_1111_1111_1111, 1), axis_ranges(0x000F_000F_000F_000F, 4), axis_ranges(0xFFFF, 16)];
+
+/// [`RANGES`] of one axis: `one` holds the bits of its cell 0, `step` the shift to the next.
+const fn axis_ranges(one: u64, step: u32) -> [[u64; 4]; 4] {
+    let mut out = [[0u64; 4]; 4];
+    let mut a = 0;
+    while a < 4 {
+        let mut b = a;
+        let mut m = 0u64;
+        while b < 4 {
+            m |= one << (step * b as u32);
+            out[a][b] = m;
+            b += 1;
+        }
+        a += 1;
+    }
+    out
 }
 
 /// The photons a [`PhotonPaths::retrace`] took out of one map and put in.
