@@ -236,14 +236,19 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
 
     // the frames written so far (for the message of an interrupt)
     let mut written: Vec<PathBuf> = Vec::new();
+    // the scene without the inserted object, once a frame has one: each frame's scene shares
+    // its intersection structure and builds one over the object alone
+    let mut base_scene: Option<Scene> = None;
     for (outputs, frame) in images {
         let t_frame = Instant::now();
         let mut placed = None;
         let mut rebake_report = None;
         if let (Some(ins), Some(base)) = (&insertion, &base_desc) {
             let m = ins.transform_at(frame.as_ref().and_then(|(f, _)| f.time_s));
-            scene = Scene::prepare(ins.scene_desc(base, &m), job.backend)
+            let framed = Scene::prepare_adding(ins.scene_desc(base, &m), job.backend, base_scene.as_ref().unwrap_or(&scene))
                 .with_context(|| format!("cannot prepare scene '{}' with the inserted object {}", job.scene.scene, ins.file))?;
+            let before = std::mem::replace(&mut scene, framed);
+            base_scene.get_or_insert(before);
             let inserted = ins.inserted(base.shapes.len(), &m);
             placed = Some((m, inserted.shapes.clone()));
             if let Integrator::Octree(o) = &mut integrator {

@@ -14,6 +14,7 @@
 pub mod bvh;
 pub mod dedup;
 pub mod embree;
+pub mod layered;
 #[doc(hidden)]
 pub mod meshes;
 

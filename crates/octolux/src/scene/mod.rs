@@ -14,7 +14,9 @@
 //!   film, the light enum [`Light`]), with its validation;
 //! - [`environment`]: the prepared environment emitters behind one enum;
 //! - [`lights`]: the prepared [`lights::LightSet`] that samples the lights;
-//! - this module: the prepared [`Scene`] and its [`SurfaceHit`].
+//! - this module: the prepared [`Scene`] and its [`SurfaceHit`]; `prepare.rs` makes it
+//!   ([`Scene::prepare`], and [`Scene::prepare_adding`] for an object added to a prepared scene,
+//!   sharing its intersection structure).
 
 pub mod camera;
 pub mod camera_path;
@@ -26,12 +28,13 @@ pub mod fingerprint;
 pub mod lights;
 pub mod material;
 pub mod object_path;
+mod prepare;
 pub mod sunsky;
 
 pub use desc::{FilmDesc, Geometry, Light, PixelFilter, SceneDesc, SceneError, SceneHints, ShapeDesc, TriMesh};
 pub use fingerprint::LightingFingerprint;
 
-use crate::accel::{Accel, BackendKind};
+use crate::accel::layered::LayeredAccel;
 use crate::image::Image;
 use crate::math::{bary, offset_origin, Bounds3, Frame, Ray, RayDifferential};
 use camera::Camera;
@@ -177,7 +180,7 @@ pub struct Scene {
     pub camera: Camera,
     pub film: FilmDesc,
     pub bounds: Bounds3,
-    accel: Accel,
+    accel: LayeredAccel,
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
     uvs: Vec<Vec2>,
@@ -191,79 +194,6 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Validate and prepare a description; builds the intersection backend.
-    pub fn prepare(desc: SceneDesc, backend: BackendKind) -> Result<Scene, SceneError> {
-        desc.validate()?;
-        let mut positions = Vec::new();
-        let mut normals = Vec::new();
-        let mut uvs = Vec::new();
-        let mut triangles = Vec::new();
-        let mut tri_shape = Vec::new();
-        let mut spheres = Vec::new();
-        let mut shapes = Vec::new();
-        for (si, s) in desc.shapes.iter().enumerate() {
-            let mut info =
-                ShapeInfo { material: s.material, flip: s.flip_normals, has_normals: false, has_uvs: false, name: s.name.clone() };
-            match &s.geometry {
-                Geometry::Mesh(m) => {
-                    let base = positions.len() as u32;
-                    positions.extend_from_slice(&m.positions);
-                    info.has_normals = m.normals.is_some();
-                    info.has_uvs = m.uvs.is_some();
-                    match &m.normals {
-                        Some(n) => normals.extend_from_slice(n),
-                        None => normals.extend(std::iter::repeat_n(Vec3::ZERO, m.positions.len())),
-                    }
-                    match &m.uvs {
-                        Some(u) => uvs.extend_from_slice(u),
-                        None => uvs.extend(std::iter::repeat_n(Vec2::ZERO, m.positions.len())),
-                    }
-                    for t in &m.indices {
-                        triangles.push([t[0] + base, t[1] + base, t[2] + base]);
-                        tri_shape.push(si as u32);
-                    }
-                }
-                Geometry::Sphere { center, radius } => spheres.push(SphereShape { center: *center, radius: *radius, shape: si as u32 }),
-            }
-            shapes.push(info);
-        }
-        if triangles.is_empty() && spheres.is_empty() {
-            return Err(SceneError::Empty);
-        }
-        let bounds = desc.bounds();
-        let accel = Accel::build(&positions, &triangles, backend).map_err(|e| SceneError::Accel(e.to_string()))?;
-        let lights = LightSet::with_images(&desc.lights, &desc.shapes, &desc.images, bounds);
-        let camera = Camera::new(&desc.camera, desc.film.width, desc.film.height);
-        let mut materials = desc.materials;
-        let mut mask_nested = vec![None; materials.len()];
-        for i in 0..materials.len() {
-            if let Material::Mask { nested, .. } = &materials[i] {
-                let copy = (**nested).clone();
-                mask_nested[i] = Some(materials.len() as u32);
-                materials.push(copy);
-            }
-        }
-        mask_nested.resize(materials.len(), None);
-        material::plastic::precompute_plastic_tables(&materials);
-        Ok(Scene {
-            materials,
-            images: desc.images,
-            lights,
-            camera,
-            film: desc.film,
-            bounds,
-            accel,
-            positions,
-            normals,
-            uvs,
-            triangles,
-            tri_shape,
-            spheres,
-            shapes,
-            mask_nested,
-        })
-    }
-
     /// Resolve a `mask` at `hit` stochastically, as the cache integrators' camera walk does:
     /// with probability `1 - opacity` (`u ≥ opacity`) the ray passes (returns true, `hit`
     /// unchanged); otherwise `hit.material` becomes the mask's nested material. Other
@@ -322,12 +252,12 @@ impl Scene {
 
     /// Name of the intersection backend in use.
     pub fn backend_name(&self) -> String {
-        self.accel.name()
+        self.accel.base().name()
     }
 
-    /// Why `--backend auto` chose the backend in use, in words ([`Accel::choice`]).
+    /// Why `--backend auto` chose the backend in use, in words ([`crate::accel::Accel::choice`]).
     pub fn backend_choice(&self) -> Option<&str> {
-        self.accel.choice()
+        self.accel.base().choice()
     }
 
     pub fn triangle_count(&self) -> usize {
