@@ -228,6 +228,19 @@ impl PlaneGroup {
         sign * g.dot(self.n) >= 0.9 && (p.dot(self.n) - self.d).abs() <= plane_tol && self.tris.iter().any(|t| t.contains(p, plane_tol))
     }
 
+    /// The side of the group the photon at `p` of normal `g` lights, when it lies on one of its
+    /// triangles: `Some(true)` for its front ([`PlaneGroup::hit`] with `sign` +1), `Some(false)`
+    /// for its back (−1); one test of the plane and triangles for both.
+    #[inline]
+    fn side(&self, p: Vec3, g: Vec3, plane_tol: f32) -> Option<bool> {
+        let s = g.dot(self.n);
+        let front = s >= 0.9;
+        if !(front || -s >= 0.9) {
+            return None;
+        }
+        ((p.dot(self.n) - self.d).abs() <= plane_tol && self.tris.iter().any(|t| t.contains(p, plane_tol))).then_some(front)
+    }
+
     /// Whether some photon lies on a triangle of the group with `sign · ng·n ≥ 0.9`.
     fn hit_from(&self, sign: f32, pos: &[Vec3], ng: &[Vec3], plane_tol: f32) -> bool {
         pos.iter().zip(ng).any(|(&p, &g)| self.hit(sign, p, g, plane_tol))
@@ -256,10 +269,10 @@ impl GroupHits {
     /// Count the photon at `p` of normal `ng` in (`sign` +1) or out (−1).
     pub fn count(&mut self, p: Vec3, ng: Vec3, sign: i32) {
         let step = |c: u32| (c as i64 + sign as i64).max(0) as u32;
-        if self.group.hit(1.0, p, ng, self.plane_tol) {
-            self.front = step(self.front);
-        } else if self.group.hit(-1.0, p, ng, self.plane_tol) {
-            self.back = step(self.back);
+        match self.group.side(p, ng, self.plane_tol) {
+            Some(true) => self.front = step(self.front),
+            Some(false) => self.back = step(self.back),
+            None => {}
         }
     }
 
@@ -336,8 +349,11 @@ pub(crate) fn lit_areas(
     for g in groups {
         // with `hits`, every photon counted (the sides are those `hit_from` finds)
         let counts = hits.is_some().then(|| {
-            let count = |sign: f32| photon_pos.iter().zip(photon_ng).filter(|&(&p, &ng)| g.hit(sign, p, ng, plane_tol)).count() as u32;
-            (count(1.0), count(-1.0))
+            photon_pos.iter().zip(photon_ng).fold((0u32, 0u32), |(f, b), (&p, &ng)| match g.side(p, ng, plane_tol) {
+                Some(true) => (f + 1, b),
+                Some(false) => (f, b + 1),
+                None => (f, b),
+            })
         });
         let (front, back) = match counts {
             Some((nf, nb)) => GroupHits::sides(nf, nb),
