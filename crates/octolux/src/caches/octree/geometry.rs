@@ -218,6 +218,9 @@ struct PlaneGroup {
     d: f32,
     area: f32,
     tris: Vec<OnTriangle>,
+    /// The bounds of its triangles' vertices.
+    lo: Vec3,
+    hi: Vec3,
 }
 
 impl PlaneGroup {
@@ -330,10 +333,13 @@ pub(crate) fn lit_areas(
                 let g = &mut groups[gi as usize];
                 g.area += area as f32;
                 g.tris.push(on);
+                g.lo = g.lo.min(t[0].min(t[1]).min(t[2]));
+                g.hi = g.hi.max(t[0].max(t[1]).max(t[2]));
             }
             None => {
                 group_grid.insert(on.n, slot(d), groups.len() as u32);
-                groups.push(PlaneGroup { n: on.n, d, area: area as f32, tris: vec![on] });
+                let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+                groups.push(PlaneGroup { n: on.n, d, area: area as f32, tris: vec![on], lo, hi });
             }
         }
     }
@@ -346,15 +352,10 @@ pub(crate) fn lit_areas(
             out.push(OrientedArea { n, area });
         }
     };
-    for g in groups {
-        // with `hits`, every photon counted (the sides are those `hit_from` finds)
-        let counts = hits.is_some().then(|| {
-            photon_pos.iter().zip(photon_ng).fold((0u32, 0u32), |(f, b), (&p, &ng)| match g.side(p, ng, plane_tol) {
-                Some(true) => (f + 1, b),
-                Some(false) => (f, b + 1),
-                None => (f, b),
-            })
-        });
+    // with `hits`, every photon counted (the sides are those `hit_from` finds)
+    let counts = if hits.is_some() { side_counts(&groups, cell, photon_pos, photon_ng, plane_tol) } else { Vec::new() };
+    for (gi, g) in groups.into_iter().enumerate() {
+        let counts = counts.get(gi).copied();
         let (front, back) = match counts {
             Some((nf, nb)) => GroupHits::sides(nf, nb),
             None => {
@@ -375,6 +376,72 @@ pub(crate) fn lit_areas(
     for s in spheres {
         sphere_lit_areas(s, cell, photon_pos, photon_ng, plane_tol, out);
     }
+}
+
+/// Per group, its photons counted per side (front, back: [`PlaneGroup::side`]). With many
+/// groups and photons, each photon is tested only against the groups whose bounds, widened by
+/// the containment test's margins, meet its cell of an 8³ grid over `cell` (a point outside
+/// it counting in the nearest border cell): the same counts.
+fn side_counts(groups: &[PlaneGroup], cell: &Bounds3, pos: &[Vec3], ng: &[Vec3], plane_tol: f32) -> Vec<(u32, u32)> {
+    let mut counts = vec![(0u32, 0u32); groups.len()];
+    let mut count = |gi: usize, p: Vec3, g: Vec3| match groups[gi].side(p, g, plane_tol) {
+        Some(true) => counts[gi].0 += 1,
+        Some(false) => counts[gi].1 += 1,
+        None => {}
+    };
+    if groups.len() * pos.len() <= 4096 || !(cell.min.is_finite() && cell.max.is_finite()) {
+        for gi in 0..groups.len() {
+            pos.iter().zip(ng).for_each(|(&p, &g)| count(gi, p, g));
+        }
+        return counts;
+    }
+    const R: usize = 8;
+    let scale = R as f32 / cell.extent().max(Vec3::splat(f32::MIN_POSITIVE));
+    let at = |p: Vec3| ((p - cell.min) * scale).clamp(Vec3::ZERO, Vec3::splat((R - 1) as f32)).as_uvec3();
+    let index = |c: glam::UVec3| c.x as usize + R * (c.y as usize + R * c.z as usize);
+    // a photon a group's triangle contains lies within its bounds widened by 3 × 1e-4 of
+    // their extent (the barycentric tolerance of `OnTriangle::contains`) and the plane's
+    let ranges: Vec<(glam::UVec3, glam::UVec3)> = groups
+        .iter()
+        .map(|g| {
+            let m = (g.hi - g.lo) * 1e-3 + Vec3::splat(2.0 * plane_tol);
+            (at(g.lo - m), at(g.hi + m))
+        })
+        .collect();
+    let mut start = vec![0u32; R * R * R + 1];
+    let each = |(a, b): &(glam::UVec3, glam::UVec3), f: &mut dyn FnMut(usize)| {
+        for z in a.z..=b.z {
+            for y in a.y..=b.y {
+                for x in a.x..=b.x {
+                    f(index(glam::UVec3::new(x, y, z)));
+                }
+            }
+        }
+    };
+    for r in &ranges {
+        each(r, &mut |c| start[c + 1] += 1);
+    }
+    for c in 0..R * R * R {
+        start[c + 1] += start[c];
+    }
+    let mut fill = start.clone();
+    let mut lists = vec![0u32; start[R * R * R] as usize];
+    for (gi, r) in ranges.iter().enumerate() {
+        each(r, &mut |c| {
+            lists[fill[c] as usize] = gi as u32;
+            fill[c] += 1;
+        });
+    }
+    for (&p, &g) in pos.iter().zip(ng) {
+        if !p.is_finite() {
+            continue;
+        }
+        let c = index(at(p));
+        for &gi in &lists[start[c] as usize..start[c + 1] as usize] {
+            count(gi as usize, p, g);
+        }
+    }
+    counts
 }
 
 /// An analytic sphere as the geometry-area estimator sees it (world space).

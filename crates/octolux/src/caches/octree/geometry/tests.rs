@@ -223,3 +223,56 @@ fn normal_grid_with_offset_slots_answers_as_a_linear_scan() {
     }
     assert!(merged > 100 && new > 300, "both answers exercised ({merged} merged, {new} new)");
 }
+
+/// The grid of `side_counts` against testing every photon on every group: random small
+/// triangles (one group each) in and across a cell, photons on them from both sides, on their
+/// edges (within the containment test's tolerance), off their planes, and outside the cell.
+#[test]
+fn side_counts_by_grid_equal_every_photon_tested() {
+    let mut s = crate::sampling::Sampler::new(9, 0, 0);
+    let cell = Bounds3 { min: Vec3::new(1.0, -2.0, 0.5), max: Vec3::new(1.5, -1.5, 1.0) };
+    let mut r3 = || Vec3::new(s.next_1d(), s.next_1d(), s.next_1d());
+    let mut groups = Vec::new();
+    let mut tris = Vec::new();
+    for _ in 0..300 {
+        let c = cell.min + (r3() * 1.4 - Vec3::splat(0.2)) * cell.extent();
+        let t = [c, c + (r3() - Vec3::splat(0.5)) * 0.1, c + (r3() - Vec3::splat(0.5)) * 0.1];
+        let Some(on) = OnTriangle::new(&t) else { continue };
+        let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        groups.push(PlaneGroup { n: on.n, d: on.n.dot(on.v0), area: 1.0, tris: vec![on], lo, hi });
+        tris.push(t);
+    }
+    let plane_tol = 1e-4 * 0.5;
+    let (mut pos, mut ng) = (Vec::new(), Vec::new());
+    for (k, t) in tris.iter().enumerate() {
+        let n = groups[k].n;
+        for i in 0..6 {
+            let (mut u, mut v) = (r3().x, r3().y);
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            if i == 0 {
+                (u, v) = (1.0 + 5e-5 - v, v); // just past an edge, within the tolerance
+            }
+            let off = if i == 1 { n * 3.0 * plane_tol } else { Vec3::ZERO };
+            pos.push(t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v + off);
+            ng.push(if i % 2 == 0 { n } else { -n });
+        }
+    }
+    pos.push(Vec3::NAN);
+    ng.push(Vec3::Y);
+    let naive: Vec<(u32, u32)> = groups
+        .iter()
+        .map(|g| {
+            pos.iter().zip(&ng).fold((0, 0), |(f, b), (&p, &n)| match g.side(p, n, plane_tol) {
+                Some(true) => (f + 1, b),
+                Some(false) => (f, b + 1),
+                None => (f, b),
+            })
+        })
+        .collect();
+    assert!(groups.len() * pos.len() > 4096, "the grid is used");
+    assert_eq!(side_counts(&groups, &cell, &pos, &ng, plane_tol), naive);
+    let lit = naive.iter().filter(|c| c.0 > 0 && c.1 > 0).count();
+    assert!(lit > groups.len() / 2, "{lit} of {} groups lit on both sides", groups.len());
+}
