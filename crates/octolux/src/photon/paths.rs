@@ -420,9 +420,16 @@ mod tests {
         assert!(met > 500 && apart > 1000, "{met} met, {apart} apart without a shared cell");
         assert_eq!(grid.mask(Vec3::NAN, Vec3::ONE), u64::MAX);
         assert_eq!(grid.mask(Vec3::splat(-1e30), Vec3::splat(1e30)), u64::MAX);
-        // a degenerate scene: one cell for everything
+        // a scene without geometry: one cell for everything
+        let none = CellGrid::new(Bounds3::EMPTY);
+        assert_eq!(none.mask(Vec3::splat(-5.0), Vec3::splat(-4.0)), 1);
+        assert_eq!(none.mask(Vec3::splat(4.0), Vec3::splat(5.0)), 1);
+        // a scene flat along y (a floor alone): its cells along x and z, points off its plane
+        // in a border cell of y
         let flat = CellGrid::new(Bounds3 { min: Vec3::ZERO, max: Vec3::new(1.0, 0.0, 1.0) });
         assert_eq!(flat.mask(Vec3::ZERO, Vec3::ZERO), 1);
+        assert_eq!(flat.mask(Vec3::new(0.9, 0.0, 0.9), Vec3::new(0.9, 0.0, 0.9)), 1 << (3 + 16 * 3));
+        assert_ne!(flat.mask(Vec3::new(0.5, -1.0, 0.5), Vec3::new(0.5, 1.0, 0.5)) & flat.mask(Vec3::splat(0.5), Vec3::splat(0.5)), 0);
     }
 
     /// `splice` against rebuilding the lists from per-path vectors: random path lengths (0 to
