@@ -16,14 +16,18 @@
 //!
 //! # Order
 //! Splits come in the order that lowers the error fastest per byte, not depth by depth: a
-//! node's split removes `δ = Σ_c γ_c Σ_k |M_{c,k} − M_k|²_F / (|M|²_F + ε)` (its children's
-//! departure from its mean, relative, weighted by their cell volumes; `ε` a millionth of the
-//! mean over the valid leaves) and costs its children's bytes. A node is split only after its
+//! node's split removes `δ = Σ_c w_c Σ_k |M_{c,k} − M_k|²_F / (|M_k|²_F + ε)` (its children's
+//! departure from its mean, relative per matrix, as the relMSE of an image is per pixel; `ε` a
+//! millionth of the valid leaves' mean) and costs its children's bytes. A child's weight
+//! `w_c = γ_c / γ_root + s_c / S` is its share of the root's volume plus, with
+//! [`Octree::stream_seen`], its share of the `S` surface points a first view sees (the viewer's
+//! camera): what is on screen is refined first, the rest by volume. A node is split only after its
 //! parent. Among such orders the one that minimises the area under the error-against-bytes
 //! curve, `Σ δ_j` times the bytes sent before split `j` is done, is Horn's (1972) for jobs
 //! under out-tree precedence ([`horn_order`]): a split whose subtree holds a rich run of splits
 //! comes early even when its own `δ` is small. Measured against depth by depth and against a
-//! rank by whole-subtree gain per byte on the viewer's curve: docs/lab/2026-12-06-viewer.md.
+//! rank by whole-subtree gain per byte on the viewer's curve: docs/lab/2026-12-06-viewer.md;
+//! the weights by view and per matrix: docs/lab/2026-12-07-viewer-order.md.
 
 use super::compress::{compress_leaf, decompress_matrix, CompressedLeaf, FullLeaf, MATRIX_BYTES};
 use super::{LeafValues, Octree, ALL_FACING, NO_VALUE};
@@ -90,6 +94,13 @@ const NO_SUMS: Sums = Sums { m: [DMat3::ZERO; 6], w: [0.0; 6] };
 impl Octree {
     /// The tree as a stream, coarse to fine (module docs).
     pub fn stream(&self) -> Stream {
+        self.stream_seen(&[])
+    }
+
+    /// The tree as a stream, the cells of the surface points `seen` (those a first view
+    /// shows) refined first (module docs, "Order"); any order is still every node once, each
+    /// after its parent.
+    pub fn stream_seen(&self, seen: &[glam::Vec3]) -> Stream {
         let records = self.stream_nodes();
         let n = self.nodes.len();
         let depths = self.node_depths();
@@ -97,19 +108,25 @@ impl Octree {
             .iter()
             .map(|r| std::array::from_fn(|k| decompress_matrix(&r.value[k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES])))
             .collect();
-        let norm2 = |m: &FullLeaf| m.iter().map(|x| x.to_cols_array().iter().map(|v| (*v as f64).powi(2)).sum::<f64>()).sum::<f64>();
-        let valid: Vec<f64> = records.iter().zip(&full).filter(|(r, _)| r.kind == StreamKind::Valid).map(|(_, m)| norm2(m)).collect();
+        let m2 = |m: &Mat3| m.to_cols_array().iter().map(|v| (*v as f64).powi(2)).sum::<f64>();
+        let valid: Vec<f64> = records
+            .iter()
+            .zip(&full)
+            .filter(|(r, _)| r.kind == StreamKind::Valid)
+            .map(|(_, m)| m.iter().map(m2).sum::<f64>() / 6.0)
+            .collect();
         let eps = 1e-6 * valid.iter().sum::<f64>() / valid.len().max(1) as f64 + f64::MIN_POSITIVE;
         // Each split's own gain (module docs, "Order") and bytes (its 8 children and the
         // parent's index), and each node's parent.
         let (mut gain, mut bytes, mut parent) = (vec![0.0f64; n], vec![0.0f64; n], vec![u32::MAX; n]);
+        let shown = self.points_per_node(seen);
+        let (root_volume, seen_n) = ((self.cell_size[0] as f64).powi(3), seen.len().max(1) as f64);
         for id in 0..n {
             let node = self.nodes[id];
             if node.is_leaf() {
                 continue;
             }
             let (first, mean) = (node.link as usize, &full[id]);
-            let scale = 1.0 / (norm2(mean) + eps);
             bytes[id] = 4.0;
             for c in first..first + 8 {
                 parent[c] = id as u32;
@@ -117,12 +134,12 @@ impl Octree {
                 if records[c].kind == StreamKind::Atmospheric {
                     continue;
                 }
-                let gamma = (self.cell_size[depths[c] as usize] as f64).powi(3);
+                let gamma = (self.cell_size[depths[c] as usize] as f64).powi(3) / root_volume + shown[c] as f64 / seen_n;
                 let d: f64 = (0..6)
                     .filter(|&k| records[c].facing & records[id].facing & (1 << k) != 0)
-                    .map(|k| (full[c][k] - mean[k]).to_cols_array().iter().map(|v| (*v as f64).powi(2)).sum::<f64>())
+                    .map(|k| m2(&(full[c][k] - mean[k])) / (m2(&mean[k]) + eps))
                     .sum();
-                gain[id] += gamma * d * scale;
+                gain[id] += gamma * d;
             }
         }
         let internal: Vec<bool> = self.nodes.iter().map(|nd| !nd.is_leaf()).collect();
@@ -207,6 +224,29 @@ impl Octree {
             LeafValues::Compressed(c) => std::array::from_fn(|k| decompress_matrix(&c[v][k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES])),
             LeafValues::Full(f) => f[v],
         }
+    }
+
+    /// How many of `points` lie in each node's cell.
+    fn points_per_node(&self, points: &[glam::Vec3]) -> Vec<u32> {
+        let mut count = vec![0u32; self.nodes.len()];
+        for &p in points {
+            if let Some((leaf, _, _)) = self.find_leaf(p) {
+                // the path from the root: find_leaf's descent again, counting
+                let q = super::cells::quantize(p, self.origin, self.inv_quant, self.h_max);
+                let (mut node, mut depth) = (0u32, 0u32);
+                loop {
+                    count[node as usize] += 1;
+                    if node == leaf {
+                        break;
+                    }
+                    let s = self.h_max - depth - 1;
+                    let c = ((q[0] >> s) & 1) | (((q[1] >> s) & 1) << 1) | (((q[2] >> s) & 1) << 2);
+                    node = self.nodes[node as usize].link + c;
+                    depth += 1;
+                }
+            }
+        }
+        count
     }
 
     /// The depth of every node.
@@ -342,6 +382,30 @@ mod tests {
         assert_eq!(valid, own, "every valid leaf's own 36 bytes");
         // not depth by depth: some split comes before a shallower one
         assert!(st.splits.windows(2).any(|w| w[1].depth < w[0].depth), "the order follows the gain, not the depth");
+    }
+
+    #[test]
+    fn the_cells_a_view_sees_come_first() {
+        // a point on the floor far from the wall: the splits down to its leaf lead the stream
+        let t = tree();
+        let p = Vec3::new(0.93, 0.0, 0.87);
+        let (leaf, depth, _) = t.find_leaf(p).unwrap();
+        assert!(depth >= 3, "a deep leaf: {depth}");
+        // the split that sends `leaf`: its parent's, found by walking the stream's parents
+        let sent_at = |st: &Stream| {
+            let mut ids = vec![0usize]; // stream index -> node id
+            for (j, s) in st.splits.iter().enumerate() {
+                let first = t.nodes[ids[s.parent as usize]].link as usize;
+                ids.extend(first..first + 8);
+                if (first..first + 8).contains(&(leaf as usize)) {
+                    return j;
+                }
+            }
+            unreachable!("every node is sent")
+        };
+        let (by_volume, seen) = (sent_at(&t.stream()), sent_at(&t.stream_seen(&[p; 4])));
+        assert_eq!(seen + 1, depth as usize, "the path to the seen leaf first ({by_volume} by volume)");
+        assert!(by_volume > seen, "by volume alone it comes later: {by_volume}");
     }
 
     #[test]
