@@ -9,7 +9,7 @@
 //! | `/`, `/viewer.js` | the page (`page.html`, `viewer.js`: WebGL2) |
 //! | `/meta.json` | the camera, the canvas size, each octree's root cube, node count and chunks (bytes, the smallest leaf's edge after each) |
 //! | `/scene.bin` | per vertex position, normal, albedo, emitted radiance: 12 little-endian f32 ([`Scene::display_mesh`]) |
-//! | `/octree/K.bin` | chunk `K` of the global octree's stream (`octolux::caches::octree` `stream.rs`): chunk 0 the root, then splits, each the parent's index in the stream (u32) and its 8 children; a node is its kind (u8: 0 internal, 1 valid, 2 atmospheric), its facing bits (u8), and unless atmospheric its 36 bytes. Cut after [`CHUNK_SHARES`] of the bytes |
+//! | `/octree/K.bin` | chunk `K` of the global octree's stream (`octolux::caches::octree` `stream.rs`): chunk 0 the root, then splits, each the parent's index in the stream (u32) and its 8 children; a node is its kind (u8: 0 internal, 1 valid, 2 atmospheric), its facing bits (u8), and unless atmospheric its 36 bytes. A chunk ends with the last split within the next of [`CHUNK_SHARES`] of the bytes |
 //! | `/direct/K.bin` | the same for the direct-light octree (`OctreeIntegrator::direct_octree`, built by the job from the photon pass of the lighting's settings) |
 //! | `/cpu.bin` | with `--compare-cpu`: the CPU query's irradiance at every pixel centre and the distance to the surface there, 4 f32 per pixel, top row first |
 //! | `/done?...` | the page's report once it drew the whole octree (logged; `--exit-when-done` stops the server) |
@@ -93,8 +93,9 @@ pub fn resources(
         }
     }
     put("/scene.bin", "application/octet-stream", bin);
+    let seen = seen_points(scene, width, height);
     let mut tree_meta = |t: &Octree, prefix: &str| {
-        let stream = t.stream();
+        let stream = t.stream_seen(&seen);
         let record = |b: &mut Vec<u8>, n: &StreamNode| {
             b.push(n.kind as u8);
             b.push(n.facing);
@@ -116,18 +117,20 @@ pub fn resources(
         close(&mut chunk, 0, 0, &mut chunks);
         let mut marks = CHUNK_SHARES.iter().map(|f| (f * total as f64) as usize).peekable();
         for s in &stream.splits {
-            chunk.extend_from_slice(&s.parent.to_le_bytes());
-            s.children.iter().for_each(|c| record(&mut chunk, c));
-            sent += 4 + s.children.iter().map(StreamNode::bytes).sum::<usize>();
-            depth = depth.max(s.depth);
-            splits += 1;
-            if marks.peek().is_some_and(|&m| sent >= m) {
-                while marks.peek().is_some_and(|&m| sent >= m) {
+            // a chunk ends with the last split within its share of the bytes
+            let b = 4 + s.children.iter().map(StreamNode::bytes).sum::<usize>();
+            if splits > 0 && marks.peek().is_some_and(|&m| sent + b > m) {
+                while marks.peek().is_some_and(|&m| sent + b > m) {
                     marks.next();
                 }
                 close(&mut chunk, splits, depth, &mut chunks);
                 splits = 0;
             }
+            chunk.extend_from_slice(&s.parent.to_le_bytes());
+            s.children.iter().for_each(|c| record(&mut chunk, c));
+            sent += b;
+            depth = depth.max(s.depth);
+            splits += 1;
         }
         if !chunk.is_empty() {
             close(&mut chunk, splits, depth, &mut chunks);
@@ -152,6 +155,18 @@ pub fn resources(
     });
     put("/meta.json", "application/json", serde_json::to_vec(&meta).unwrap_or_default());
     (routes, meta)
+}
+
+/// The surface points the scene's camera sees at the centres of a `width` x `height` image.
+fn seen_points(scene: &Scene, width: u32, height: u32) -> Vec<glam::Vec3> {
+    let (sx, sy) = (scene.film.width as f32 / width as f32, scene.film.height as f32 / height as f32);
+    (0..height)
+        .flat_map(|y| (0..width).map(move |x| (x, y)))
+        .filter_map(|(x, y)| {
+            let (o, d, tmin) = scene.camera.generate_ray(glam::Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy));
+            scene.intersect(&Ray { tmin, ..Ray::new(o, d) }).map(|h| h.p)
+        })
+        .collect()
 }
 
 /// The CPU query's irradiance (W/m², RGB) at the centre of every pixel of a `width` x `height`
