@@ -426,12 +426,16 @@ fn walk<E: Ending, const RESUME: bool>(
         // A linear control variate is weighed by the sample's f cos θ / pdf before the shading
         // factor: its mean is then the integral over the whole shading hemisphere.
         let linear = end.and_then(|e| match e.residual?.cv {
-            ControlVariate::Linear(a) => Some((e.residual?.q, a, e.min_alpha)),
+            ControlVariate::Linear(a) => Some((e.residual?.q, a)),
             ControlVariate::Constant(_) => None,
         });
-        if let (Some((q, a, min_alpha)), false) = (linear, bs.lobe.is_delta()) {
-            let wide = material.eval_split(&scene.images, hit.uv, wo, bs.wi, min_alpha).wide;
-            result -= throughput * wide * ControlVariate::linear_radiance(&a, wi) / (bs.pdf * q);
+        // the lobes split at the ending's width, evaluated once for the control variate and the weights
+        let parts = match end {
+            Some(e) if !bs.lobe.is_delta() => Some(material.eval_split(&scene.images, hit.uv, wo, bs.wi, e.min_alpha)),
+            _ => None,
+        };
+        if let (Some((q, a)), Some(s)) = (linear, parts) {
+            result -= throughput * s.wide * ControlVariate::linear_radiance(&a, wi) / (bs.pdf * q);
         }
         let k = if bs.lobe == Lobe::Null { 1.0 } else { hit.shading_factor(wi) };
         if k == 0.0 {
@@ -446,10 +450,9 @@ fn walk<E: Ending, const RESUME: bool>(
             if skip_on {
                 skip *= bs.weight * k;
             }
-        } else if let Some(e) = end {
+        } else if let (Some(e), Some(s)) = (end, parts) {
             // The wide lobes' share of the sample: the tail when the path ended here, else the
             // share whose caustic light the cache gave.
-            let s = material.eval_split(&scene.images, hit.uv, wo, bs.wi, e.min_alpha);
             let g = k / bs.pdf;
             if let (true, Some(r)) = (e.ends, e.residual) {
                 // traced on: the wide lobes' continuation weighs 1/q, its first emitter 1
@@ -482,7 +485,8 @@ fn walk<E: Ending, const RESUME: bool>(
         prev_p = hit.p;
         prev_n = hit.frame.n;
         specular_chain &= prev_delta;
-        if E::FOOTPRINT {
+        if E::FOOTPRINT && !residual_on {
+            // (traced on from a residual, no vertex ends in the cache: the cone is not read)
             cone_spread += lobe_spread(bs.lobe, material, scene, hit.uv);
         }
         ray = hit.spawn(wi);

@@ -57,12 +57,13 @@ impl Ending for OctreeIntegrator {
                 Some(CacheEnd { radiance, ..read(true, 0.0, true) })
             }
             Mode::Terminate | Mode::Unbiased => {
-                if !v.material.has_wide_lobe(&scene.images, v.hit.uv, s.min_alpha) {
+                let at_end = s.max_depth < 0 || v.index == s.mode.end_vertex();
+                // without bias the cache is read only where the path may end
+                if (!at_end && s.mode == Mode::Unbiased) || !v.material.has_wide_lobe(&scene.images, v.hit.uv, s.min_alpha) {
                     return None;
                 }
                 let caustics = self.caustic_trusted(v.hit.p);
-                let ends = (s.max_depth < 0 || v.index == s.mode.end_vertex())
-                    && self.global.leaf_at(v.hit.p).is_some_and(|leaf| v.footprint >= s.footprint * leaf.bounds.extent().x);
+                let ends = at_end && self.global.leaf_at(v.hit.p).is_some_and(|leaf| v.footprint >= s.footprint * leaf.bounds.extent().x);
                 if ends && s.mode == Mode::Unbiased {
                     return self.residual_end(scene, v, caustics, sampler, counters).map(|(radiance, residual)| CacheEnd {
                         radiance,
