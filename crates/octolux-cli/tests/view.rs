@@ -79,6 +79,15 @@ fn attribute(dom: &str, name: &str) -> Option<String> {
     Some(dom[at..].split('"').next()?.replace("&quot;", "\""))
 }
 
+/// The Chromium to drive, or a skip line (a failure with `OCTOLUX_REQUIRE_CHROMIUM=1`).
+fn browser() -> Option<std::path::PathBuf> {
+    let b = octolux_probe::chromium();
+    if b.is_none() {
+        octolux_probe::skip("chromium", "view in headless Chromium: no chromium (set OCTOLUX_CHROMIUM or install Debian's chromium)");
+    }
+    b
+}
+
 /// Load the page of `octolux view ARGS` in headless Chromium and check the goals: the
 /// GPU's irradiance within 1% of the CPU query's mean and relMSE at most 1e-3 where both drew
 /// the same point, a first picture within 5% of the bytes, relMSE at most 0.05 after 10% (the
@@ -116,10 +125,7 @@ fn page_meets_the_goals(browser: &std::path::Path, name: &str, args: &[&str]) {
 #[test]
 #[cfg_attr(missing = "chromium", ignore = "needs chromium (Debian's chromium, or $OCTOLUX_CHROMIUM)")]
 fn the_gpu_query_matches_the_cpu_and_the_stream_converges() {
-    let Some(browser) = octolux_probe::chromium() else {
-        octolux_probe::skip("chromium", "view in headless Chromium: no chromium (set OCTOLUX_CHROMIUM or install Debian's chromium)");
-        return;
-    };
+    let Some(browser) = browser() else { return };
     for scene in ["cornell-box", "cornell-spheres"] {
         page_meets_the_goals(&browser, scene, &[scene, "--photons", "200000", "--width", "96"]);
     }
@@ -130,10 +136,7 @@ fn the_gpu_query_matches_the_cpu_and_the_stream_converges() {
 #[test]
 #[cfg_attr(missing = "chromium", ignore = "needs chromium (Debian's chromium, or $OCTOLUX_CHROMIUM)")]
 fn the_dining_room_streams_to_the_goal() {
-    let Some(browser) = octolux_probe::chromium() else {
-        octolux_probe::skip("chromium", "view in headless Chromium: no chromium (set OCTOLUX_CHROMIUM or install Debian's chromium)");
-        return;
-    };
+    let Some(browser) = browser() else { return };
     let scene = octolux_probe::shared_dir().join("scenes/bitterli-collection/dining-room/scene.xml");
     if !scene.is_file() {
         println!("skipped dining-room: {} missing (see docs/guide/scenes.md)", scene.display());
