@@ -224,16 +224,9 @@ struct PlaneGroup {
 }
 
 impl PlaneGroup {
-    /// Whether the photon at `p` of normal `g` lies on a triangle of the group with
-    /// `sign · g·n ≥ 0.9`.
-    #[inline]
-    fn hit(&self, sign: f32, p: Vec3, g: Vec3, plane_tol: f32) -> bool {
-        sign * g.dot(self.n) >= 0.9 && (p.dot(self.n) - self.d).abs() <= plane_tol && self.tris.iter().any(|t| t.contains(p, plane_tol))
-    }
-
     /// The side of the group the photon at `p` of normal `g` lights, when it lies on one of its
-    /// triangles: `Some(true)` for its front ([`PlaneGroup::hit`] with `sign` +1), `Some(false)`
-    /// for its back (−1); one test of the plane and triangles for both.
+    /// triangles with `g·n ≥ 0.9`: `Some(true)`, its front; with `−g·n ≥ 0.9`: `Some(false)`, its
+    /// back; one test of the plane and triangles for both.
     #[inline]
     fn side(&self, p: Vec3, g: Vec3, plane_tol: f32) -> Option<bool> {
         let s = g.dot(self.n);
@@ -246,7 +239,7 @@ impl PlaneGroup {
 
     /// Whether some photon lies on a triangle of the group with `sign · ng·n ≥ 0.9`.
     fn hit_from(&self, sign: f32, pos: &[Vec3], ng: &[Vec3], plane_tol: f32) -> bool {
-        pos.iter().zip(ng).any(|(&p, &g)| self.hit(sign, p, g, plane_tol))
+        pos.iter().zip(ng).any(|(&p, &g)| self.side(p, g, plane_tol) == Some(sign > 0.0))
     }
 }
 

@@ -226,24 +226,19 @@ impl Octree {
         }
     }
 
-    /// How many of `points` lie in each node's cell.
+    /// How many of `points` lie in each node's cell: counted at their leaves, summed upwards
+    /// (children come after their parent, as in [`Octree::stream_nodes`]).
     fn points_per_node(&self, points: &[glam::Vec3]) -> Vec<u32> {
         let mut count = vec![0u32; self.nodes.len()];
         for &p in points {
             if let Some((leaf, _, _)) = self.find_leaf(p) {
-                // the path from the root: find_leaf's descent again, counting
-                let q = super::cells::quantize(p, self.origin, self.inv_quant, self.h_max);
-                let (mut node, mut depth) = (0u32, 0u32);
-                loop {
-                    count[node as usize] += 1;
-                    if node == leaf {
-                        break;
-                    }
-                    let s = self.h_max - depth - 1;
-                    let c = ((q[0] >> s) & 1) | (((q[1] >> s) & 1) << 1) | (((q[2] >> s) & 1) << 2);
-                    node = self.nodes[node as usize].link + c;
-                    depth += 1;
-                }
+                count[leaf as usize] += 1;
+            }
+        }
+        for id in (0..self.nodes.len()).rev() {
+            let node = self.nodes[id];
+            if !node.is_leaf() {
+                count[id] = (0..8).map(|c| count[node.link as usize + c]).sum();
             }
         }
         count
