@@ -4,9 +4,9 @@
 //! splatting filter weights, and the sampling of a 2048x1024 environment map's cells (a sky
 //! with a sun, 16 MB of CDFs and probabilities) by [`Distribution2D`] (the marginal and one
 //! row's CDF searched through their guide tables), each sample followed by the lookup of its
-//! cell's probability, as `LatLong::sample_direction` does (docs/performance.md,
-//! "Environment-map sampling", for the hierarchical warp and the alias table it was measured
-//! against).
+//! cell's probability, as `LatLong::sample_direction` does
+//! (docs/lab/2026-12-04-light-tree-env-sampling.md, "Environment-map sampling", for the
+//! hierarchical warp and the alias table it was measured against).
 //!
 //! Run: `cargo bench -p octolux --bench sampling`.
 

@@ -244,9 +244,78 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
     (nodes, weights)
 }
 
+/// `atan2(y, x)` within 2e-5 rad (a minimax polynomial for `atan` on [0, 1] and the octant's
+/// symmetries); 0 for `(0, 0)`. For finding a cell, whose borders are then tested exactly.
+#[inline]
+pub fn atan2_approx(y: f32, x: f32) -> f32 {
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = (ax.min(ay), ax.max(ay));
+    let z = if hi > 0.0 { lo / hi } else { 0.0 };
+    let z2 = z * z;
+    let mut r =
+        z * (0.999_977_26 + z2 * (-0.332_623_47 + z2 * (0.193_543_46 + z2 * (-0.116_432_87 + z2 * (0.052_653_32 - 0.011_721_2 * z2)))));
+    if ay > ax {
+        r = std::f32::consts::FRAC_PI_2 - r;
+    }
+    if x < 0.0 {
+        r = std::f32::consts::PI - r;
+    }
+    if y < 0.0 {
+        -r
+    } else {
+        r
+    }
+}
+
+/// `acos(x)` within 1e-4 rad for `x` in [-1, 1] (Abramowitz & Stegun 4.4.45). For finding a
+/// cell, whose borders are then tested exactly.
+#[inline]
+pub fn acos_approx(x: f32) -> f32 {
+    let a = x.abs().min(1.0);
+    let r = (1.0 - a).sqrt() * (1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261 - 0.018_729_3 * a)));
+    if x < 0.0 {
+        std::f32::consts::PI - r
+    } else {
+        r
+    }
+}
+
+/// `(sin δ, cos δ)` for `|δ| ≤ 0.1` (Taylor to the eighth power: the next terms are below
+/// 3e-15).
+#[inline]
+pub fn sin_cos_small(d: f64) -> (f64, f64) {
+    let d2 = d * d;
+    let s = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0)));
+    let c = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0)));
+    (s, c)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The approximations against libm in f64, over their whole domains.
+    #[test]
+    fn approximations_stay_within_their_stated_errors() {
+        let (mut e_atan, mut e_acos, mut e_sc) = (0.0f64, 0.0f64, 0.0f64);
+        for i in 0..=20_000 {
+            let a = std::f64::consts::TAU * i as f64 / 20_000.0 - std::f64::consts::PI;
+            for r in [1e-3f64, 1.0, 7.5] {
+                let (y, x) = ((r * a.sin()) as f32, (r * a.cos()) as f32);
+                e_atan = e_atan.max((atan2_approx(y, x) as f64 - (y as f64).atan2(x as f64)).abs());
+            }
+            let x = (-1.0 + 2.0 * i as f64 / 20_000.0) as f32;
+            e_acos = e_acos.max((acos_approx(x) as f64 - (x as f64).acos()).abs());
+            let d = 0.1 * (2.0 * i as f64 / 20_000.0 - 1.0);
+            let (s, c) = sin_cos_small(d);
+            e_sc = e_sc.max((s - d.sin()).abs()).max((c - d.cos()).abs());
+        }
+        assert!(e_atan < 2e-5, "atan2: {e_atan}");
+        assert!(e_acos < 1e-4, "acos: {e_acos}");
+        assert!(e_sc < 1e-13, "sin_cos_small: {e_sc}");
+        assert_eq!(atan2_approx(0.0, 0.0), 0.0);
+        assert!((atan2_approx(0.0, -1.0) - std::f32::consts::PI).abs() < 1e-6);
+    }
 
     #[test]
     fn frame_is_orthonormal_for_many_normals() {

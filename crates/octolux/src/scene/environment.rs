@@ -34,7 +34,8 @@ impl Environment {
     }
 
     /// [`Environment::sample`] without the radiance: (direction, solid-angle pdf), `None` in
-    /// the same cases.
+    /// the same cases. The pdf is [`Environment::pdf`] of the direction, bit for bit (the light
+    /// set reads it instead of computing it again).
     #[inline]
     pub fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32)> {
         match self {

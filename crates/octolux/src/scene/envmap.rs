@@ -21,11 +21,14 @@
 //! The cell is drawn by inverting the marginal CDF over rows, then the row's CDF
 //! ([`Distribution2D`]); each search goes through its guide table, so that a sample of a
 //! 2048x1024 map reads one or two cache lines of its row instead of a chain of eleven spread
-//! over 16 KB (docs/performance.md, "Environment-map sampling": the hierarchical warp and the
-//! alias table measured against it).
+//! over 16 KB (docs/lab/2026-12-04-light-tree-env-sampling.md: the hierarchical warp and the
+//! alias table measured against it). On maps of at least [`FAST_MIN_WIDTH`] columns no libm
+//! function is called per sample or density: a direction's cell is guessed by polynomials and
+//! settled against the stored borders, and a sample's `φ` rotates its column's border by a
+//! small angle (docs/lab/2026-12-07-sky-sampling.md).
 
 use crate::image::Image;
-use crate::math::{luminance, Color};
+use crate::math::{acos_approx, atan2_approx, luminance, sin_cos_small, Color};
 use crate::sampling::Distribution2D;
 use glam::{DVec3, Mat3, Vec2, Vec3};
 use std::f64::consts::PI as PI64;
@@ -41,9 +44,17 @@ pub struct LatLong {
     /// `cos θ` of the row boundaries `θ_j = j π / (height - 1)`, `j = 0..height`, computed
     /// once (the samples and densities read them instead of two `cos` per call).
     row_cos: Vec<f64>,
+    /// `(sin φ_k, cos φ_k)` of the column boundaries `φ_k = 2π (k + ½) / width`, `k = 0..width`
+    /// (cell `k` lies between boundaries `k` and `k + 1`); empty below [`FAST_MIN_WIDTH`].
+    col_sc: Vec<[f64; 2]>,
     /// `∫ L dω` over the sphere (W/m² per unit... i.e. radiance times steradians), per channel.
     integral: Color,
 }
+
+/// Maps at least this wide find a direction's cell without `atan2` and `acos`, and sample
+/// within a column without `sin`/`cos` ([`LatLong::cell_of`], [`LatLong::sample_direction`]):
+/// a column is then at most 2π/64 wide, where the polynomials are exact to f64 rounding.
+const FAST_MIN_WIDTH: usize = 64;
 
 /// Texture coordinates `(u, v)` of a local direction (Mitsuba's convention, module docs).
 #[inline]
@@ -105,7 +116,12 @@ impl LatLong {
         }
         let dist = Distribution2D::new(&weights, nx, ny);
         let row_cos = (0..=ny).map(|j| (j as f64 * PI64 / ny as f64).cos()).collect();
-        Ok(LatLong { width, height, data, dist, row_cos, integral: integral.as_vec3() })
+        let col_sc = if nx >= FAST_MIN_WIDTH {
+            (0..nx).map(|k| (2.0 * PI64 * (k as f64 + 0.5) / nx as f64).sin_cos()).map(|(s, c)| [s, c]).collect()
+        } else {
+            Vec::new()
+        };
+        Ok(LatLong { width, height, data, dist, row_cos, col_sc, integral: integral.as_vec3() })
     }
 
     /// Bilinear radiance lookup at texture coordinates `uv` (module docs).
@@ -137,15 +153,42 @@ impl LatLong {
         self.integral
     }
 
-    /// Cell of a local direction and the bounds `(cos θ₀, cos θ₁)` of its row.
+    /// Cell `(column, row)` of a local direction: the cell [`Self::sample_direction`] draws it
+    /// in. Maps of at least [`FAST_MIN_WIDTH`] columns take a first guess from [`atan2_approx`]
+    /// and [`acos_approx`] (within a fraction of a cell) and settle it against the stored
+    /// borders (the boundary's side by the sign of a cross product, the row by `cos θ`); smaller
+    /// ones compute the texture coordinates.
     #[inline]
     fn cell_of(&self, d: Vec3) -> (usize, usize) {
-        let uv = direction_to_uv(d);
         let nx = self.width;
         let ny = self.height - 1;
-        let x = uv.x * nx as f32 - 0.5;
-        let ix = (x.floor() as i64).rem_euclid(nx as i64) as usize;
-        let iy = ((uv.y * ny as f32) as usize).min(ny - 1);
+        if self.col_sc.is_empty() {
+            let uv = direction_to_uv(d);
+            let x = uv.x * nx as f32 - 0.5;
+            let ix = (x.floor() as i64).rem_euclid(nx as i64) as usize;
+            let iy = ((uv.y * ny as f32) as usize).min(ny - 1);
+            return (ix, iy);
+        }
+        let (a, b) = (d.x, -d.z); // (sin φ, cos φ) times the distance from the axis
+                                  // φ / 2π in [-½, ½], shifted by a whole turn to keep the cast's argument positive
+        let t = atan2_approx(a, b) * (0.5 * std::f32::consts::FRAC_1_PI) * nx as f32 - 0.5 + nx as f32;
+        // (no `%`: an integer division costs more than the rest of the guess)
+        let wrap = |i: usize| if i >= nx { i - nx } else { i };
+        let mut ix = wrap((t as usize).min(2 * nx - 1));
+        // sin(φ − φ_k) times the distance from the axis: ≥ 0 past boundary k
+        let past = |k: usize| (a as f64) * self.col_sc[k][1] - (b as f64) * self.col_sc[k][0] >= 0.0;
+        if !past(ix) {
+            ix = wrap(ix + nx - 1);
+        } else if past(wrap(ix + 1)) {
+            ix = wrap(ix + 1);
+        }
+        let y = d.y as f64;
+        let mut iy = ((acos_approx(d.y) * (ny as f32 * std::f32::consts::FRAC_1_PI)) as usize).min(ny - 1);
+        if iy > 0 && y > self.row_cos[iy] {
+            iy -= 1;
+        } else if iy + 1 < ny && y < self.row_cos[iy + 1] {
+            iy += 1;
+        }
         (ix, iy)
     }
 
@@ -168,11 +211,18 @@ impl LatLong {
         let dist = self.dist.as_ref()?;
         let (ix, iy, p, r) = dist.sample_cell(u)?;
         let nx = self.width as f64;
-        let phi = 2.0 * PI64 * ((ix as f64 + 0.5 + r.x as f64) / nx);
+        let (sin_p, cos_p) = match self.col_sc.get(ix) {
+            // φ = φ_ix + δ: the column's border rotated by the small angle δ
+            Some(&[s0, c0]) => {
+                let (s, c) = sin_cos_small(2.0 * PI64 * r.x as f64 / nx);
+                (s0 * c + c0 * s, c0 * c - s0 * s)
+            }
+            None => (2.0 * PI64 * ((ix as f64 + 0.5 + r.x as f64) / nx)).sin_cos(),
+        };
         let (c0, c1) = (self.row_cos[iy], self.row_cos[iy + 1]);
         let cos_t = c0 + (c1 - c0) * r.y as f64;
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let d = DVec3::new(sin_t * phi.sin(), cos_t, -sin_t * phi.cos()).as_vec3();
+        let d = DVec3::new(sin_t * sin_p, cos_t, -sin_t * cos_p).as_vec3();
         let pdf = p / self.cell_solid_angle(iy);
         if !(pdf > 0.0) || !pdf.is_finite() {
             return None;
@@ -379,6 +429,57 @@ mod tests {
             assert!(bad.is_none(), "{bad:?}");
             assert!(out.passed, "{out:?}");
             assert!((out.pdf_integral - 1.0).abs() < 2e-3, "{}", out.pdf_integral);
+        }
+    }
+
+    /// A map wide enough for the fast cell search ([`FAST_MIN_WIDTH`]): every direction's cell
+    /// is the one its f64 angles give (except within 1e-5 rad of a border, where rounding
+    /// decides), and every sampled direction lies in the cell that was drawn (except within
+    /// 1e-5 of the cell's edge in the rescaled numbers), with the density of that cell.
+    #[test]
+    fn the_fast_cell_search_finds_the_cell_of_the_angles_and_of_the_sample() {
+        let (w, h) = (256usize, 129usize);
+        let pixels: Vec<Color> = (0..w * h).map(|k| Color::splat(1.0 + (k % 7) as f32)).collect();
+        let t = LatLong::new(w, h, &pixels).unwrap();
+        assert!(!t.col_sc.is_empty());
+        let (nx, ny) = (w as f64, (h - 1) as f64);
+        let mut s = Sampler::new(3, 0, 0);
+        let (mut checked, mut border) = (0, 0);
+        for k in 0..200_000 {
+            // the axes and the poles, then random directions
+            let d = match k {
+                0 => Vec3::Y,
+                1 => -Vec3::Y,
+                2 => Vec3::X,
+                3 => -Vec3::Z,
+                _ => crate::sampling::square_to_uniform_sphere(s.next_2d()),
+            };
+            let (ix, iy) = t.cell_of(d);
+            assert!(ix < w && iy < h - 1, "direction {d}: cell ({ix}, {iy})");
+            let dd = d.as_dvec3().normalize();
+            let phi = dd.x.atan2(-dd.z).rem_euclid(2.0 * PI64);
+            let x = (phi / (2.0 * PI64) * nx - 0.5).rem_euclid(nx);
+            let y = dd.y.clamp(-1.0, 1.0).acos() / PI64 * ny;
+            let near = |v: f64, n: f64| (v - v.round()).abs() * 2.0 * PI64 / n < 1e-5;
+            if near(x, nx) || near(y, ny) || dd.x.hypot(dd.z) < 1e-6 {
+                border += 1;
+                continue;
+            }
+            assert_eq!((ix, iy), (x.floor() as usize, (y.floor() as usize).min(h - 2)), "direction {d}");
+            checked += 1;
+        }
+        assert!(checked > 199_000 && border < 1_000, "{checked} checked, {border} on borders");
+        let dist = t.dist.as_ref().unwrap();
+        for _ in 0..100_000 {
+            let u = s.next_2d();
+            let (ix, iy, p, r) = dist.sample_cell(u).unwrap();
+            let (d, pdf) = t.sample_direction(u).unwrap();
+            if r.min_element() < 1e-5 || r.max_element() > 1.0 - 1e-5 {
+                continue;
+            }
+            assert_eq!(t.cell_of(d), (ix, iy), "u {u}, r {r}");
+            assert_eq!(pdf, p / t.cell_solid_angle(iy));
+            assert_eq!(pdf, t.pdf(d));
         }
     }
 

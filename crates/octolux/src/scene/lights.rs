@@ -352,11 +352,15 @@ impl LightSet {
         if let Light::Constant { .. } | Light::Envmap { .. } | Light::Sunsky(_) = &self.lights[l] {
             // All environment lights act as one emitter (module docs): the sampled direction
             // carries the radiance of all of them and their mixture density.
-            let wi = match &self.lights[l] {
-                Light::Constant { .. } => square_to_uniform_sphere(u),
-                _ => self.env_maps.get(*self.env_map_of.get(l)? as usize)?.1.sample_direction(u)?.0,
+            let (wi, own) = match &self.lights[l] {
+                Light::Constant { .. } => (square_to_uniform_sphere(u), None),
+                _ => {
+                    let k = *self.env_map_of.get(l)? as usize;
+                    let (wi, pdf) = self.env_maps.get(k)?.1.sample_direction(u)?;
+                    (wi, Some((k, pdf)))
+                }
             };
-            let pdf = self.pdf_li_env(sel, wi);
+            let pdf = self.pdf_li_env_known(sel, wi, own);
             let keep = matches!(&self.lights[l], Light::Constant { .. }) || pdf > 0.0;
             return keep.then_some((LightSample { wi, dist: f32::INFINITY, li: Color::ZERO, pdf, delta: false }, true));
         }
@@ -482,10 +486,22 @@ impl LightSet {
     /// everywhere).
     #[inline]
     pub fn pdf_li_env(&self, sel: LightSelection, dir: Vec3) -> f32 {
+        self.pdf_li_env_known(sel, dir, None)
+    }
+
+    /// [`Self::pdf_li_env`] given `(k, pdf)`: `env_maps[k]`'s own density of `dir`, as its
+    /// `sample_direction` returned it with `dir` (the same value its `pdf` gives, not computed
+    /// twice).
+    #[inline]
+    fn pdf_li_env_known(&self, sel: LightSelection, dir: Vec3, known: Option<(usize, f32)>) -> f32 {
         let pmf = |l: u32| self.select_pmf_at(sel, l, Vec3::ZERO, Vec3::ZERO);
         let mut pdf = self.env_lights.iter().map(|&l| pmf(l)).sum::<f32>() * UNIFORM_SPHERE_PDF;
-        for (l, env) in &self.env_maps {
-            pdf += pmf(*l) * env.pdf(dir);
+        for (k, (l, env)) in self.env_maps.iter().enumerate() {
+            let own = match known {
+                Some((j, p)) if j == k => p,
+                _ => env.pdf(dir),
+            };
+            pdf += pmf(*l) * own;
         }
         pdf
     }

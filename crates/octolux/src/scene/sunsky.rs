@@ -191,6 +191,8 @@ pub struct SunSky {
     to_local: Mat3,
     /// Unit sun direction, local frame.
     sun: DVec3,
+    /// A frame around [`Self::sun`] (in f32), for sampling the sun's cone.
+    sun_frame: Frame,
     /// False when the sun is below the horizon (the emitter is then black, as in Mitsuba 3.9).
     active: bool,
     /// Per channel: the nine sky parameters and the sky radiance, interpolated.
@@ -297,6 +299,7 @@ impl SunSky {
             to_world: desc.to_world,
             to_local,
             sun,
+            sun_frame: Frame::from_normal(sun.as_vec3()),
             active,
             params,
             sky_radiance,
@@ -390,9 +393,10 @@ impl SunSky {
             let one_minus = 1.0 - self.cos_half as f64;
             let cos_t = 1.0 - ux * one_minus;
             let sin_t = (ux * one_minus * (2.0 - ux * one_minus)).max(0.0).sqrt();
-            let phi = 2.0 * PI * u.y as f64;
-            let f = Frame::from_normal(self.sun.as_vec3());
-            let l = DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+            // φ in f32 (the direction is stored in f32 anyway): sincosf, not the f64 sincos
+            let (sin_p, cos_p) = (std::f32::consts::TAU * u.y).sin_cos();
+            let f = &self.sun_frame;
+            let l = DVec3::new(sin_t * cos_p as f64, sin_t * sin_p as f64, cos_t);
             (f.s.as_dvec3() * l.x + f.t.as_dvec3() * l.y + self.sun * l.z).normalize().as_vec3()
         } else {
             let ux = ((u.x - self.p_sun) / (1.0 - self.p_sun)).clamp(0.0, 1.0 - f32::EPSILON);
