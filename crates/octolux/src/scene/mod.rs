@@ -42,6 +42,7 @@ use glam::{Vec2, Vec3};
 use lights::LightSet;
 use material::{Material, TexCoord};
 use std::f32::consts::PI;
+use std::ops::Range;
 
 /// An analytic sphere of the prepared scene.
 #[derive(Clone, Copy, Debug)]
@@ -185,6 +186,7 @@ pub struct Scene {
     normals: Vec<Vec3>,
     uvs: Vec<Vec2>,
     triangles: Vec<[u32; 3]>,
+    /// Each triangle's shape, non-decreasing (a shape's triangles are contiguous, in shape order).
     tri_shape: Vec<u32>,
     spheres: Vec<SphereShape>,
     shapes: Vec<ShapeInfo>,
@@ -308,19 +310,24 @@ impl Scene {
     /// World-space triangles of the meshes whose material passes `keep` (no sphere), wound
     /// so that their winding normal is the shape's front side (`flip_normals` honoured).
     pub fn mesh_triangles_where(&self, keep: impl Fn(&Material) -> bool) -> Vec<[Vec3; 3]> {
-        self.triangles
-            .iter()
-            .zip(&self.tri_shape)
-            .filter(|(_, &s)| keep(&self.materials[self.shapes[s as usize].material as usize]))
-            .map(|(t, &s)| {
-                let p = |k: usize| self.positions[t[k] as usize];
-                if self.shapes[s as usize].flip {
-                    [p(0), p(2), p(1)]
-                } else {
-                    [p(0), p(1), p(2)]
-                }
-            })
-            .collect()
+        let mut out = Vec::new();
+        self.mesh_triangles_into(0..u32::MAX, keep, &mut out);
+        out
+    }
+
+    /// [`Scene::mesh_triangles_where`] of the shapes in `shapes` only, appended to `out` (in
+    /// the scene's order; a shape's triangles are contiguous and in shape order).
+    pub fn mesh_triangles_into(&self, shapes: Range<u32>, keep: impl Fn(&Material) -> bool, out: &mut Vec<[Vec3; 3]>) {
+        let (a, b) = (self.tri_shape.partition_point(|&s| s < shapes.start), self.tri_shape.partition_point(|&s| s < shapes.end));
+        let tris = self.triangles[a..b].iter().zip(&self.tri_shape[a..b]);
+        out.extend(tris.filter(|(_, &s)| keep(&self.materials[self.shapes[s as usize].material as usize])).map(|(t, &s)| {
+            let p = |k: usize| self.positions[t[k] as usize];
+            if self.shapes[s as usize].flip {
+                [p(0), p(2), p(1)]
+            } else {
+                [p(0), p(1), p(2)]
+            }
+        }));
     }
 
     /// The analytic spheres whose material passes `keep`: `(centre, radius, flip_normals)`.

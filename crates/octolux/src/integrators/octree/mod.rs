@@ -334,10 +334,14 @@ impl OctreeIntegrator {
 /// [`Surfaces`]): the meshes' triangles and the analytic spheres of the materials with a smooth
 /// lobe (those that store photons), world space.
 pub fn estimator_surfaces(scene: &Scene) -> (Vec<[Vec3; 3]>, Vec<AnalyticSphere>) {
-    let spheres = scene
+    (scene.mesh_triangles_where(Material::has_smooth_lobe), estimator_spheres(scene))
+}
+
+/// The analytic spheres of [`estimator_surfaces`].
+pub fn estimator_spheres(scene: &Scene) -> Vec<AnalyticSphere> {
+    scene
         .analytic_spheres_where(Material::has_smooth_lobe)
         .into_iter()
         .map(|(center, radius, inward)| AnalyticSphere { center, radius, inward })
-        .collect();
-    (scene.mesh_triangles_where(Material::has_smooth_lobe), spheres)
+        .collect()
 }

@@ -30,12 +30,13 @@
 //! octree where the bake had none (caustic photons the object makes are then kept in the path
 //! records but not rendered).
 
-use super::{estimator_surfaces, BuildError, LeakTest, OctreeIntegrator};
+use super::{estimator_spheres, BuildError, LeakTest, OctreeIntegrator};
 use crate::caches::octree::{Changes, Estimator, LeafSums, OctreeError, RefitStats, Surfaces};
 use crate::caches::Octree;
 use crate::math::Bounds3;
 use crate::photon::paths::{MovedPhotons, PhotonPaths};
 use crate::photon::Photon;
+use crate::scene::material::Material;
 use crate::scene::Scene;
 use glam::Vec3;
 use serde::Serialize;
@@ -156,11 +157,15 @@ fn segment_meets_sphere(a: Vec3, b: Vec3, c: Vec3, r: f32) -> bool {
 pub struct RebakeState {
     paths: PhotonPaths,
     sums: [Option<LeafSums>; 2],
+    /// The geometry-area estimator's triangles ([`estimator_surfaces`]) of the shapes before
+    /// the object's, which no frame changes (the first shape after them, and their count):
+    /// a frame appends the object's instead of listing the whole scene again.
+    surfaces: Option<(u32, usize, Vec<[Vec3; 3]>)>,
 }
 
 impl RebakeState {
     pub fn new(paths: PhotonPaths) -> RebakeState {
-        RebakeState { paths, sums: [None, None] }
+        RebakeState { paths, sums: [None, None], surfaces: None }
     }
 
     /// The photon pass of the scene as last updated.
@@ -248,11 +253,23 @@ impl OctreeIntegrator {
         let t2 = Instant::now();
         let needs = |e: Estimator| e == Estimator::GeometryArea;
         let (tris, spheres) = if needs(self.settings.global.estimator) || needs(self.settings.caustic.estimator) {
-            estimator_surfaces(scene)
+            // `estimator_surfaces(scene)`, its part before the object kept from the last frame
+            let first = change.shapes.start;
+            let (_, kept, tris) = match &mut state.surfaces {
+                Some(s) if s.0 == first => s,
+                slot => {
+                    let mut tris = Vec::new();
+                    scene.mesh_triangles_into(0..first, Material::has_smooth_lobe, &mut tris);
+                    slot.insert((first, tris.len(), tris))
+                }
+            };
+            tris.truncate(*kept);
+            scene.mesh_triangles_into(first..u32::MAX, Material::has_smooth_lobe, tris);
+            (&tris[..], estimator_spheres(scene))
         } else {
-            (Vec::new(), Vec::new())
+            (&[][..], Vec::new())
         };
-        let surfaces = Some(Surfaces { triangles: &tris, spheres: &spheres });
+        let surfaces = Some(Surfaces { triangles: tris, spheres: &spheres });
         // the sums cannot follow the sampled photons the `visible_sample` test reads
         let incremental = self.leak() != LeakTest::VisibleSample;
         // the moved photons' positions: what the refit without sums looks around
