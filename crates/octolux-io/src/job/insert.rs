@@ -27,7 +27,7 @@ use octolux::integrators::octree::OctreeIntegrator;
 use octolux::math::{Bounds3, Ray};
 use octolux::scene::material::Material;
 use octolux::scene::object_path::ObjectPath;
-use octolux::scene::{Geometry, Scene, SceneDesc, ShapeDesc};
+use octolux::scene::{Geometry, Scene, ShapeDesc};
 use std::path::{Path, PathBuf};
 
 /// Most ambient-occlusion rays per shading point (`--insert-ao`): one shading point's rays run
@@ -152,16 +152,14 @@ impl Insertion {
         }
     }
 
-    /// `base` with the object's shapes (moved by `m`) and materials appended.
-    pub fn scene_desc(&self, base: &SceneDesc, m: &Mat4) -> SceneDesc {
-        let mut d = base.clone();
-        let offset = d.materials.len() as u32;
-        d.materials.extend(self.materials.iter().cloned());
+    /// The object's shapes moved by `m`, their material indices counted from the first of
+    /// `first_material` materials before the object's ([`Insertion::materials`] follow them).
+    pub fn placed_shapes(&self, first_material: u32, m: &Mat4) -> Vec<ShapeDesc> {
         let scale =
             m.transform_vector3(Vec3::X).length().max(m.transform_vector3(Vec3::Y).length()).max(m.transform_vector3(Vec3::Z).length());
-        for s in &self.shapes {
+        let place = |s: &ShapeDesc| {
             let mut s = s.clone();
-            s.material += offset;
+            s.material += first_material;
             s.name = format!("inserted {}", s.name);
             s.geometry = match s.geometry {
                 Geometry::Mesh(mut mesh) => {
@@ -170,13 +168,18 @@ impl Insertion {
                 }
                 Geometry::Sphere { center, radius } => Geometry::Sphere { center: m.transform_point3(center), radius: radius * scale },
             };
-            d.shapes.push(s);
-        }
-        d
+            s
+        };
+        self.shapes.iter().map(place).collect()
     }
 
-    /// What the `octree` integrator needs to know of the object in a scene made by
-    /// [`Insertion::scene_desc`] from a base of `base_shapes` shapes.
+    /// The object's materials.
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// What the `octree` integrator needs to know of the object in a scene made of a base of
+    /// `base_shapes` shapes and [`Insertion::placed_shapes`] after them.
     pub fn inserted(&self, base_shapes: usize, m: &Mat4) -> Inserted {
         let first = base_shapes as u32;
         let ao =

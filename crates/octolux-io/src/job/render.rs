@@ -3,6 +3,7 @@
 //! object placed (and re-baked) per frame, each image written as its output set.
 
 use super::*;
+use octolux::scene::Addition;
 
 /// Everything `octolux render` takes (the CLI's flags; Python's `render_to_files`).
 #[derive(Clone, Debug)]
@@ -245,7 +246,9 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
         let mut rebake_report = None;
         if let (Some(ins), Some(base)) = (&insertion, &base_desc) {
             let m = ins.transform_at(frame.as_ref().and_then(|(f, _)| f.time_s));
-            let framed = Scene::prepare_adding(ins.scene_desc(base, &m), job.backend, base_scene.as_ref().unwrap_or(&scene))
+            let shapes = ins.placed_shapes(base.materials.len() as u32, &m);
+            let add = Addition { materials: ins.materials(), shapes: &shapes };
+            let framed = Scene::prepare_adding(base, base_scene.as_ref().unwrap_or(&scene), add, job.backend)
                 .with_context(|| format!("cannot prepare scene '{}' with the inserted object {}", job.scene.scene, ins.file))?;
             let before = std::mem::replace(&mut scene, framed);
             base_scene.get_or_insert(before);

@@ -351,45 +351,7 @@ impl SceneDesc {
         self.film.filter.validate().map_err(SceneError::BadFilm)?;
         self.camera.validate().map_err(SceneError::BadCamera)?;
         for s in &self.shapes {
-            if s.material as usize >= self.materials.len() {
-                return Err(SceneError::BadMaterial { shape: s.name.clone(), material: s.material, count: self.materials.len() });
-            }
-            if let Some(e) = s.emission {
-                if !e.is_finite() || e.min_element() < 0.0 {
-                    return Err(SceneError::BadShape {
-                        shape: s.name.clone(),
-                        problem: format!("emitted radiance {e} must be finite and non-negative"),
-                    });
-                }
-            }
-            match &s.geometry {
-                Geometry::Sphere { center, radius } => {
-                    if !center.is_finite() || !radius.is_finite() || *radius <= 0.0 {
-                        return Err(SceneError::BadShape {
-                            shape: s.name.clone(),
-                            problem: format!("sphere centre {center} radius {radius} is invalid"),
-                        });
-                    }
-                }
-                Geometry::Mesh(m) => {
-                    let n = m.positions.len();
-                    if let Some(p) = m.positions.iter().find(|p| !p.is_finite()) {
-                        return Err(SceneError::BadShape { shape: s.name.clone(), problem: format!("vertex {p} is not finite") });
-                    }
-                    if m.indices.iter().any(|t| t.iter().any(|&i| i as usize >= n)) {
-                        return Err(SceneError::BadShape {
-                            shape: s.name.clone(),
-                            problem: format!("a triangle index is out of range (mesh has {n} vertices)"),
-                        });
-                    }
-                    if m.normals.as_ref().is_some_and(|v| v.len() != n) || m.uvs.as_ref().is_some_and(|v| v.len() != n) {
-                        return Err(SceneError::BadShape {
-                            shape: s.name.clone(),
-                            problem: "normal or uv count differs from the vertex count".into(),
-                        });
-                    }
-                }
-            }
+            Self::validate_shape(s, self.materials.len())?;
         }
         for (i, m) in self.materials.iter().enumerate() {
             m.validate(self.images.len()).map_err(|p| SceneError::BadShape { shape: format!("material {i}"), problem: p })?;
@@ -410,10 +372,59 @@ impl SceneDesc {
         Ok(())
     }
 
+    /// The checks of [`SceneDesc::validate`] on one shape, in a scene of `materials` materials.
+    pub fn validate_shape(s: &ShapeDesc, materials: usize) -> Result<(), SceneError> {
+        if s.material as usize >= materials {
+            return Err(SceneError::BadMaterial { shape: s.name.clone(), material: s.material, count: materials });
+        }
+        if let Some(e) = s.emission {
+            if !e.is_finite() || e.min_element() < 0.0 {
+                return Err(SceneError::BadShape {
+                    shape: s.name.clone(),
+                    problem: format!("emitted radiance {e} must be finite and non-negative"),
+                });
+            }
+        }
+        match &s.geometry {
+            Geometry::Sphere { center, radius } => {
+                if !center.is_finite() || !radius.is_finite() || *radius <= 0.0 {
+                    return Err(SceneError::BadShape {
+                        shape: s.name.clone(),
+                        problem: format!("sphere centre {center} radius {radius} is invalid"),
+                    });
+                }
+            }
+            Geometry::Mesh(m) => {
+                let n = m.positions.len();
+                if let Some(p) = m.positions.iter().find(|p| !p.is_finite()) {
+                    return Err(SceneError::BadShape { shape: s.name.clone(), problem: format!("vertex {p} is not finite") });
+                }
+                if m.indices.iter().any(|t| t.iter().any(|&i| i as usize >= n)) {
+                    return Err(SceneError::BadShape {
+                        shape: s.name.clone(),
+                        problem: format!("a triangle index is out of range (mesh has {n} vertices)"),
+                    });
+                }
+                if m.normals.as_ref().is_some_and(|v| v.len() != n) || m.uvs.as_ref().is_some_and(|v| v.len() != n) {
+                    return Err(SceneError::BadShape {
+                        shape: s.name.clone(),
+                        problem: "normal or uv count differs from the vertex count".into(),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Bounds of all geometry.
     pub fn bounds(&self) -> Bounds3 {
-        let mut b = Bounds3::EMPTY;
-        for s in &self.shapes {
+        Self::shapes_bounds(Bounds3::EMPTY, &self.shapes)
+    }
+
+    /// `b` extended by the bounds of `shapes`, in their order ([`SceneDesc::bounds`] is those
+    /// of all shapes from empty bounds).
+    pub fn shapes_bounds(mut b: Bounds3, shapes: &[ShapeDesc]) -> Bounds3 {
+        for s in shapes {
             match &s.geometry {
                 Geometry::Mesh(m) => b = b.union(&m.bounds()),
                 Geometry::Sphere { center, radius } => {

@@ -257,6 +257,13 @@ impl LightSet {
         }
     }
 
+    /// The same lights for a scene of `shapes` shapes, the ones past the last counted
+    /// emitting nothing (as [`LightSet::with_images`] lists them for shapes added without
+    /// emission: [`crate::scene::Scene::prepare_adding`]).
+    pub(crate) fn cover_shapes(&mut self, shapes: usize) {
+        self.shape_light.resize(shapes.max(self.shape_light.len()), u32::MAX);
+    }
+
     /// The light tree, when some light with a position emits.
     pub fn tree(&self) -> Option<&LightTree> {
         self.tree.as_ref()

@@ -16,7 +16,7 @@
 //! - [`lights`]: the prepared [`lights::LightSet`] that samples the lights;
 //! - this module: the prepared [`Scene`] and its [`SurfaceHit`]; `prepare.rs` makes it
 //!   ([`Scene::prepare`], and [`Scene::prepare_adding`] for an object added to a prepared scene,
-//!   sharing its intersection structure).
+//!   sharing its intersection structure, textures and lights).
 
 pub mod camera;
 pub mod camera_path;
@@ -33,6 +33,7 @@ pub mod sunsky;
 
 pub use desc::{FilmDesc, Geometry, Light, PixelFilter, SceneDesc, SceneError, SceneHints, ShapeDesc, TriMesh};
 pub use fingerprint::LightingFingerprint;
+pub use prepare::Addition;
 
 use crate::accel::layered::LayeredAccel;
 use crate::image::Image;
@@ -176,7 +177,7 @@ struct ShapeInfo {
 /// A scene ready for rendering.
 pub struct Scene {
     pub materials: Vec<Material>,
-    pub images: Vec<Image>,
+    pub images: std::sync::Arc<Vec<Image>>,
     pub lights: LightSet,
     pub camera: Camera,
     pub film: FilmDesc,
