@@ -53,25 +53,25 @@ impl Scene {
                 _ => Vec3::ZERO,
             }
         };
-        for (t, &s) in self.triangles.iter().zip(&self.tri_shape) {
-            let info = &self.shapes[s as usize];
+        for (t, &s) in self.flat.triangles.iter().zip(&self.flat.tri_shape) {
+            let info = &self.flat.shapes[s as usize];
             let le = emission(s);
-            let p = t.map(|k| self.positions[k as usize]);
+            let p = t.map(|k| self.flat.positions[k as usize]);
             let mut ng = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
             if info.flip {
                 ng = -ng;
             }
             for (c, &k) in t.iter().enumerate() {
                 out.positions.push(p[c]);
-                let n = if info.has_normals { self.normals[k as usize].normalize_or_zero() } else { ng };
+                let n = if info.has_normals { self.flat.normals[k as usize].normalize_or_zero() } else { ng };
                 out.normals.push(if info.flip && info.has_normals { -n } else { n });
-                let uv = if info.has_uvs { self.uvs[k as usize] } else { Vec2::ZERO };
+                let uv = if info.has_uvs { self.flat.uvs[k as usize] } else { Vec2::ZERO };
                 out.albedo.push(albedo(info.material, uv, &mut out.grey_materials));
                 out.emission.push(le);
             }
         }
-        for sphere in &self.spheres {
-            let info = &self.shapes[sphere.shape as usize];
+        for sphere in &self.flat.spheres {
+            let info = &self.flat.shapes[sphere.shape as usize];
             let sign = if info.flip { -1.0 } else { 1.0 };
             let (nt, np) = (24usize, 48usize);
             let dir = |i: usize, j: usize| {

@@ -22,7 +22,7 @@
 //! ([`Distribution2D`]); each search goes through its guide table, so that a sample of a
 //! 2048x1024 map reads one or two cache lines of its row instead of a chain of eleven spread
 //! over 16 KB (docs/lab/2026-12-04-light-tree-env-sampling.md: the hierarchical warp and the
-//! alias table measured against it). On maps of at least [`FAST_MIN_WIDTH`] columns no libm
+//! alias table measured against it). On maps of at least 64 columns (`FAST_MIN_WIDTH`) no libm
 //! function is called per sample or density: a direction's cell is guessed by polynomials and
 //! settled against the stored borders, and a sample's `φ` rotates its column's border by a
 //! small angle (docs/lab/2026-12-07-sky-sampling.md).

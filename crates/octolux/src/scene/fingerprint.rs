@@ -95,27 +95,27 @@ impl Scene {
     /// The fingerprints of what the lighting depends on (module docs).
     pub fn lighting_fingerprint(&self) -> LightingFingerprint {
         let mut g = Fnv1a::default();
-        g.u64(self.positions.len() as u64);
-        for p in &self.positions {
+        g.u64(self.flat.positions.len() as u64);
+        for p in &self.flat.positions {
             g.f32s(&p.to_array());
         }
-        for n in &self.normals {
+        for n in &self.flat.normals {
             g.f32s(&n.to_array());
         }
-        for uv in &self.uvs {
+        for uv in &self.flat.uvs {
             g.f32s(&uv.to_array());
         }
-        g.u64(self.triangles.len() as u64);
-        for (t, s) in self.triangles.iter().zip(&self.tri_shape) {
+        g.u64(self.flat.triangles.len() as u64);
+        for (t, s) in self.flat.triangles.iter().zip(&self.flat.tri_shape) {
             t.iter().chain([s]).for_each(|&i| g.u64(i as u64));
         }
-        g.u64(self.spheres.len() as u64);
-        for s in &self.spheres {
+        g.u64(self.flat.spheres.len() as u64);
+        for s in &self.flat.spheres {
             g.f32s(&[s.center.x, s.center.y, s.center.z, s.radius]);
             g.u64(s.shape as u64);
         }
-        g.u64(self.shapes.len() as u64);
-        for s in &self.shapes {
+        g.u64(self.flat.shapes.len() as u64);
+        for s in &self.flat.shapes {
             g.bytes(&[s.flip as u8, s.has_normals as u8, s.has_uvs as u8]);
         }
         g.f32s(&self.bounds.min.to_array());
@@ -132,7 +132,7 @@ impl Scene {
             .collect();
         let mut m = Fnv1a::default();
         m.bytes(format!("{:?}", self.materials).as_bytes());
-        for s in &self.shapes {
+        for s in &self.flat.shapes {
             m.u64(s.material as u64);
         }
         let mut e = Fnv1a::default();

@@ -174,6 +174,20 @@ struct ShapeInfo {
     name: String,
 }
 
+/// A scene's shapes as the prepared scene holds them (`prepare.rs` fills it): one list of
+/// vertices and triangles, the analytic spheres, and what each shape is.
+#[derive(Clone, Default)]
+struct Flat {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    triangles: Vec<[u32; 3]>,
+    /// Each triangle's shape, non-decreasing (a shape's triangles are contiguous, in shape order).
+    tri_shape: Vec<u32>,
+    spheres: Vec<SphereShape>,
+    shapes: Vec<ShapeInfo>,
+}
+
 /// A scene ready for rendering.
 pub struct Scene {
     pub materials: Vec<Material>,
@@ -183,14 +197,8 @@ pub struct Scene {
     pub film: FilmDesc,
     pub bounds: Bounds3,
     accel: LayeredAccel,
-    positions: Vec<Vec3>,
-    normals: Vec<Vec3>,
-    uvs: Vec<Vec2>,
-    triangles: Vec<[u32; 3]>,
-    /// Each triangle's shape, non-decreasing (a shape's triangles are contiguous, in shape order).
-    tri_shape: Vec<u32>,
-    spheres: Vec<SphereShape>,
-    shapes: Vec<ShapeInfo>,
+    /// The shapes: one list of vertices and triangles, the analytic spheres.
+    flat: Flat,
     /// For each material that is a `mask`, the index (in `materials`) of a copy of its nested
     /// material, for [`Scene::resolve_mask`].
     mask_nested: Vec<Option<u32>>,
@@ -264,21 +272,22 @@ impl Scene {
     }
 
     pub fn triangle_count(&self) -> usize {
-        self.triangles.len()
+        self.flat.triangles.len()
     }
 
     /// World-space triangles of the shapes whose material passes `keep` (spheres tessellated),
     /// e.g. for geometry-area estimates.
     pub fn world_triangles_where(&self, keep: impl Fn(&Material) -> bool) -> Vec<[Vec3; 3]> {
-        let kept = |shape: u32| keep(&self.materials[self.shapes[shape as usize].material as usize]);
+        let kept = |shape: u32| keep(&self.materials[self.flat.shapes[shape as usize].material as usize]);
         let mut out: Vec<[Vec3; 3]> = self
+            .flat
             .triangles
             .iter()
-            .zip(&self.tri_shape)
+            .zip(&self.flat.tri_shape)
             .filter(|(_, &s)| kept(s))
-            .map(|(t, _)| [self.positions[t[0] as usize], self.positions[t[1] as usize], self.positions[t[2] as usize]])
+            .map(|(t, _)| [self.flat.positions[t[0] as usize], self.flat.positions[t[1] as usize], self.flat.positions[t[2] as usize]])
             .collect();
-        for s in self.spheres.iter().filter(|s| kept(s.shape)) {
+        for s in self.flat.spheres.iter().filter(|s| kept(s.shape)) {
             let (nt, np) = (24usize, 48usize);
             let pt = |i: usize, j: usize| {
                 let th = PI * i as f32 / nt as f32;
@@ -298,13 +307,14 @@ impl Scene {
     /// World-space triangles and analytic spheres (centre, radius) of the shapes `shapes`.
     pub fn shapes_geometry(&self, shapes: &std::ops::Range<u32>) -> (Vec<[Vec3; 3]>, Vec<(Vec3, f32)>) {
         let tris = self
+            .flat
             .triangles
             .iter()
-            .zip(&self.tri_shape)
+            .zip(&self.flat.tri_shape)
             .filter(|(_, s)| shapes.contains(s))
-            .map(|(t, _)| t.map(|k| self.positions[k as usize]))
+            .map(|(t, _)| t.map(|k| self.flat.positions[k as usize]))
             .collect();
-        let spheres = self.spheres.iter().filter(|s| shapes.contains(&s.shape)).map(|s| (s.center, s.radius)).collect();
+        let spheres = self.flat.spheres.iter().filter(|s| shapes.contains(&s.shape)).map(|s| (s.center, s.radius)).collect();
         (tris, spheres)
     }
 
@@ -319,11 +329,11 @@ impl Scene {
     /// [`Scene::mesh_triangles_where`] of the shapes in `shapes` only, appended to `out` (in
     /// the scene's order; a shape's triangles are contiguous and in shape order).
     pub fn mesh_triangles_into(&self, shapes: Range<u32>, keep: impl Fn(&Material) -> bool, out: &mut Vec<[Vec3; 3]>) {
-        let (a, b) = (self.tri_shape.partition_point(|&s| s < shapes.start), self.tri_shape.partition_point(|&s| s < shapes.end));
-        let tris = self.triangles[a..b].iter().zip(&self.tri_shape[a..b]);
-        out.extend(tris.filter(|(_, &s)| keep(&self.materials[self.shapes[s as usize].material as usize])).map(|(t, &s)| {
-            let p = |k: usize| self.positions[t[k] as usize];
-            if self.shapes[s as usize].flip {
+        let (a, b) = (self.flat.tri_shape.partition_point(|&s| s < shapes.start), self.flat.tri_shape.partition_point(|&s| s < shapes.end));
+        let tris = self.flat.triangles[a..b].iter().zip(&self.flat.tri_shape[a..b]);
+        out.extend(tris.filter(|(_, &s)| keep(&self.materials[self.flat.shapes[s as usize].material as usize])).map(|(t, &s)| {
+            let p = |k: usize| self.flat.positions[t[k] as usize];
+            if self.flat.shapes[s as usize].flip {
                 [p(0), p(2), p(1)]
             } else {
                 [p(0), p(1), p(2)]
@@ -333,10 +343,11 @@ impl Scene {
 
     /// The analytic spheres whose material passes `keep`: `(centre, radius, flip_normals)`.
     pub fn analytic_spheres_where(&self, keep: impl Fn(&Material) -> bool) -> Vec<(Vec3, f32, bool)> {
-        self.spheres
+        self.flat
+            .spheres
             .iter()
-            .filter(|s| keep(&self.materials[self.shapes[s.shape as usize].material as usize]))
-            .map(|s| (s.center, s.radius, self.shapes[s.shape as usize].flip))
+            .filter(|s| keep(&self.materials[self.flat.shapes[s.shape as usize].material as usize]))
+            .map(|s| (s.center, s.radius, self.flat.shapes[s.shape as usize].flip))
             .collect()
     }
 
@@ -346,14 +357,14 @@ impl Scene {
         let tri = self.accel.intersect(ray);
         let mut tmax = tri.map_or(ray.tmax, |h| h.t);
         let mut sphere_hit: Option<(usize, f32)> = None;
-        for (i, s) in self.spheres.iter().enumerate() {
+        for (i, s) in self.flat.spheres.iter().enumerate() {
             if let Some(t) = intersect_sphere(ray, s.center, s.radius, tmax) {
                 tmax = t;
                 sphere_hit = Some((i, t));
             }
         }
         if let Some((i, t)) = sphere_hit {
-            return Some(self.sphere_hit(ray, &self.spheres[i], t));
+            return Some(self.sphere_hit(ray, &self.flat.spheres[i], t));
         }
         tri.map(|h| self.triangle_hit(ray, h.prim, h.t, Vec2::new(h.u, h.v)))
     }
@@ -370,7 +381,7 @@ impl Scene {
     /// True when anything blocks the segment `[tmin, tmax]` of the ray.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        for s in &self.spheres {
+        for s in &self.flat.spheres {
             if intersect_sphere(ray, s.center, s.radius, ray.tmax).is_some() {
                 return true;
             }
@@ -382,14 +393,14 @@ impl Scene {
     // returned from a call, the 160-byte record was copied (`memmove`, 1-3% of the path tracer).
     #[inline]
     fn triangle_hit(&self, ray: &Ray, prim: u32, t: f32, b: Vec2) -> SurfaceHit {
-        let tri = self.triangles[prim as usize];
-        let shape = self.tri_shape[prim as usize];
-        let info = &self.shapes[shape as usize];
+        let tri = self.flat.triangles[prim as usize];
+        let shape = self.flat.tri_shape[prim as usize];
+        let info = &self.flat.shapes[shape as usize];
         let (i0, i1, i2) = (tri[0] as usize, tri[1] as usize, tri[2] as usize);
-        let (p0, p1, p2) = (self.positions[i0], self.positions[i1], self.positions[i2]);
+        let (p0, p1, p2) = (self.flat.positions[i0], self.flat.positions[i1], self.flat.positions[i2]);
         let mut ng = (p1 - p0).cross(p2 - p0).normalize();
         let mut n = if info.has_normals {
-            let n = bary(self.normals[i0], self.normals[i1], self.normals[i2], b).normalize_or_zero();
+            let n = bary(self.flat.normals[i0], self.flat.normals[i1], self.flat.normals[i2], b).normalize_or_zero();
             if n == Vec3::ZERO {
                 ng
             } else {
@@ -402,11 +413,11 @@ impl Scene {
             ng = -ng;
             n = -n;
         }
-        let uv = if info.has_uvs { bary(self.uvs[i0], self.uvs[i1], self.uvs[i2], b) } else { b };
+        let uv = if info.has_uvs { bary(self.flat.uvs[i0], self.flat.uvs[i1], self.flat.uvs[i2], b) } else { b };
         // Mitsuba 3's mesh differentials (mesh.cpp): from the uvs when they are not degenerate.
         let (mut dp_du, mut dp_dv) = (p1 - p0, p2 - p0);
         if info.has_uvs {
-            let (duv0, duv1) = (self.uvs[i1] - self.uvs[i0], self.uvs[i2] - self.uvs[i0]);
+            let (duv0, duv1) = (self.flat.uvs[i1] - self.flat.uvs[i0], self.flat.uvs[i2] - self.flat.uvs[i0]);
             let det = duv0.x * duv1.y - duv0.y * duv1.x;
             if det != 0.0 && det.is_finite() {
                 let inv = 1.0 / det;
@@ -435,7 +446,7 @@ impl Scene {
     }
 
     fn sphere_hit(&self, ray: &Ray, s: &SphereShape, t: f32) -> SurfaceHit {
-        let info = &self.shapes[s.shape as usize];
+        let info = &self.flat.shapes[s.shape as usize];
         let local = (ray.at(t) - s.center) / s.radius;
         let local = local.normalize();
         // Re-project onto the sphere to remove the error of the quadratic solve.
@@ -472,7 +483,7 @@ impl Scene {
 
     /// Name of a shape (for messages).
     pub fn shape_name(&self, shape: u32) -> &str {
-        &self.shapes[shape as usize].name
+        &self.flat.shapes[shape as usize].name
     }
 }
 

@@ -3,7 +3,7 @@
 //! tables), and [`Scene::prepare_adding`] for a scene with an object added to a prepared one.
 
 use super::desc::{Geometry, SceneDesc, SceneError, ShapeDesc};
-use super::{material, Camera, LightSet, Material, Scene, ShapeInfo, SphereShape};
+use super::{material, Camera, Flat, LightSet, Material, Scene, ShapeInfo, SphereShape};
 use crate::accel::layered::LayeredAccel;
 use crate::accel::BackendKind;
 use glam::{Vec2, Vec3};
@@ -16,19 +16,6 @@ use std::sync::Arc;
 pub struct Addition<'a> {
     pub materials: &'a [Material],
     pub shapes: &'a [ShapeDesc],
-}
-
-/// A scene's shapes as the prepared scene holds them: one list of vertices and triangles, the
-/// analytic spheres, and what each shape is.
-#[derive(Clone, Default)]
-struct Flat {
-    positions: Vec<Vec3>,
-    normals: Vec<Vec3>,
-    uvs: Vec<Vec2>,
-    triangles: Vec<[u32; 3]>,
-    tri_shape: Vec<u32>,
-    spheres: Vec<SphereShape>,
-    shapes: Vec<ShapeInfo>,
 }
 
 impl Flat {
@@ -108,7 +95,7 @@ impl Scene {
     pub fn prepare_adding(base_desc: &SceneDesc, base: &Scene, add: Addition<'_>, backend: BackendKind) -> Result<Scene, SceneError> {
         let desc_triangles: usize =
             base_desc.shapes.iter().map(|s| if let Geometry::Mesh(m) = &s.geometry { m.indices.len() } else { 0 }).sum();
-        if base.shapes.len() != base_desc.shapes.len() || base.triangles.len() != desc_triangles {
+        if base.flat.shapes.len() != base_desc.shapes.len() || base.flat.triangles.len() != desc_triangles {
             let mut whole = base_desc.clone();
             whole.materials.extend_from_slice(add.materials);
             whole.shapes.extend_from_slice(add.shapes);
@@ -122,19 +109,11 @@ impl Scene {
             m.validate(base_desc.images.len())
                 .map_err(|p| SceneError::BadShape { shape: format!("material {}", base_desc.materials.len() + i), problem: p })?;
         }
-        let mut flat = Flat {
-            positions: base.positions.clone(),
-            normals: base.normals.clone(),
-            uvs: base.uvs.clone(),
-            triangles: base.triangles.clone(),
-            tri_shape: base.tri_shape.clone(),
-            spheres: base.spheres.clone(),
-            shapes: base.shapes.clone(),
-        };
+        let mut flat = base.flat.clone();
         flat.add(add.shapes);
         let bounds = SceneDesc::shapes_bounds(base.bounds, add.shapes);
         let accel = if base.accel.is_single() {
-            LayeredAccel::adding(&base.accel, base.triangles.len(), &flat.positions, &flat.triangles, backend)
+            LayeredAccel::adding(&base.accel, base.flat.triangles.len(), &flat.positions, &flat.triangles, backend)
         } else {
             LayeredAccel::build(&flat.positions, &flat.triangles, backend)
         }
@@ -166,24 +145,7 @@ impl Scene {
         bounds: crate::math::Bounds3,
         accel: LayeredAccel,
     ) -> Scene {
-        let Flat { positions, normals, uvs, triangles, tri_shape, spheres, shapes } = flat;
-        Scene {
-            materials,
-            images,
-            lights,
-            camera,
-            film,
-            bounds,
-            accel,
-            positions,
-            normals,
-            uvs,
-            triangles,
-            tri_shape,
-            spheres,
-            shapes,
-            mask_nested,
-        }
+        Scene { materials, images, lights, camera, film, bounds, accel, flat, mask_nested }
     }
 }
 
@@ -236,9 +198,15 @@ mod tests {
             whole_desc.shapes.extend(shapes.iter().cloned());
             let whole = Scene::prepare(whole_desc, BackendKind::Bvh).unwrap();
             assert_eq!(added.bounds != base.bounds, grows);
-            assert_eq!((&added.positions, &added.normals, &added.uvs), (&whole.positions, &whole.normals, &whole.uvs));
-            assert_eq!((&added.triangles, &added.tri_shape, added.shapes.len()), (&whole.triangles, &whole.tri_shape, whole.shapes.len()));
-            assert_eq!(format!("{:?}", added.spheres), format!("{:?}", whole.spheres));
+            assert_eq!(
+                (&added.flat.positions, &added.flat.normals, &added.flat.uvs),
+                (&whole.flat.positions, &whole.flat.normals, &whole.flat.uvs)
+            );
+            assert_eq!(
+                (&added.flat.triangles, &added.flat.tri_shape, added.flat.shapes.len()),
+                (&whole.flat.triangles, &whole.flat.tri_shape, whole.flat.shapes.len())
+            );
+            assert_eq!(format!("{:?}", added.flat.spheres), format!("{:?}", whole.flat.spheres));
             assert_eq!((&added.materials, &added.mask_nested, added.bounds), (&whole.materials, &whole.mask_nested, whole.bounds));
             assert_eq!(format!("{:?}", added.lights), format!("{:?}", whole.lights));
             let mut s = Sampler::new(7, 0, 0);
@@ -253,6 +221,6 @@ mod tests {
         let other = Scene::prepare(crate::integrators::test_scenes::sky_plane_desc(0.5, 1.0), BackendKind::Bvh).unwrap();
         let add = Addition { materials: &[], shapes: &[] };
         let again = Scene::prepare_adding(&base_desc, &other, add, BackendKind::Bvh).unwrap();
-        assert_eq!((again.triangles.len(), again.shapes.len()), (base.triangles.len(), base.shapes.len()));
+        assert_eq!((again.flat.triangles.len(), again.flat.shapes.len()), (base.flat.triangles.len(), base.flat.shapes.len()));
     }
 }
