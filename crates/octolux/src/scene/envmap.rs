@@ -162,31 +162,46 @@ impl LatLong {
     fn cell_of(&self, d: Vec3) -> (usize, usize) {
         let nx = self.width;
         let ny = self.height - 1;
-        if self.col_sc.is_empty() {
+        let by_uv = || {
             let uv = direction_to_uv(d);
             let x = uv.x * nx as f32 - 0.5;
             let ix = (x.floor() as i64).rem_euclid(nx as i64) as usize;
             let iy = ((uv.y * ny as f32) as usize).min(ny - 1);
-            return (ix, iy);
+            (ix, iy)
+        };
+        if self.col_sc.is_empty() {
+            return by_uv();
         }
-        let (a, b) = (d.x, -d.z); // (sin φ, cos φ) times the distance from the axis
-                                  // φ / 2π in [-½, ½], shifted by a whole turn to keep the cast's argument positive
+        // (sin φ, cos φ) times the distance from the axis
+        let (a, b) = (d.x, -d.z);
+        // φ / 2π in [-½, ½] times the columns, a whole turn added to keep the cast's argument
+        // positive; no `%` (an integer division costs more than the rest of the guess)
         let t = atan2_approx(a, b) * (0.5 * std::f32::consts::FRAC_1_PI) * nx as f32 - 0.5 + nx as f32;
-        // (no `%`: an integer division costs more than the rest of the guess)
         let wrap = |i: usize| if i >= nx { i - nx } else { i };
         let mut ix = wrap((t as usize).min(2 * nx - 1));
         // sin(φ − φ_k) times the distance from the axis: ≥ 0 past boundary k
         let past = |k: usize| (a as f64) * self.col_sc[k][1] - (b as f64) * self.col_sc[k][0] >= 0.0;
-        if !past(ix) {
+        // one step settles any guess on maps narrower than 2π / 2e-5 columns; a few more are
+        // allowed, then (a direction on the axis, where every border is passed; a map wider
+        // still) the texture coordinates decide
+        let mut steps = 0;
+        while !past(ix) && steps < 4 {
             ix = wrap(ix + nx - 1);
-        } else if past(wrap(ix + 1)) {
+            steps += 1;
+        }
+        while past(wrap(ix + 1)) && steps < 4 {
             ix = wrap(ix + 1);
+            steps += 1;
+        }
+        if steps == 4 {
+            return by_uv();
         }
         let y = d.y as f64;
         let mut iy = ((acos_approx(d.y) * (ny as f32 * std::f32::consts::FRAC_1_PI)) as usize).min(ny - 1);
-        if iy > 0 && y > self.row_cos[iy] {
+        while iy > 0 && y > self.row_cos[iy] {
             iy -= 1;
-        } else if iy + 1 < ny && y < self.row_cos[iy + 1] {
+        }
+        while iy + 1 < ny && y < self.row_cos[iy + 1] {
             iy += 1;
         }
         (ix, iy)

@@ -81,7 +81,8 @@ impl Scene {
         let lights = LightSet::with_images(&desc.lights, &desc.shapes, &desc.images, bounds);
         let camera = Camera::new(&desc.camera, desc.film.width, desc.film.height);
         let (materials, mask_nested) = with_mask_copies(desc.materials);
-        Ok(Scene::assemble(flat, materials, mask_nested, Arc::new(desc.images), lights, camera, desc.film, bounds, accel))
+        let images = Arc::new(desc.images);
+        Ok(Scene { materials, images, lights, camera, film: desc.film, bounds, accel, flat, mask_nested })
     }
 
     /// The scene `base` (prepared from `base_desc`) with `add`'s shapes and materials appended:
@@ -130,22 +131,8 @@ impl Scene {
         let camera = Camera::new(&base_desc.camera, base_desc.film.width, base_desc.film.height);
         let materials = base_desc.materials.iter().chain(add.materials).cloned().collect();
         let (materials, mask_nested) = with_mask_copies(materials);
-        Ok(Scene::assemble(flat, materials, mask_nested, base.images.clone(), lights, camera, base_desc.film, bounds, accel))
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn assemble(
-        flat: Flat,
-        materials: Vec<Material>,
-        mask_nested: Vec<Option<u32>>,
-        images: Arc<Vec<crate::image::Image>>,
-        lights: LightSet,
-        camera: Camera,
-        film: super::desc::FilmDesc,
-        bounds: crate::math::Bounds3,
-        accel: LayeredAccel,
-    ) -> Scene {
-        Scene { materials, images, lights, camera, film, bounds, accel, flat, mask_nested }
+        let images = base.images.clone();
+        Ok(Scene { materials, images, lights, camera, film: base_desc.film, bounds, accel, flat, mask_nested })
     }
 }
 
