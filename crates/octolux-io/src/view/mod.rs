@@ -93,7 +93,8 @@ pub fn resources(
         }
     }
     put("/scene.bin", "application/octet-stream", bin);
-    let seen = seen_points(scene, width, height);
+    let hits = centre_hits(scene, width, height);
+    let seen: Vec<glam::Vec3> = hits.iter().filter_map(|(_, _, h)| h.map(|(p, _)| p)).collect();
     let mut tree_meta = |t: &Octree, prefix: &str| {
         let stream = t.stream_seen(&seen);
         let record = |b: &mut Vec<u8>, n: &StreamNode| {
@@ -139,7 +140,7 @@ pub fn resources(
     };
     let (indirect, direct) = (tree_meta(tree, "/octree"), tree_meta(direct, "/direct"));
     if compare_cpu {
-        put("/cpu.bin", "application/octet-stream", cpu_irradiance(scene, tree, width, height));
+        put("/cpu.bin", "application/octet-stream", cpu_irradiance(tree, &hits));
     }
     let cam = scene.camera.frame();
     let meta = json!({
@@ -157,39 +158,42 @@ pub fn resources(
     (routes, meta)
 }
 
-/// The surface points the scene's camera sees at the centres of a `width` x `height` image.
-fn seen_points(scene: &Scene, width: u32, height: u32) -> Vec<glam::Vec3> {
+/// A pixel centre's ray (origin, direction) and the surface point it meets with its shading
+/// normal ([`centre_hits`]).
+type CentreHit = (glam::Vec3, glam::Vec3, Option<(glam::Vec3, glam::Vec3)>);
+
+/// The ray of the scene's camera through the centre of each pixel of a `width` x `height`
+/// image, top row first (origin, direction), and the surface point it meets with its shading
+/// normal: the points a first view sees (the stream's order) and where the CPU query is read
+/// ([`cpu_irradiance`]).
+fn centre_hits(scene: &Scene, width: u32, height: u32) -> Vec<CentreHit> {
     let (sx, sy) = (scene.film.width as f32 / width as f32, scene.film.height as f32 / height as f32);
     (0..height)
         .flat_map(|y| (0..width).map(move |x| (x, y)))
-        .filter_map(|(x, y)| {
+        .map(|(x, y)| {
             let (o, d, tmin) = scene.camera.generate_ray(glam::Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy));
-            scene.intersect(&Ray { tmin, ..Ray::new(o, d) }).map(|h| h.p)
+            (o, d, scene.intersect(&Ray { tmin, ..Ray::new(o, d) }).map(|h| (h.p, h.frame.n)))
         })
         .collect()
 }
 
-/// The CPU query's irradiance (W/m², RGB) at the centre of every pixel of a `width` x `height`
-/// image of the scene's camera, and the distance to the surface there: the surface the pixel's
-/// ray meets, its shading normal turned to the camera, [`Octree::irradiance`] (0 where no valid
-/// leaf answers or nothing is hit; distance 0 where nothing is hit). The page compares its own
-/// where it drew the same surface point (its tessellated spheres' silhouettes differ).
-pub fn cpu_irradiance(scene: &Scene, tree: &Octree, width: u32, height: u32) -> Vec<u8> {
-    let (sx, sy) = (scene.film.width as f32 / width as f32, scene.film.height as f32 / height as f32);
-    let mut out = Vec::with_capacity((width * height * 16) as usize);
-    for y in 0..height {
-        for x in 0..width {
-            let (o, d, tmin) = scene.camera.generate_ray(glam::Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy));
-            let (e, t) = match scene.intersect(&Ray { tmin, ..Ray::new(o, d) }) {
-                Some(h) => {
-                    let n = if h.frame.n.dot(d) > 0.0 { -h.frame.n } else { h.frame.n };
-                    (tree.irradiance(h.p, n).unwrap_or(glam::Vec3::ZERO), (h.p - o).length())
-                }
-                None => (glam::Vec3::ZERO, 0.0),
-            };
-            for c in e.extend(t).to_array() {
-                out.extend_from_slice(&c.to_le_bytes());
+/// The CPU query's irradiance (W/m², RGB) at each pixel centre's hit ([`centre_hits`]), and the
+/// distance to the surface there: its shading normal turned to the camera,
+/// [`Octree::irradiance`] (0 where no valid leaf answers or nothing is hit; distance 0 where
+/// nothing is hit). The page compares its own where it drew the same surface point (its
+/// tessellated spheres' silhouettes differ).
+fn cpu_irradiance(tree: &Octree, hits: &[CentreHit]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(hits.len() * 16);
+    for (o, d, hit) in hits {
+        let (e, t) = match hit {
+            Some((p, n)) => {
+                let n = if n.dot(*d) > 0.0 { -*n } else { *n };
+                (tree.irradiance(*p, n).unwrap_or(glam::Vec3::ZERO), (*p - *o).length())
             }
+            None => (glam::Vec3::ZERO, 0.0),
+        };
+        for c in e.extend(t).to_array() {
+            out.extend_from_slice(&c.to_le_bytes());
         }
     }
     out
