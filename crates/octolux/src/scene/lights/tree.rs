@@ -72,12 +72,46 @@ impl LightBounds {
     /// Importance at point `p` with normal `n` (`Vec3::ZERO`: none); module docs.
     #[inline]
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        Reach::of(self).importance(p, n)
+    }
+}
+
+/// What [`LightBounds::importance`] reads of a node, with the values that depend on the node
+/// alone (the box's centre and half diagonal, the cone's sine) computed once, by the same
+/// operations: the importance is the same to the bit. The tree's nodes keep this form.
+#[derive(Clone, Copy, Debug)]
+struct Reach {
+    centroid: Vec3,
+    /// A quarter of the box diagonal's squared length (the squared radius of its bounding sphere).
+    half_diag2: f32,
+    axis: Vec3,
+    cos_o: f32,
+    sin_o: f32,
+    cos_e: f32,
+    phi: f32,
+}
+
+impl Reach {
+    fn of(b: &LightBounds) -> Reach {
+        Reach {
+            centroid: b.centroid(),
+            half_diag2: 0.25 * (b.hi - b.lo).length_squared(),
+            axis: b.axis,
+            cos_o: b.cos_o,
+            sin_o: (1.0 - b.cos_o * b.cos_o).max(0.0).sqrt(),
+            cos_e: b.cos_e,
+            phi: b.phi,
+        }
+    }
+
+    /// [`LightBounds::importance`].
+    #[inline]
+    fn importance(&self, p: Vec3, n: Vec3) -> f32 {
         if !(self.phi > 0.0) {
             return 0.0;
         }
-        let pc = self.centroid();
-        let half_diag2 = 0.25 * (self.hi - self.lo).length_squared();
-        let to_p = p - pc;
+        let half_diag2 = self.half_diag2;
+        let to_p = p - self.centroid;
         let dist2 = to_p.length_squared();
         let d2 = dist2.max(half_diag2);
         if !(d2 > 0.0) {
@@ -94,10 +128,9 @@ impl LightBounds {
             let s2 = half_diag2 / dist2;
             (s2.sqrt(), (1.0 - s2).max(0.0).sqrt())
         };
-        let sin_o = (1.0 - self.cos_o * self.cos_o).max(0.0).sqrt();
         // θ' = max(0, θ_w − θ_o − θ_b)
-        let cos_x = cos_sub(sin_w, cos_w, sin_o, self.cos_o);
-        let sin_x = sin_sub(sin_w, cos_w, sin_o, self.cos_o);
+        let cos_x = cos_sub(sin_w, cos_w, self.sin_o, self.cos_o);
+        let sin_x = sin_sub(sin_w, cos_w, self.sin_o, self.cos_o);
         let cos_p = cos_sub(sin_x, cos_x, sin_b, cos_b);
         if cos_p < self.cos_e {
             return 0.0;
@@ -174,7 +207,7 @@ fn cone_measure(b: &LightBounds) -> f32 {
 
 #[derive(Clone, Debug)]
 struct Node {
-    bounds: LightBounds,
+    reach: Reach,
     /// Leaf: the light's index; inner node: its first child (the second is `child + 1`).
     child_or_light: u32,
     leaf: bool,
@@ -199,7 +232,7 @@ impl LightTree {
             return None;
         }
         let mut tree = LightTree { nodes: Vec::with_capacity(2 * items.len()), trail: vec![None; n_lights] };
-        tree.nodes.push(Node { bounds: items[0].1, child_or_light: 0, leaf: true });
+        tree.nodes.push(Node { reach: Reach::of(&items[0].1), child_or_light: 0, leaf: true });
         tree.build_node(0, &mut items, 0, 0);
         Some(tree)
     }
@@ -208,7 +241,7 @@ impl LightTree {
         let bounds = items[1..].iter().fold(items[0].1, |acc, (_, b)| acc.union(b));
         if items.len() == 1 {
             let l = items[0].0;
-            self.nodes[node] = Node { bounds, child_or_light: l, leaf: true };
+            self.nodes[node] = Node { reach: Reach::of(&bounds), child_or_light: l, leaf: true };
             if let Some(t) = self.trail.get_mut(l as usize) {
                 *t = Some((bits, depth));
             }
@@ -216,8 +249,9 @@ impl LightTree {
         }
         let mid = if depth >= SAOH_LEVELS { items.len() / 2 } else { split(items, &bounds) };
         let child = self.nodes.len();
-        self.nodes[node] = Node { bounds, child_or_light: child as u32, leaf: false };
-        let placeholder = Node { bounds, child_or_light: 0, leaf: true };
+        let reach = Reach::of(&bounds);
+        self.nodes[node] = Node { reach, child_or_light: child as u32, leaf: false };
+        let placeholder = Node { reach, child_or_light: 0, leaf: true };
         self.nodes.push(placeholder.clone());
         self.nodes.push(placeholder);
         let (left, right) = items.split_at_mut(mid);
@@ -231,8 +265,8 @@ impl LightTree {
     #[inline]
     fn first_child_probability(&self, node: &Node, p: Vec3, n: Vec3) -> Option<f32> {
         let c = node.child_or_light as usize;
-        let ia = self.nodes[c].bounds.importance(p, n) as f64;
-        let ib = self.nodes[c + 1].bounds.importance(p, n) as f64;
+        let ia = self.nodes[c].reach.importance(p, n) as f64;
+        let ib = self.nodes[c + 1].reach.importance(p, n) as f64;
         // f64: the sum of two large finite importances does not overflow
         let total = ia + ib;
         (total > 0.0).then(|| (ia / total) as f32)
@@ -243,7 +277,8 @@ impl LightTree {
     #[inline]
     pub fn sample(&self, p: Vec3, n: Vec3, mut u: f32) -> Option<(u32, f32)> {
         let mut node = &self.nodes[0];
-        if !(node.bounds.importance(p, n) > 0.0) {
+        // an inner node's own importance is not needed: its children's decide
+        if node.leaf && !(node.reach.importance(p, n) > 0.0) {
             return None;
         }
         let mut pmf = 1.0f32;
@@ -270,7 +305,8 @@ impl LightTree {
     pub fn pmf(&self, light: u32, p: Vec3, n: Vec3) -> f32 {
         let Some(Some((bits, depth))) = self.trail.get(light as usize) else { return 0.0 };
         let mut node = &self.nodes[0];
-        if !(node.bounds.importance(p, n) > 0.0) {
+        // an inner node's own importance is not needed: its children's decide
+        if node.leaf && !(node.reach.importance(p, n) > 0.0) {
             return 0.0;
         }
         let mut pmf = 1.0f32;
