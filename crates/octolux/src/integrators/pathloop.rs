@@ -257,10 +257,11 @@ fn walk<E: Ending, const RESUME: bool>(
     let mut diff = diff;
     let mut result = Color::ZERO;
     let sel = depths.lights;
+    // The record of the ray's hit, one for every bounce (`Scene::intersect_into`).
+    let mut found: Option<SurfaceHit> = None;
     loop {
         // The vertex, in place (a SurfaceHit is not moved on the unsplit path).
         let mut resumed: Option<Vertex> = None;
-        let mut found: Option<SurfaceHit>;
         let (hit, wo, end): (&SurfaceHit, Vec3, Option<CacheEnd>) = match if RESUME { pending.take() } else { None } {
             Some(v) => {
                 let v = resumed.insert(v);
@@ -273,7 +274,7 @@ fn walk<E: Ending, const RESUME: bool>(
                 if skip_on && prev_delta {
                     weight = (weight - skip).max(Color::ZERO);
                 }
-                found = scene.intersect(&ray);
+                scene.intersect_into(&ray, &mut found);
                 let Some(hit) = found.as_mut() else {
                     // Escaped: environment emission.
                     let le = scene.lights.env_le(ray.d);
