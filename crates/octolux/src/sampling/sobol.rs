@@ -126,7 +126,10 @@ fn keys(key: u64) -> (u32, u32, u32) {
 pub fn sample_2d_rev(index_rev: u32, key: u64) -> (u32, u32) {
     let (ks, kx, ky) = keys(key);
     let i = lk_hash(index_rev, ks).reverse_bits();
-    (scrambled_dim0(i, kx), lk_hash(sobol_dim1_rev(i), ky).reverse_bits())
+    // both coordinates' reversals in one of 64 bits: `y`'s hash in the high half comes out
+    // reversed in the low half, `x`'s in the high half
+    let both = (((lk_hash(sobol_dim1_rev(i), ky) as u64) << 32) | lk_hash(i, kx) as u64).reverse_bits();
+    ((both >> 32) as u32, both as u32)
 }
 
 /// Sample `index` of the 1D slot keyed by `key`, as a 32-bit fraction, given `index_rev` as
