@@ -26,6 +26,10 @@ pub struct Distribution1D {
 /// Distributions with fewer values than this search their CDF without a guide table.
 pub const GUIDE_MIN: usize = 64;
 
+/// Distributions with fewer values than this count the CDF values below a sample instead of
+/// searching them.
+const LINEAR_MAX: usize = 16;
+
 impl Distribution1D {
     /// Build from non-negative finite weights. Returns `None` when the sum is not positive.
     pub fn new(weights: &[f32]) -> Option<Self> {
@@ -73,7 +77,11 @@ impl Distribution1D {
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         let n = self.n;
         // the number of CDF values <= u, through the guide table when there is one
-        let below = if self.guide.len() < 2 {
+        let below = if n < LINEAR_MAX {
+            // a few values: counted without branches (a search's branches on `u` mispredict);
+            // the CDF is nondecreasing, so the count is where the search would end
+            self.cells.iter().map(|c| usize::from(c.0 <= u)).sum()
+        } else if self.guide.len() < 2 {
             self.cells.partition_point(|c| c.0 <= u)
         } else {
             let g = self.guide.len() - 1;
@@ -199,6 +207,35 @@ mod tests {
         assert!(Distribution1D::new(&[f32::NAN]).is_none());
     }
 
+    /// The index a binary search of the whole CDF finds for `u` (zero buckets skipped).
+    fn searched(d: &Distribution1D, u: f32) -> usize {
+        let n = d.len();
+        let mut i = d.cells.partition_point(|c| c.0 <= u).saturating_sub(1).min(n - 1);
+        while d.pmf(i) == 0.0 && i + 1 < n {
+            i += 1;
+        }
+        while d.pmf(i) == 0.0 && i > 0 {
+            i -= 1;
+        }
+        i
+    }
+
+    /// Small distributions count the CDF values below `u` instead of searching: the same
+    /// index for every `u`, the CDF's own values included, with zero weights among them.
+    #[test]
+    fn the_count_of_a_small_distribution_finds_what_the_search_finds() {
+        let mut s = Sampler::new(3, 0, 0);
+        for n in 1..LINEAR_MAX + 2 {
+            let w: Vec<f32> = (0..n).map(|i| if i % 3 == 1 { 0.0 } else { s.next_1d() + 0.1 }).collect();
+            let d = Distribution1D::new(&w).unwrap();
+            let us: Vec<f32> = (0..2000).map(|_| s.next_1d()).chain(d.cells.iter().map(|c| c.0).filter(|&c| c < 1.0)).collect();
+            for u in us {
+                let (i, p, _) = d.sample(u);
+                assert_eq!((i, p), (searched(&d, u), d.pmf(searched(&d, u))), "n = {n}, u = {u}");
+            }
+        }
+    }
+
     /// The guide table changes where the search looks, not what it finds: the same index as a
     /// search of the whole CDF for every `u`, the guide's own boundaries `k / G` included, over
     /// weights with runs of zeros and a few large values.
@@ -218,16 +255,7 @@ mod tests {
             .collect();
         let d = Distribution1D::new(&w).unwrap();
         assert_eq!(d.guide.len(), 1024 + 1);
-        let whole = |u: f32| {
-            let mut i = d.cells.partition_point(|c| c.0 <= u).saturating_sub(1).min(w.len() - 1);
-            while d.pmf(i) == 0.0 && i + 1 < w.len() {
-                i += 1;
-            }
-            while d.pmf(i) == 0.0 && i > 0 {
-                i -= 1;
-            }
-            i
-        };
+        let whole = |u: f32| searched(&d, u);
         let us = (0..200_000).map(|_| s.next_1d()).chain((0..1024).map(|k| k as f32 / 1024.0)).chain([0.0, 1.0 - f32::EPSILON / 2.0]);
         for u in us {
             assert_eq!(d.sample(u).0, whole(u), "u = {u}");
