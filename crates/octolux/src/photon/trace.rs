@@ -348,10 +348,12 @@ pub(super) fn trace_path(
     // Bounces so far, and whether all of them were specular.
     let mut bounces = 0u32;
     let mut all_specular = true;
+    // one hit record for every bounce (`Scene::intersect_into`)
+    let mut found = None;
     loop {
-        let found = scene.intersect(&ray);
+        scene.intersect_into(&ray, &mut found);
         fly(Flight { o: ray.o, d: ray.d, t: found.as_ref().map_or(f32::INFINITY, |h| h.t), power, bounces, all_specular });
-        let Some(hit) = found else { break };
+        let Some(hit) = found.as_ref() else { break };
         let wi = -ray.d;
         let material = &scene.materials[hit.material as usize];
         // Purely specular surfaces are never shaded from a photon estimate (renderers follow
