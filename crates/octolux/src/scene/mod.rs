@@ -29,6 +29,7 @@ pub mod lights;
 pub mod material;
 pub mod object_path;
 mod prepare;
+mod spheres;
 pub mod sunsky;
 
 pub use desc::{FilmDesc, Geometry, Light, PixelFilter, SceneDesc, SceneError, SceneHints, ShapeDesc, TriMesh};
@@ -199,6 +200,8 @@ pub struct Scene {
     accel: LayeredAccel,
     /// The shapes: one list of vertices and triangles, the analytic spheres.
     flat: Flat,
+    /// The spheres' tree, when there are more than a few (`spheres.rs`).
+    sphere_bvh: Option<spheres::SphereBvh>,
     /// For each material that is a `mask`, the index (in `materials`) of a copy of its nested
     /// material, for [`Scene::resolve_mask`].
     mask_nested: Vec<Option<u32>>,
@@ -376,10 +379,15 @@ impl Scene {
         let tri = self.accel.intersect(ray);
         let mut tmax = tri.map_or(ray.tmax, |h| h.t);
         let mut sphere_hit: Option<(usize, f32)> = None;
-        for (i, s) in self.flat.spheres.iter().enumerate() {
-            if let Some(t) = intersect_sphere(ray, s.center, s.radius, tmax) {
-                tmax = t;
-                sphere_hit = Some((i, t));
+        match &self.sphere_bvh {
+            Some(bvh) => sphere_hit = bvh.closest(ray, &self.flat.spheres, tmax),
+            None => {
+                for (i, s) in self.flat.spheres.iter().enumerate() {
+                    if let Some(t) = intersect_sphere(ray, s.center, s.radius, tmax) {
+                        tmax = t;
+                        sphere_hit = Some((i, t));
+                    }
+                }
             }
         }
         *out = match (sphere_hit, tri) {
@@ -404,9 +412,18 @@ impl Scene {
     /// True when anything blocks the segment `[tmin, tmax]` of the ray.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        for s in &self.flat.spheres {
-            if intersect_sphere(ray, s.center, s.radius, ray.tmax).is_some() {
-                return true;
+        match &self.sphere_bvh {
+            Some(bvh) => {
+                if bvh.any(ray, &self.flat.spheres) {
+                    return true;
+                }
+            }
+            None => {
+                for s in &self.flat.spheres {
+                    if intersect_sphere(ray, s.center, s.radius, ray.tmax).is_some() {
+                        return true;
+                    }
+                }
             }
         }
         self.accel.occluded(ray)

@@ -3,6 +3,7 @@
 //! tables), and [`Scene::prepare_adding`] for a scene with an object added to a prepared one.
 
 use super::desc::{Geometry, SceneDesc, SceneError, ShapeDesc};
+use super::spheres::SphereBvh;
 use super::{material, Camera, Flat, LightSet, Material, Scene, ShapeInfo, SphereShape};
 use crate::accel::layered::LayeredAccel;
 use crate::accel::BackendKind;
@@ -82,7 +83,8 @@ impl Scene {
         let camera = Camera::new(&desc.camera, desc.film.width, desc.film.height);
         let (materials, mask_nested) = with_mask_copies(desc.materials);
         let images = Arc::new(desc.images);
-        Ok(Scene { materials, images, lights, camera, film: desc.film, bounds, accel, flat, mask_nested })
+        let sphere_bvh = SphereBvh::build(&flat.spheres);
+        Ok(Scene { materials, images, lights, camera, film: desc.film, bounds, accel, flat, sphere_bvh, mask_nested })
     }
 
     /// The scene `base` (prepared from `base_desc`) with `add`'s shapes and materials appended:
@@ -132,7 +134,8 @@ impl Scene {
         let materials = base_desc.materials.iter().chain(add.materials).cloned().collect();
         let (materials, mask_nested) = with_mask_copies(materials);
         let images = base.images.clone();
-        Ok(Scene { materials, images, lights, camera, film: base_desc.film, bounds, accel, flat, mask_nested })
+        let sphere_bvh = SphereBvh::build(&flat.spheres);
+        Ok(Scene { materials, images, lights, camera, film: base_desc.film, bounds, accel, flat, sphere_bvh, mask_nested })
     }
 }
 
