@@ -20,6 +20,8 @@ Cases are SCENE[:MAX_DEPTH] with SCENE one of
                likewise at their reference's resolution and max_depth;
   mesh1m       a generated height field of 1 002 528 triangles (binary PLY written to a temporary
                folder, never committed) under an area light and a constant sky, at --resolution.
+  spheres1k    1000 analytic spheres of radius 0.04 at random (fixed seed) before a wall under a
+               small area light (generated XML), at --resolution.
 Without MAX_DEPTH a case takes its default (the reference's, or -1 for the built-in boxes).
 
 Each (case, thread count) runs octolux then each Mitsuba variant, alternately. Reported:
@@ -50,6 +52,7 @@ import argparse
 import json
 import math
 import os
+import random
 import resource
 import statistics
 import struct
@@ -75,7 +78,7 @@ BUILTIN = {"cornell-box": -1, "cornell-spheres": 8}
 FILES = {"bitterli": (scenes.get("bitterli")["scene"], -1), "cbox": (scenes.get("cbox")["scene"], 6)}
 COLLECTION = ["box", "classroom", "dining-room", "sponza", "torus", "veach-lamp"]
 TEST_SCENES = ["envmap", "mirrored", "wrappers", "manylights"]
-DEFAULT_CASES = ["cornell-box", "cornell-spheres", "bitterli", "bitterli:65", "cbox"] + COLLECTION + TEST_SCENES + ["mesh1m"]
+DEFAULT_CASES = ["cornell-box", "cornell-spheres", "bitterli", "bitterli:65", "cbox"] + COLLECTION + TEST_SCENES + ["mesh1m", "spheres1k"]
 VARIANTS = ["llvm_ad_rgb"]
 MESH_N = 709  # vertices per side: 2 * 708^2 = 1 002 528 triangles
 
@@ -92,6 +95,34 @@ def run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
 def children_cpu() -> float:
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     return r.ru_utime + r.ru_stime
+
+
+def write_spheres_scene(folder: str) -> str:
+    """1000 small analytic spheres before a wall, a small area light (Mitsuba 3 XML)."""
+    rng = random.Random(1)
+    spheres = []
+    for _ in range(1000):
+        x, y, z = (rng.uniform(-1.2, 1.2) for _ in range(3))
+        spheres.append(f'  <shape type="sphere"><point name="center" x="{x:.4f}" y="{y:.4f}" z="{z:.4f}"/>'
+                       '<float name="radius" value="0.04"/><ref id="w"/></shape>')
+    xml = os.path.join(folder, "spheres1k.xml")
+    with open(xml, "w") as f:
+        f.write("""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="512"/><integer name="height" value="512"/></film>
+  </sensor>
+  <bsdf type="diffuse" id="w"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf>
+  <shape type="rectangle"><transform name="to_world"><scale value="3"/><translate value="0, 0, -1.5"/></transform><ref id="w"/></shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/><translate value="0, 1.4, 0"/></transform>
+    <emitter type="area"><rgb name="radiance" value="10, 10, 10"/></emitter>
+  </shape>
+""" + "\n".join(spheres) + "\n</scene>\n")
+    return xml
 
 
 def write_mesh_scene(folder: str) -> str:
@@ -257,6 +288,8 @@ def main(argv=None) -> int:
             res, d = coll[scene]
         elif scene == "mesh1m":
             res, d = args.resolution, -1
+        elif scene == "spheres1k":
+            res, d = args.resolution, 6
         else:
             ap.error(f"unknown scene '{scene}'")
         cases.append((scene, int(depth) if depth else d, res))
@@ -292,6 +325,9 @@ def main(argv=None) -> int:
                 return scene, exported.get(key, "")
             if scene in FILES:
                 return FILES[scene][0], FILES[scene][0]
+            if scene == "spheres1k":
+                xml = os.path.join(tmp, "spheres1k.xml")
+                return (xml, xml) if os.path.exists(xml) else (write_spheres_scene(tmp),) * 2
             if scene == "mesh1m":
                 if not mesh:
                     log(f"writing the {2 * (MESH_N - 1) ** 2}-triangle mesh")
