@@ -97,6 +97,20 @@ def children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
+def scene_head(max_depth: int, origin: str) -> str:
+    """The start of a generated scene's XML: the path integrator, a camera at `origin` looking
+    at the origin, 16 independent samples on a 512x512 film."""
+    return f"""<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="{max_depth}"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="{origin}" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
+    <film type="hdrfilm"><integer name="width" value="512"/><integer name="height" value="512"/></film>
+  </sensor>
+"""
+
+
 def write_spheres_scene(folder: str) -> str:
     """1000 small analytic spheres before a wall, a small area light (Mitsuba 3 XML)."""
     rng = random.Random(1)
@@ -107,15 +121,7 @@ def write_spheres_scene(folder: str) -> str:
                        '<float name="radius" value="0.04"/><ref id="w"/></shape>')
     xml = os.path.join(folder, "spheres1k.xml")
     with open(xml, "w") as f:
-        f.write("""<scene version="3.0.0">
-  <integrator type="path"><integer name="max_depth" value="6"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="40"/>
-    <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="512"/><integer name="height" value="512"/></film>
-  </sensor>
-  <bsdf type="diffuse" id="w"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf>
+        f.write(scene_head(6, "0, 0, 4") + """  <bsdf type="diffuse" id="w"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf>
   <shape type="rectangle"><transform name="to_world"><scale value="3"/><translate value="0, 0, -1.5"/></transform><ref id="w"/></shape>
   <shape type="rectangle">
     <transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/><translate value="0, 1.4, 0"/></transform>
@@ -151,15 +157,7 @@ def write_mesh_scene(folder: str) -> str:
         f.write(faces)
     xml = os.path.join(folder, "mesh1m.xml")
     with open(xml, "w") as f:
-        f.write("""<scene version="3.0.0">
-  <integrator type="path"><integer name="max_depth" value="-1"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="40"/>
-    <transform name="to_world"><lookat origin="0, 1.6, -2.6" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="512"/><integer name="height" value="512"/></film>
-  </sensor>
-  <shape type="ply">
+        f.write(scene_head(-1, "0, 1.6, -2.6") + """  <shape type="ply">
     <string name="filename" value="terrain.ply"/>
     <bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.55, 0.5"/></bsdf>
   </shape>
