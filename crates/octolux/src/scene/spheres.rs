@@ -88,9 +88,13 @@ impl SphereBvh {
     #[inline]
     fn enter(n: &Node, ray: &Ray, inv: Vec3, tmax: f32) -> Option<f32> {
         let (t0, t1) = ((n.lo - ray.o) * inv, (n.hi - ray.o) * inv);
-        let near = t0.min(t1).max_element().max(ray.tmin);
-        // widened by three units in the last place's worth (pbrt's gamma(3)) against rounding
-        let far = t0.max(t1).min_element().min(tmax) * (1.0 + 2.0 * 3.0 * f32::EPSILON);
+        // both ends widened in proportion to the distance (pbrt's 2·gamma(3)): a sphere's `t`
+        // and the slabs' carry rounding errors of that order, which the box's pad does not
+        // cover far from the ray's origin
+        const WIDEN: f32 = 2.0 * 3.0 * f32::EPSILON;
+        let near = t0.min(t1).max_element();
+        let near = (near - near.abs() * WIDEN).max(ray.tmin);
+        let far = t0.max(t1).min_element().min(tmax) * (1.0 + WIDEN);
         (near <= far).then_some(near)
     }
 
@@ -189,8 +193,8 @@ mod tests {
     }
 
     /// The tree gives what the linear test gives, index and `t` to the bit, over rays from
-    /// inside and outside the cloud, with coincident spheres (ties), nested ones, tiny and
-    /// large ones, and bounds that cut the ray short.
+    /// inside and outside the cloud and from far away, with coincident spheres (ties), nested
+    /// ones, tiny and large ones, and bounds that cut the ray short.
     #[test]
     fn the_tree_finds_what_the_linear_test_finds() {
         let mut s = Sampler::new(17, 0, 0);
@@ -209,8 +213,16 @@ mod tests {
         assert!(SphereBvh::build(&spheres[..LINEAR_MAX]).is_none());
         let (mut hits, mut ties) = (0, 0);
         for k in 0..20_000 {
-            let o = if k % 3 == 0 { spheres[k % spheres.len()].center } else { v(15.0) };
-            let d = v(1.0).normalize_or(Vec3::Z);
+            let target = spheres[(7 * k) % 600].center;
+            let (o, d) = match k % 4 {
+                0 => (spheres[k % spheres.len()].center, v(1.0).normalize_or(Vec3::Z)),
+                // from far away, at a sphere's edge: the rounding of a long ray
+                1 => {
+                    let o = v(1.0).normalize_or(Vec3::X) * 1e4;
+                    (o, (target + v(0.4) - o).normalize_or(Vec3::Z))
+                }
+                _ => (v(15.0), v(1.0).normalize_or(Vec3::Z)),
+            };
             let tmax = if k % 5 == 0 { 4.0 } else { f32::INFINITY };
             let mut ray = Ray::new(o, d);
             ray.tmax = tmax;
