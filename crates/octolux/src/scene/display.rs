@@ -1,7 +1,9 @@
 //! The scene as triangles for a rasteriser (issue 28: `octolux view` draws the scene in a
 //! browser and lights it with the octree evaluated on the GPU).
 //!
-//! Every triangle of the meshes, and the analytic spheres tessellated (48 x 24 quads), with
+//! Every triangle of the meshes, and the analytic spheres tessellated (48 x 24 quads each; in a
+//! scene of more than about 170 spheres fewer per sphere, down to 8 x 4, so that the spheres
+//! take at most [`SPHERE_QUADS`] quads while that suffices: [`sphere_rings`]), with
 //! per-vertex shading normals (the mesh's interpolated normals where it has them, the
 //! triangle's winding normal otherwise; spheres: the exact normal) and per-vertex Lambertian
 //! albedo (the material's diffuse reflectance at the vertex's texture coordinates; a material
@@ -31,6 +33,18 @@ pub struct DisplayMesh {
 
 /// The grey of a material without a Lambertian part.
 const GREY: Vec3 = Vec3::splat(0.5);
+
+/// Quads all the spheres of a scene may take (each 6 vertices of 48 bytes in the viewer's
+/// buffer: about 58 MB), unless each is already at the fewest [`sphere_rings`] gives.
+pub const SPHERE_QUADS: usize = 200_000;
+
+/// Rings of latitude of each sphere's tessellation (twice as many segments of longitude) in a
+/// scene of `n` spheres: 24 while the spheres fit [`SPHERE_QUADS`], fewer when they do not,
+/// at least 4. (At 24 x 48 quads each, a thousand spheres made a 330 MB buffer.)
+pub fn sphere_rings(n: usize) -> usize {
+    let fit = ((SPHERE_QUADS / n.max(1) / 2) as f64).sqrt() as usize;
+    fit.clamp(4, 24)
+}
 
 impl Scene {
     /// The scene as triangles (module docs).
@@ -70,10 +84,11 @@ impl Scene {
                 out.emission.push(le);
             }
         }
+        let nt = sphere_rings(self.flat.spheres.len());
+        let np = 2 * nt;
         for sphere in &self.flat.spheres {
             let info = &self.flat.shapes[sphere.shape as usize];
             let sign = if info.flip { -1.0 } else { 1.0 };
-            let (nt, np) = (24usize, 48usize);
             let dir = |i: usize, j: usize| {
                 let (th, ph) = (PI * i as f32 / nt as f32, 2.0 * PI * j as f32 / np as f32);
                 Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
@@ -98,8 +113,39 @@ impl Scene {
 
 #[cfg(test)]
 mod tests {
-    use crate::integrators::test_scenes::box_scene;
+    use super::{sphere_rings, SPHERE_QUADS};
+    use crate::accel::BackendKind;
+    use crate::integrators::test_scenes::{box_desc, box_scene};
+    use crate::scene::{Geometry, Scene, ShapeDesc};
     use glam::Vec3;
+
+    /// A few spheres keep the full tessellation, many stay within the budget, and the display
+    /// mesh holds the triangles the rings say.
+    #[test]
+    fn many_spheres_share_a_bounded_tessellation() {
+        assert_eq!(sphere_rings(1), 24);
+        assert_eq!(sphere_rings(150), 24);
+        assert!(sphere_rings(1000) < 24 && 2 * sphere_rings(1000).pow(2) * 1000 <= SPHERE_QUADS);
+        assert_eq!(sphere_rings(1_000_000), 4);
+        for n in [2usize, 3000] {
+            let mut desc = box_desc();
+            let box_vertices = 7 * 2 * 3; // the box's six walls and its light, two triangles each
+            for i in 0..n {
+                let c = Vec3::new(-0.9 + 1.8 * (i % 50) as f32 / 50.0, 0.1 + 1.8 * (i / 50 % 50) as f32 / 50.0, -0.5);
+                desc.shapes.push(ShapeDesc {
+                    name: format!("ball {i}"),
+                    geometry: Geometry::Sphere { center: c, radius: 0.01 },
+                    material: 0,
+                    emission: None,
+                    flip_normals: false,
+                });
+            }
+            let m = Scene::prepare(desc, BackendKind::Bvh).expect("valid").display_mesh();
+            let rings = sphere_rings(n);
+            assert_eq!(m.positions.len(), box_vertices + n * (rings * 2 * rings) * 6, "n = {n}");
+            assert_eq!(rings, if n == 2 { 24 } else { 5 });
+        }
+    }
 
     /// The test box's ceiling light (radiance 15, facing down, at y = 1.99) is the only
     /// emitting surface of the display mesh, and its normals face the emitting side.
