@@ -200,8 +200,8 @@ pub struct Scene {
     accel: LayeredAccel,
     /// The shapes: one list of vertices and triangles, the analytic spheres.
     flat: Flat,
-    /// The spheres' tree, when there are more than a few (`spheres.rs`).
-    sphere_bvh: Option<spheres::SphereBvh>,
+    /// Finds the analytic spheres a ray meets (`spheres.rs`: a tree when there are many).
+    sphere_bvh: spheres::SphereBvh,
     /// For each material that is a `mask`, the index (in `materials`) of a copy of its nested
     /// material, for [`Scene::resolve_mask`].
     mask_nested: Vec<Option<u32>>,
@@ -377,19 +377,7 @@ impl Scene {
     #[inline]
     pub fn intersect_into(&self, ray: &Ray, out: &mut Option<SurfaceHit>) {
         let tri = self.accel.intersect(ray);
-        let mut tmax = tri.map_or(ray.tmax, |h| h.t);
-        let mut sphere_hit: Option<(usize, f32)> = None;
-        match &self.sphere_bvh {
-            Some(bvh) => sphere_hit = bvh.closest(ray, &self.flat.spheres, tmax),
-            None => {
-                for (i, s) in self.flat.spheres.iter().enumerate() {
-                    if let Some(t) = intersect_sphere(ray, s.center, s.radius, tmax) {
-                        tmax = t;
-                        sphere_hit = Some((i, t));
-                    }
-                }
-            }
-        }
+        let sphere_hit = self.sphere_bvh.closest(ray, &self.flat.spheres, tri.map_or(ray.tmax, |h| h.t));
         *out = match (sphere_hit, tri) {
             (Some((i, t)), _) => Some(self.sphere_hit(ray, &self.flat.spheres[i], t)),
             (None, Some(h)) => Some(self.triangle_hit(ray, h.prim, h.t, Vec2::new(h.u, h.v))),
@@ -412,21 +400,7 @@ impl Scene {
     /// True when anything blocks the segment `[tmin, tmax]` of the ray.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        match &self.sphere_bvh {
-            Some(bvh) => {
-                if bvh.any(ray, &self.flat.spheres) {
-                    return true;
-                }
-            }
-            None => {
-                for s in &self.flat.spheres {
-                    if intersect_sphere(ray, s.center, s.radius, ray.tmax).is_some() {
-                        return true;
-                    }
-                }
-            }
-        }
-        self.accel.occluded(ray)
+        self.sphere_bvh.any(ray, &self.flat.spheres) || self.accel.occluded(ray)
     }
 
     // Inlined into `intersect` (and so into its callers) so that the record is built in place:

@@ -1,8 +1,9 @@
 //! The analytic spheres' own bounding-volume hierarchy. The intersection backends (`accel`)
 //! hold triangles only; a scene's spheres were tested one by one on every ray, which made a
 //! scene of a thousand small spheres 14x slower per ray than one of ten (measured:
-//! docs/lab/2026-12-07-path-overheads.md). Above [`LINEAR_MAX`] spheres they are found through
-//! a binary tree of boxes instead, with the same answers as the linear test: the nearest hit
+//! docs/lab/2026-12-07-path-overheads.md). [`SphereBvh`] answers the scene's sphere queries:
+//! up to [`LINEAR_MAX`] spheres by testing each, above through a binary tree of boxes, with
+//! the same answers as the linear test: the nearest hit
 //! `t` (each sphere's by [`intersect_sphere`], the very function the linear test calls), ties
 //! to the lowest sphere index, as the linear test's strict `<` gives.
 
@@ -28,7 +29,7 @@ struct Node {
     count: u32,
 }
 
-/// The tree (module docs).
+/// The tree (module docs); without nodes, the spheres are tested one by one.
 #[derive(Clone, Debug)]
 pub struct SphereBvh {
     nodes: Vec<Node>,
@@ -44,15 +45,15 @@ fn sphere_box(s: &SphereShape) -> (Vec3, Vec3) {
 }
 
 impl SphereBvh {
-    /// The tree over `spheres`, or `None` for at most [`LINEAR_MAX`] of them (or more than
-    /// `u32::MAX`).
-    pub fn build(spheres: &[SphereShape]) -> Option<SphereBvh> {
+    /// The tree over `spheres`; none (the linear test) for at most [`LINEAR_MAX`] of them (or
+    /// more than `u32::MAX`).
+    pub fn build(spheres: &[SphereShape]) -> SphereBvh {
         if spheres.len() <= LINEAR_MAX || spheres.len() > u32::MAX as usize {
-            return None;
+            return SphereBvh { nodes: Vec::new(), order: Vec::new() };
         }
         let mut bvh = SphereBvh { nodes: Vec::with_capacity(2 * spheres.len() / LEAF_MAX + 1), order: (0..spheres.len() as u32).collect() };
         bvh.build_node(spheres, 0, spheres.len(), 0);
-        Some(bvh)
+        bvh
     }
 
     fn build_node(&mut self, spheres: &[SphereShape], start: usize, end: usize, depth: usize) {
@@ -105,9 +106,18 @@ impl SphereBvh {
     /// The nearest sphere the ray meets before `tmax` (index, `t`): what testing every sphere
     /// in index order with a shrinking bound gives.
     pub fn closest(&self, ray: &Ray, spheres: &[SphereShape], tmax: f32) -> Option<(usize, f32)> {
-        let inv = Self::inv_dir(ray);
         let mut best: Option<(usize, f32)> = None;
         let mut bound = tmax;
+        if self.nodes.is_empty() {
+            for (i, s) in spheres.iter().enumerate() {
+                if let Some(t) = intersect_sphere(ray, s.center, s.radius, bound) {
+                    bound = t;
+                    best = Some((i, t));
+                }
+            }
+            return best;
+        }
+        let inv = Self::inv_dir(ray);
         let mut stack = [0u32; STACK];
         let mut sp = 1;
         while sp > 0 {
@@ -147,6 +157,9 @@ impl SphereBvh {
 
     /// Whether any sphere meets the ray in `[tmin, tmax)`.
     pub fn any(&self, ray: &Ray, spheres: &[SphereShape]) -> bool {
+        if self.nodes.is_empty() {
+            return spheres.iter().any(|s| intersect_sphere(ray, s.center, s.radius, ray.tmax).is_some());
+        }
         let inv = Self::inv_dir(ray);
         let mut stack = [0u32; STACK];
         let mut sp = 1;
@@ -209,8 +222,9 @@ mod tests {
             spheres.push(d);
         }
         spheres.push(SphereShape { center: Vec3::splat(1e4), radius: 1e-3, shape: 9999 });
-        let bvh = SphereBvh::build(&spheres).expect("above the linear count");
-        assert!(SphereBvh::build(&spheres[..LINEAR_MAX]).is_none());
+        let bvh = SphereBvh::build(&spheres);
+        assert!(!bvh.nodes.is_empty(), "above the linear count");
+        assert!(SphereBvh::build(&spheres[..LINEAR_MAX]).nodes.is_empty());
         let (mut hits, mut ties) = (0, 0);
         for k in 0..20_000 {
             let target = spheres[(7 * k) % 600].center;
