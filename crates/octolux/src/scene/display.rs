@@ -77,9 +77,9 @@ impl Scene {
             }
             for (c, &k) in t.iter().enumerate() {
                 out.positions.push(p[c]);
-                let n = if info.has_normals { self.flat.normals[k as usize].normalize_or_zero() } else { ng };
+                let n = if info.has_normals { self.flat.shading[k as usize].n.normalize_or_zero() } else { ng };
                 out.normals.push(if info.flip && info.has_normals { -n } else { n });
-                let uv = if info.has_uvs { self.flat.uvs[k as usize] } else { Vec2::ZERO };
+                let uv = if info.has_uvs { self.flat.shading[k as usize].uv } else { Vec2::ZERO };
                 out.albedo.push(albedo(info.material, uv, &mut out.grey_materials));
                 out.emission.push(le);
             }

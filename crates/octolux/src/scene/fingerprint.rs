@@ -99,11 +99,12 @@ impl Scene {
         for p in &self.flat.positions {
             g.f32s(&p.to_array());
         }
-        for n in &self.flat.normals {
-            g.f32s(&n.to_array());
+        // all normals, then all uvs: the order of the fingerprints written into cache files
+        for a in &self.flat.shading {
+            g.f32s(&a.n.to_array());
         }
-        for uv in &self.flat.uvs {
-            g.f32s(&uv.to_array());
+        for a in &self.flat.shading {
+            g.f32s(&a.uv.to_array());
         }
         g.u64(self.flat.triangles.len() as u64);
         for (t, s) in self.flat.triangles.iter().zip(&self.flat.tri_shape) {

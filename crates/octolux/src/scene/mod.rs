@@ -175,13 +175,21 @@ struct ShapeInfo {
     name: String,
 }
 
+/// A vertex's shading normal (not normalised) and uv.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct VertexShading {
+    n: Vec3,
+    uv: Vec2,
+}
+
 /// A scene's shapes as the prepared scene holds them (`prepare.rs` fills it): one list of
 /// vertices and triangles, the analytic spheres, and what each shape is.
 #[derive(Clone, Default)]
 struct Flat {
     positions: Vec<Vec3>,
-    normals: Vec<Vec3>,
-    uvs: Vec<Vec2>,
+    /// Each vertex's shading normal and uv, side by side: a hit reads both from one place
+    /// (zero where its shape has none, `ShapeInfo`).
+    shading: Vec<VertexShading>,
     triangles: Vec<[u32; 3]>,
     /// Each triangle's shape, non-decreasing (a shape's triangles are contiguous, in shape order).
     tri_shape: Vec<u32>,
@@ -412,9 +420,10 @@ impl Scene {
         let info = &self.flat.shapes[shape as usize];
         let (i0, i1, i2) = (tri[0] as usize, tri[1] as usize, tri[2] as usize);
         let (p0, p1, p2) = (self.flat.positions[i0], self.flat.positions[i1], self.flat.positions[i2]);
+        let (a0, a1, a2) = (self.flat.shading[i0], self.flat.shading[i1], self.flat.shading[i2]);
         let mut ng = (p1 - p0).cross(p2 - p0).normalize();
         let mut n = if info.has_normals {
-            let n = bary(self.flat.normals[i0], self.flat.normals[i1], self.flat.normals[i2], b).normalize_or_zero();
+            let n = bary(a0.n, a1.n, a2.n, b).normalize_or_zero();
             if n == Vec3::ZERO {
                 ng
             } else {
@@ -427,11 +436,11 @@ impl Scene {
             ng = -ng;
             n = -n;
         }
-        let uv = if info.has_uvs { bary(self.flat.uvs[i0], self.flat.uvs[i1], self.flat.uvs[i2], b) } else { b };
+        let uv = if info.has_uvs { bary(a0.uv, a1.uv, a2.uv, b) } else { b };
         // Mitsuba 3's mesh differentials (mesh.cpp): from the uvs when they are not degenerate.
         let (mut dp_du, mut dp_dv) = (p1 - p0, p2 - p0);
         if info.has_uvs {
-            let (duv0, duv1) = (self.flat.uvs[i1] - self.flat.uvs[i0], self.flat.uvs[i2] - self.flat.uvs[i0]);
+            let (duv0, duv1) = (a1.uv - a0.uv, a2.uv - a0.uv);
             let det = duv0.x * duv1.y - duv0.y * duv1.x;
             if det != 0.0 && det.is_finite() {
                 let inv = 1.0 / det;

@@ -4,7 +4,7 @@
 
 use super::desc::{Geometry, SceneDesc, SceneError, ShapeDesc};
 use super::spheres::SphereBvh;
-use super::{material, Camera, Flat, LightSet, Material, Scene, ShapeInfo, SphereShape};
+use super::{material, Camera, Flat, LightSet, Material, Scene, ShapeInfo, SphereShape, VertexShading};
 use crate::accel::layered::LayeredAccel;
 use crate::accel::BackendKind;
 use glam::{Vec2, Vec3};
@@ -32,14 +32,10 @@ impl Flat {
                     self.positions.extend_from_slice(&m.positions);
                     info.has_normals = m.normals.is_some();
                     info.has_uvs = m.uvs.is_some();
-                    match &m.normals {
-                        Some(n) => self.normals.extend_from_slice(n),
-                        None => self.normals.extend(std::iter::repeat_n(Vec3::ZERO, m.positions.len())),
-                    }
-                    match &m.uvs {
-                        Some(u) => self.uvs.extend_from_slice(u),
-                        None => self.uvs.extend(std::iter::repeat_n(Vec2::ZERO, m.positions.len())),
-                    }
+                    self.shading.extend((0..m.positions.len()).map(|k| VertexShading {
+                        n: m.normals.as_ref().map_or(Vec3::ZERO, |n| n[k]),
+                        uv: m.uvs.as_ref().map_or(Vec2::ZERO, |u| u[k]),
+                    }));
                     for t in &m.indices {
                         self.triangles.push([t[0] + base, t[1] + base, t[2] + base]);
                         self.tri_shape.push(si);
@@ -188,10 +184,7 @@ mod tests {
             whole_desc.shapes.extend(shapes.iter().cloned());
             let whole = Scene::prepare(whole_desc, BackendKind::Bvh).unwrap();
             assert_eq!(added.bounds != base.bounds, grows);
-            assert_eq!(
-                (&added.flat.positions, &added.flat.normals, &added.flat.uvs),
-                (&whole.flat.positions, &whole.flat.normals, &whole.flat.uvs)
-            );
+            assert_eq!((&added.flat.positions, &added.flat.shading), (&whole.flat.positions, &whole.flat.shading));
             assert_eq!(
                 (&added.flat.triangles, &added.flat.tri_shape, added.flat.shapes.len()),
                 (&whole.flat.triangles, &whole.flat.tri_shape, whole.flat.shapes.len())
