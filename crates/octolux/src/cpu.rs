@@ -7,6 +7,10 @@
 //! results, bit for bit: a kernel's wide version does the same IEEE operations per lane as
 //! its baseline (tested per kernel).
 //!
+//! The library's tests run at the detected level and, in a child process of the same test
+//! binary, once at every lower level with that level forced (test
+//! `every_level_passes_the_library_tests`), so one `cargo test` covers each level.
+//!
 //! Kernels so far: the BVH8's box test (`accel::bvh`), its eight boxes in one AVX register
 //! instead of two SSE ones.
 
@@ -27,6 +31,9 @@ pub enum KernelLevel {
 }
 
 impl KernelLevel {
+    /// Every level, narrowest first.
+    pub const ALL: [KernelLevel; 2] = [KernelLevel::Baseline, KernelLevel::Avx2];
+
     pub fn name(self) -> &'static str {
         match self {
             KernelLevel::Baseline => "baseline",
@@ -84,5 +91,53 @@ pub fn describe() -> String {
         format!("kernels: {} (the CPU's widest)", l.name())
     } else {
         format!("kernels: {} ({KERNELS_ENV}; the CPU runs {})", l.name(), d.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The library's tests, run again by this test binary in a child process with each level
+    /// below the CPU's forced (`OCTOLUX_KERNELS`), must pass there too. In the child (the
+    /// variable set) this test is skipped, and on a CPU whose widest level is the baseline there
+    /// is nothing to force.
+    #[test]
+    fn every_level_passes_the_library_tests() {
+        const NAME: &str = "every_level_passes_the_library_tests";
+        if std::env::var_os(KERNELS_ENV).is_some() {
+            eprintln!("{KERNELS_ENV} is set: the levels are run by the parent test");
+            return;
+        }
+        let exe = std::env::current_exe().expect("the test binary's path");
+        let lower: Vec<_> = KernelLevel::ALL.into_iter().filter(|&l| l < detected()).collect();
+        if lower.is_empty() {
+            eprintln!("this CPU's widest level is {}: no lower level to force", detected().name());
+        }
+        for l in lower {
+            let out = std::process::Command::new(&exe)
+                .env(KERNELS_ENV, l.name())
+                .args(["--skip", NAME])
+                .output()
+                .expect("the test binary runs again");
+            let text = String::from_utf8_lossy(&out.stdout);
+            let summary = text.lines().filter(|t| t.starts_with("test result:")).collect::<Vec<_>>().join(" ");
+            eprintln!("{KERNELS_ENV}={}: {summary}", l.name());
+            assert!(
+                out.status.success() && text.contains("test result: ok"),
+                "the library's tests at level {} failed:\n{}\n{}",
+                l.name(),
+                text.lines().filter(|t| t.contains("FAILED") || t.contains("panicked")).collect::<Vec<_>>().join("\n"),
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+    }
+
+    #[test]
+    fn a_forced_level_is_named_back() {
+        for l in KernelLevel::ALL {
+            assert_eq!(KernelLevel::parse(&l.name().to_ascii_uppercase()), Some(l));
+        }
+        assert_eq!(KernelLevel::parse("avx512"), None);
     }
 }
