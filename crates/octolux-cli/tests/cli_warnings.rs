@@ -168,3 +168,36 @@ fn log_lines_are_words_with_the_papers_symbols_in_brackets() {
     assert!(!inserted.contains("ignored") && !inserted.contains("warning"), "{inserted}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The help texts come from doc comments of the library's types; rustdoc's link syntax
+/// (`` [`Name`] ``) means nothing on a terminal. Every subcommand's `--help` and every
+/// integrator's `settings` list are free of it.
+#[test]
+fn help_texts_carry_no_rustdoc_links() {
+    let run = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_octolux")).args(args).output().expect("octolux runs");
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let top = run(&["--help"]);
+    let commands: Vec<String> = top
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .filter(|c| c != "help")
+        .collect();
+    assert!(commands.len() >= 8, "{top}");
+    let mut texts = vec![("octolux --help".to_string(), top.clone())];
+    for c in &commands {
+        texts.push((format!("octolux {c} --help"), run(&[c, "--help"])));
+    }
+    for i in ["path", "octree", "photonmap", "ward", "christensen"] {
+        texts.push((format!("octolux settings {i}"), run(&["settings", i])));
+    }
+    for (what, text) in texts {
+        let bad: Vec<&str> = text.lines().filter(|l| l.contains("[`") || l.contains("`]")).collect();
+        assert!(bad.is_empty(), "{what} shows rustdoc links:\n{}", bad.join("\n"));
+    }
+}

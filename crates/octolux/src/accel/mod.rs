@@ -35,8 +35,8 @@ pub struct TriHit {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
 pub enum BackendKind {
-    /// The BVH below [`AUTO_BVH_MAX_TRIANGLES`] triangles (faster there), Embree above when it
-    /// loads, else the BVH.
+    /// The BVH below 65 536 triangles (`AUTO_BVH_MAX_TRIANGLES`; faster there), Embree above
+    /// when it loads, else the BVH.
     #[default]
     Auto,
     /// Embree 3 (`libembree3.so.3`, loaded at run time); an error when it cannot be loaded.
