@@ -67,11 +67,35 @@ pub fn camera_sample(
     reconstruction: Reconstruction,
 ) -> (Sampler, Vec2) {
     let mut sampler = Sampler::with_kind(kind, seed, pixel.index(), sample);
+    let pos = film_position(&mut sampler, pixel, filter, reconstruction);
+    (sampler, pos)
+}
+
+/// [`camera_sample`] into a sampler the caller keeps: `sampler` is restarted
+/// ([`Sampler::restart`]) for the sample, the same numbers, and the film position returned.
+/// The render keeps one sampler for a tile's samples (a pixel's are consecutive), so that a
+/// Sobol' sampler reuses its slots' keys.
+#[inline]
+pub fn camera_sample_into(
+    sampler: &mut Sampler,
+    (kind, seed): (SamplerKind, u64),
+    pixel: Pixel,
+    sample: u64,
+    filter: PixelFilter,
+    reconstruction: Reconstruction,
+) -> Vec2 {
+    sampler.restart(kind, seed, pixel.index(), sample);
+    film_position(sampler, pixel, filter, reconstruction)
+}
+
+/// The film position (pixels) drawn from a sampler at its first dimensions ([`camera_sample`]).
+#[inline]
+fn film_position(sampler: &mut Sampler, pixel: Pixel, filter: PixelFilter, reconstruction: Reconstruction) -> Vec2 {
     let offset = match reconstruction {
         Reconstruction::Splat => sampler.next_2d() - Vec2::splat(0.5),
-        Reconstruction::ImportanceSampled => sample_filter(filter, &mut sampler),
+        Reconstruction::ImportanceSampled => sample_filter(filter, sampler),
     };
-    (sampler, pixel.centre() + offset)
+    pixel.centre() + offset
 }
 
 /// Offset from the pixel centre, in pixels, distributed as the reconstruction filter. A

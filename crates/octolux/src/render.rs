@@ -33,7 +33,7 @@
 //! before each tile and every few samples inside it; once it is set the pass under way is dropped and the loop stops, so the
 //! image holds the whole passes done so far ([`RenderStats::interrupted`], `passes`, `spp`).
 
-use crate::film::{camera_sample, Pixel};
+use crate::film::{camera_sample_into, Pixel};
 use crate::film::{filter_radius, FilterWeights, Reconstruction};
 use crate::image::Image;
 use crate::integrators::{Integrator, RayCounters};
@@ -197,6 +197,8 @@ where
                 buf.acc = vec![[0.0; 4]; (buf.w * buf.h) as usize];
                 let taps = (2 * margin + 1) as usize;
                 let (mut wx, mut wy) = (vec![0.0f32; taps], vec![0.0f32; taps]);
+                // restarted for every sample (`camera_sample_into`)
+                let mut sampler = Sampler::with_kind(settings.sampler, settings.seed, 0, 0);
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let pixel = Pixel { x, y, width: gw };
@@ -206,8 +208,14 @@ where
                                 return None;
                             }
                             let sample_index = pass as u64 * spp as u64 + s as u64;
-                            let (mut sampler, pos) =
-                                camera_sample(settings.sampler, settings.seed, pixel, sample_index, filter, reconstruction);
+                            let pos = camera_sample_into(
+                                &mut sampler,
+                                (settings.sampler, settings.seed),
+                                pixel,
+                                sample_index,
+                                filter,
+                                reconstruction,
+                            );
                             let pos = pos - Vec2::splat(border as f32);
                             let l = li(pos, &mut sampler, &mut buf.counters);
                             // A non-finite sample is a bug; drop it rather than poison pixels.

@@ -64,12 +64,54 @@ enum Inner {
         inc: u64,
     },
     /// `key`: hash of (seed, index); `sample_rev`: the Sobol' index, its bits reversed (as
-    /// the scramble reads it, `sobol::sample_2d_rev`); `slot`: draws so far.
+    /// the scramble reads it, `sobol::sample_2d_rev`); `slot`: draws so far; `keys`: the
+    /// slots' keys kept for the pixel's next samples ([`Sampler::restart`]).
     Sobol {
         key: u64,
         sample_rev: u32,
         slot: u32,
+        keys: SlotKeys,
     },
+}
+
+/// Most slots whose keys a sampler keeps (a path of `max_depth` 17 draws about 60).
+const KEPT_SLOTS: usize = 128;
+
+/// The keys of a Sobol' sampler's slots, `sobol::keys` of each slot's hash. They depend on the
+/// pixel and the slot, not on the sample, so a sampler that [`Sampler::restart`]s on the same
+/// pixel computes each once, on the first sample that draws it, and reads it back on the
+/// others: three 64-bit hashes less per draw, the same numbers.
+#[derive(Clone, Debug, Default)]
+struct SlotKeys {
+    /// Keys of slots `0..len`, in slot order.
+    kept: Vec<(u32, u32, u32)>,
+    /// Whether new slots are kept (a sampler from [`Sampler::with_kind`] or
+    /// [`Sampler::split`], used for one sample, keeps none).
+    keep: bool,
+}
+
+impl SlotKeys {
+    /// The keys of the next slot (`*slot`, then counted) of the sampler keyed by `key`.
+    #[inline]
+    fn next(&mut self, key: u64, slot: &mut u32) -> (u32, u32, u32) {
+        let s = *slot as usize;
+        *slot += 1;
+        match self.kept.get(s) {
+            Some(&k) => k,
+            None => self.compute(key, s),
+        }
+    }
+
+    /// The keys of slot `s`, hashed, and kept when they are the next to keep (out of line: the
+    /// kept keys' path is the one to inline).
+    #[inline(never)]
+    fn compute(&mut self, key: u64, s: usize) -> (u32, u32, u32) {
+        let k = sobol::keys(mix64(key ^ (s as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)));
+        if self.keep && s == self.kept.len() && s < KEPT_SLOTS {
+            self.kept.push(k);
+        }
+        k
+    }
 }
 
 impl Sampler {
@@ -94,9 +136,37 @@ impl Sampler {
     pub fn with_kind(kind: SamplerKind, seed: u64, index: u64, sample: u64) -> Self {
         match kind {
             SamplerKind::Independent => Sampler::new(seed, index, sample),
-            SamplerKind::Sobol => {
-                let key = mix64(seed ^ mix64(index.wrapping_add(0x5851_f42d_4c95_7f2d)));
-                Sampler { inner: Inner::Sobol { key, sample_rev: (sample as u32).reverse_bits(), slot: 0 } }
+            SamplerKind::Sobol => Sampler {
+                inner: Inner::Sobol {
+                    key: pixel_key(seed, index),
+                    sample_rev: (sample as u32).reverse_bits(),
+                    slot: 0,
+                    keys: SlotKeys::default(),
+                },
+            },
+        }
+    }
+
+    /// Make this the sampler [`Sampler::with_kind`] gives for `(kind, seed, index, sample)`,
+    /// the same numbers, keeping what it can of the previous sample's work: a Sobol' sampler
+    /// restarted on the pixel it last drew for reads its slots' keys back instead of hashing
+    /// them again ([`SlotKeys`]). The render restarts one sampler per tile for every sample.
+    #[inline]
+    pub fn restart(&mut self, kind: SamplerKind, seed: u64, index: u64, sample: u64) {
+        match (kind, &mut self.inner) {
+            (SamplerKind::Sobol, Inner::Sobol { key, sample_rev, slot, keys }) => {
+                let k = pixel_key(seed, index);
+                if k != *key || !keys.keep {
+                    keys.kept.clear();
+                    keys.keep = true;
+                }
+                (*key, *sample_rev, *slot) = (k, (sample as u32).reverse_bits(), 0);
+            }
+            _ => {
+                *self = Sampler::with_kind(kind, seed, index, sample);
+                if let Inner::Sobol { keys, .. } = &mut self.inner {
+                    keys.keep = true;
+                }
             }
         }
     }
@@ -109,22 +179,15 @@ impl Sampler {
     pub fn split(&self, j: u32, k: u32) -> Sampler {
         match self.inner {
             Inner::Pcg { state, inc } => Sampler::new(mix64(state ^ inc.rotate_left(17)), j as u64, k as u64),
-            Inner::Sobol { key, sample_rev, slot } => Sampler {
+            Inner::Sobol { key, sample_rev, slot, .. } => Sampler {
                 inner: Inner::Sobol {
                     key: mix64(key ^ 0x2545_f491_4f6c_dd1d),
                     sample_rev: sample_rev.reverse_bits().wrapping_mul(k).wrapping_add(j).reverse_bits(),
                     slot,
+                    keys: SlotKeys::default(),
                 },
             },
         }
-    }
-
-    /// Key of the next Sobol' slot.
-    #[inline]
-    fn next_slot(key: u64, slot: &mut u32) -> u64 {
-        let k = mix64(key ^ (*slot as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        *slot += 1;
-        k
     }
 
     /// 32 random bits (a Sobol' sampler gives the bits of a 1D slot).
@@ -138,7 +201,7 @@ impl Sampler {
                 let rot = (old >> 59) as u32;
                 xorshifted.rotate_right(rot)
             }
-            Inner::Sobol { key, sample_rev, slot } => sobol::sample_1d_rev(*sample_rev, Self::next_slot(*key, slot)),
+            Inner::Sobol { key, sample_rev, slot, keys } => sobol::sample_1d_rev(*sample_rev, keys.next(*key, slot)),
         }
     }
 
@@ -157,12 +220,18 @@ impl Sampler {
                 let x = self.next_1d();
                 Vec2::new(x, self.next_1d())
             }
-            Inner::Sobol { key, sample_rev, slot } => {
-                let (x, y) = sobol::sample_2d_rev(*sample_rev, Self::next_slot(*key, slot));
+            Inner::Sobol { key, sample_rev, slot, keys } => {
+                let (x, y) = sobol::sample_2d_rev(*sample_rev, keys.next(*key, slot));
                 Vec2::new(to_unit(x), to_unit(y))
             }
         }
     }
+}
+
+/// The hash of `(seed, pixel index)` that keys a Sobol' sampler's slots.
+#[inline]
+fn pixel_key(seed: u64, index: u64) -> u64 {
+    mix64(seed ^ mix64(index.wrapping_add(0x5851_f42d_4c95_7f2d)))
 }
 
 /// The top 24 bits of a 32-bit fraction as an f32 in [0, 1).
@@ -344,6 +413,41 @@ mod tests {
         let mut a = Sampler::with_kind(SamplerKind::Independent, 1, 2, 3);
         let mut b = Sampler::new(1, 2, 3);
         assert_eq!(a.next_u32(), b.next_u32());
+    }
+
+    /// A sampler restarted for each sample (the render's, keeping its slots' keys) draws the
+    /// numbers of a fresh one: across pixels, past the kept slots, mixed 1D and 2D draws, a
+    /// split in between, the kind changed.
+    #[test]
+    fn a_restarted_sampler_draws_what_a_fresh_one_draws() {
+        let mut kept = Sampler::with_kind(SamplerKind::Sobol, 0, 0, 0);
+        let mut rng = Sampler::new(11, 12, 13);
+        let mut kept_slots = 0;
+        for step in 0..400u64 {
+            let kind = if step % 97 == 50 { SamplerKind::Independent } else { SamplerKind::Sobol };
+            let (seed, pixel, sample) = (3 + step / 200, step / 7 % 5, step % 7 + 1000 * (step % 3));
+            kept.restart(kind, seed, pixel, sample);
+            let mut fresh = Sampler::with_kind(kind, seed, pixel, sample);
+            let draws = 1 + rng.next_u32() as usize % (KEPT_SLOTS + 40);
+            for d in 0..draws {
+                if d % 3 == 1 {
+                    assert_eq!(kept.next_u32(), fresh.next_u32(), "step {step}, draw {d}");
+                } else {
+                    assert_eq!(kept.next_2d(), fresh.next_2d(), "step {step}, draw {d}");
+                }
+                if d == 20 && step % 11 == 0 {
+                    let (mut a, mut b) = (kept.split(1, 3), fresh.split(1, 3));
+                    for _ in 0..30 {
+                        assert_eq!(a.next_2d(), b.next_2d(), "step {step}: the split");
+                    }
+                }
+            }
+            if let Inner::Sobol { keys, .. } = &kept.inner {
+                assert!(keys.keep && keys.kept.len() <= KEPT_SLOTS);
+                kept_slots = kept_slots.max(keys.kept.len());
+            }
+        }
+        assert_eq!(kept_slots, KEPT_SLOTS, "the keys were kept");
     }
 
     #[test]

@@ -110,21 +110,20 @@ fn scrambled_dim0(i: u32, seed: u32) -> u32 {
     lk_hash(i, seed).reverse_bits()
 }
 
-/// The keys of one slot: index shuffle, x scramble, y scramble.
+/// The keys of one slot (from its 64-bit hash `key`): index shuffle, x scramble, y scramble.
 #[inline]
-fn keys(key: u64) -> (u32, u32, u32) {
+pub(super) fn keys(key: u64) -> (u32, u32, u32) {
     let a = super::mix64(key);
     let b = super::mix64(a ^ 0x2545_f491_4f6c_dd1d);
     (a as u32, (a >> 32) as u32, b as u32)
 }
 
-/// Sample `index` of the 2D slot keyed by `key`, as two 32-bit fractions, given the index
-/// with its bits reversed, `index_rev` (a sampler keeps it so, for all the slots of a sample):
-/// the scrambled index `i`, its radical inverse scrambled, Sobol' dimension 1 of `i`
-/// scrambled, with three bit reversals where the definition takes five.
+/// Sample `index` of the 2D slot whose [`keys`] are `(ks, kx, ky)`, as two 32-bit fractions,
+/// given the index with its bits reversed, `index_rev` (a sampler keeps it so, for all the
+/// slots of a sample): the scrambled index `i`, its radical inverse scrambled, Sobol'
+/// dimension 1 of `i` scrambled, with three bit reversals where the definition takes five.
 #[inline]
-pub fn sample_2d_rev(index_rev: u32, key: u64) -> (u32, u32) {
-    let (ks, kx, ky) = keys(key);
+pub fn sample_2d_rev(index_rev: u32, (ks, kx, ky): (u32, u32, u32)) -> (u32, u32) {
     let i = lk_hash(index_rev, ks).reverse_bits();
     // both coordinates' reversals in one of 64 bits: `y`'s hash in the high half comes out
     // reversed in the low half, `x`'s in the high half
@@ -132,11 +131,10 @@ pub fn sample_2d_rev(index_rev: u32, key: u64) -> (u32, u32) {
     ((both >> 32) as u32, both as u32)
 }
 
-/// Sample `index` of the 1D slot keyed by `key`, as a 32-bit fraction, given `index_rev` as
-/// for [`sample_2d_rev`].
+/// Sample `index` of the 1D slot whose [`keys`] are `(ks, kx, _)`, as a 32-bit fraction,
+/// given `index_rev` as for [`sample_2d_rev`].
 #[inline]
-pub fn sample_1d_rev(index_rev: u32, key: u64) -> u32 {
-    let (ks, kx, _) = keys(key);
+pub fn sample_1d_rev(index_rev: u32, (ks, kx, _): (u32, u32, u32)) -> u32 {
     scrambled_dim0(lk_hash(index_rev, ks).reverse_bits(), kx)
 }
 
@@ -172,8 +170,8 @@ mod tests {
             let (ks, kx, ky) = keys(key);
             let i = owen_scramble(index, ks);
             let want = (owen_scramble(i.reverse_bits(), kx), owen_scramble(sobol_dim1(i), ky));
-            assert_eq!(sample_2d_rev(index.reverse_bits(), key), want, "index {index}, key {key:#x}");
-            assert_eq!(sample_1d_rev(index.reverse_bits(), key), want.0, "index {index}, key {key:#x}");
+            assert_eq!(sample_2d_rev(index.reverse_bits(), (ks, kx, ky)), want, "index {index}, key {key:#x}");
+            assert_eq!(sample_1d_rev(index.reverse_bits(), (ks, kx, ky)), want.0, "index {index}, key {key:#x}");
             assert_eq!(sobol_dim1_rev(index), sobol_dim1(index).reverse_bits());
         }
     }
