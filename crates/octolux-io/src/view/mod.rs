@@ -20,7 +20,9 @@
 //! octree's indirect irradiance, times the albedo over π, plus the area emitters' radiance on
 //! their emitting side; or either irradiance, or the leaves.
 //! Its indirect irradiance is what the CPU's `--view irradiance` computes, with the same camera
-//! (test `the_gpu_query_matches_the_cpu_and_the_stream_converges`).
+//! (test `the_gpu_query_matches_the_cpu_and_the_stream_converges`), except on bump- and
+//! normal-mapped surfaces: the page draws no maps, and the CPU side of `--compare-cpu` reads the
+//! mesh's interpolated normals as the page does.
 
 pub mod http;
 
@@ -165,14 +167,16 @@ type CentreHit = (glam::Vec3, glam::Vec3, Option<(glam::Vec3, glam::Vec3)>);
 /// The ray of the scene's camera through the centre of each pixel of a `width` x `height`
 /// image, top row first (origin, direction), and the surface point it meets with its shading
 /// normal: the points a first view sees (the stream's order) and where the CPU query is read
-/// ([`cpu_irradiance`]).
+/// ([`cpu_irradiance`]). The normal is the one the page shades with, the mesh's interpolated
+/// normal (`SurfaceHit::base_n`), not the one a bump or normal map makes of it: the page draws
+/// no such maps.
 fn centre_hits(scene: &Scene, width: u32, height: u32) -> Vec<CentreHit> {
     let (sx, sy) = (scene.film.width as f32 / width as f32, scene.film.height as f32 / height as f32);
     (0..height)
         .flat_map(|y| (0..width).map(move |x| (x, y)))
         .map(|(x, y)| {
             let (o, d, tmin) = scene.camera.generate_ray(glam::Vec2::new((x as f32 + 0.5) * sx, (y as f32 + 0.5) * sy));
-            (o, d, scene.intersect(&Ray { tmin, ..Ray::new(o, d) }).map(|h| (h.p, h.frame.n)))
+            (o, d, scene.intersect(&Ray { tmin, ..Ray::new(o, d) }).map(|h| (h.p, h.base_n)))
         })
         .collect()
 }
@@ -283,4 +287,40 @@ struct PageState {
     begin: Option<std::time::Instant>,
     frame_ms: Option<f64>,
     report: Option<String>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// On the test scene whose objects carry bump and normal maps, the CPU query reads each
+    /// pixel centre's hit with the interpolated normal the page shades with, not the one the
+    /// maps bend (which differs at many pixels).
+    #[test]
+    fn the_cpu_reference_reads_the_normals_the_page_shades_with() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/scenes/wrappers/scene.xml");
+        let loaded = crate::mitsuba::load(&path, &[]).expect("the wrappers test scene loads");
+        let scene = Scene::prepare(loaded.desc, BackendKind::Bvh).expect("it prepares");
+        let (w, h) = (48, 36);
+        let hits = centre_hits(&scene, w, h);
+        let sx = scene.film.width as f32 / w as f32;
+        let sy = scene.film.height as f32 / h as f32;
+        let (mut bent, mut seen) = (0, 0);
+        for (k, (o, d, hit)) in hits.iter().enumerate() {
+            let Some((p, n)) = hit else { continue };
+            let (x, y) = ((k as u32 % w) as f32, (k as u32 / w) as f32);
+            let (o2, d2, tmin) = scene.camera.generate_ray(glam::Vec2::new((x + 0.5) * sx, (y + 0.5) * sy));
+            assert_eq!((*o, *d), (o2, d2));
+            let full = scene.intersect(&Ray { tmin, ..Ray::new(o2, d2) }).expect("the same ray hits");
+            assert_eq!(*p, full.p);
+            assert!((n.length() - 1.0).abs() < 1e-4, "a unit normal: {n}");
+            assert!(n.dot(full.ng).abs() > 0.0, "a normal of the surface hit");
+            seen += 1;
+            if n.dot(full.frame.n) < 0.999 {
+                bent += 1;
+            }
+        }
+        assert!(seen > (w * h / 2) as usize, "the camera sees the scene: {seen} hits");
+        assert!(bent > 20, "the maps bend the normals of some pixels ({bent}), which the CPU query does not read");
+    }
 }
