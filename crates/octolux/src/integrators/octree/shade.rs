@@ -104,12 +104,18 @@ impl OctreeIntegrator {
 
     /// An ending under `mode = unbiased`: the cache's value `C` at `v` and, with probability
     /// `q` (drawn here), the residual continuation that corrects it (`integrators::pathloop`,
-    /// "The residual"; docs/guide/octree.md "Without bias"). Where the wide lobes are Lambertian (of
-    /// albedo `ρ`) and no inserted object changes the value, the control variate is the linear
-    /// incident field `L̃_c(ω) = 3/(2π) m_c · ω` of the blended matrix's columns `m_c`: over the
-    /// hemisphere of `N` it has the irradiance vector `m_c` (`∫ ω ωᵀ dω = 2π/3 I` there), so its
-    /// reflected mean is `ρ/π m_c · N`, the irradiance query's value, exactly. Elsewhere it is the
-    /// constant `C`. `None` where the global octree has no value (the path goes on, unweighted).
+    /// "The residual"; docs/guide/octree.md "Without bias"). The matrix `M(N)` is that of the
+    /// valid leaf holding `v` alone, without the §7 blend over its neighbours and without the
+    /// leak test: any `C` independent of the continuation keeps the estimate unbiased, and the
+    /// leaf alone correlates with the continuation as well as the blend does at a fraction of
+    /// its cost (docs/lab/2026-12-07-unbiased-leaf-cv.md). Where the wide lobes are Lambertian
+    /// (of albedo `ρ`), the control variate is the linear incident field
+    /// `L̃_c(ω) = 3/(2π) m_c · ω` of the matrix's columns `m_c`: over the hemisphere of `N` it
+    /// has the irradiance vector `m_c` (`∫ ω ωᵀ dω = 2π/3 I` there), so its reflected mean is
+    /// `ρ/π m_c · N = C` exactly. Elsewhere it is the constant `C` ([`shade_matrix`]). On an
+    /// inserted object's scene, `C` is the biased renderer's value (its volume query and
+    /// occlusion correction) and the control variate constant. `None` where the leaf has no
+    /// value (the path goes on, unweighted).
     fn residual_end(
         &self,
         scene: &Scene,
@@ -120,18 +126,23 @@ impl OctreeIntegrator {
     ) -> Option<(Color, Option<Residual>)> {
         let s = &self.settings;
         let plain = self.inserted.shapes.is_empty();
-        let (c, linear) = match (plain, v.material.lambertian_albedo(&scene.images, v.hit.uv, v.wo)) {
-            (true, Some(rho)) => {
-                let mut m = self.incident_matrix(scene, Tree::Global, v.hit, v.n, counters)?;
-                if caustics {
-                    if let Some(mc) = self.incident_matrix(scene, Tree::Caustic, v.hit, v.n, counters) {
-                        m += mc;
-                    }
+        let (c, linear) = if plain {
+            // the leaf holding the vertex alone: neither blend nor leak test (module docs)
+            let mut m = self.leaf_matrix(Tree::Global, v, counters)?;
+            if caustics {
+                if let Some(mc) = self.leaf_matrix(Tree::Caustic, v, counters) {
+                    m += mc;
                 }
-                let e = Color::new(m.col(0).dot(v.n), m.col(1).dot(v.n), m.col(2).dot(v.n));
-                (rho * e * std::f32::consts::FRAC_1_PI, Some(m * (1.5 * std::f32::consts::FRAC_1_PI)))
             }
-            _ => (self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters)?, None),
+            match v.material.lambertian_albedo(&scene.images, v.hit.uv, v.wo) {
+                Some(rho) => {
+                    let e = Color::new(m.col(0).dot(v.n), m.col(1).dot(v.n), m.col(2).dot(v.n));
+                    (rho * e * std::f32::consts::FRAC_1_PI, Some(m * (1.5 * std::f32::consts::FRAC_1_PI)))
+                }
+                None => (shade_matrix(scene, v.hit, v.material, v.wo, &m, s.min_alpha), None),
+            }
+        } else {
+            (self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters)?, None)
         };
         // Survival in proportion to the share of the path's light the cache puts beyond the
         // vertex (docs/guide/octree.md "Choosing q"): the cache drives the roulette.
@@ -146,6 +157,14 @@ impl OctreeIntegrator {
             },
         });
         Some((c, residual))
+    }
+
+    /// `M(N)` of `tree`'s valid leaf holding `v` alone ([`Octree::leaf_incident_matrix`]):
+    /// the control variate's matrix under `mode = unbiased`. `None` in an atmospheric leaf or
+    /// without the tree.
+    fn leaf_matrix(&self, tree: Tree, v: &CacheVertex, counters: &mut RayCounters) -> Option<Mat3> {
+        let octree = self.tree(tree)?;
+        counters.time_query(|| octree.leaf_incident_matrix(v.hit.p, v.n))
     }
 
     /// The indirect light the octrees give at `v`, reflected towards `v.wo` by the lobes at
