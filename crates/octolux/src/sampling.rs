@@ -74,7 +74,8 @@ enum Inner {
     },
 }
 
-/// Most slots whose keys a sampler keeps (a path of `max_depth` 17 draws about 60).
+/// Most slots whose keys a sampler keeps (a path draws a few slots per bounce; later slots are
+/// hashed each time, as before).
 const KEPT_SLOTS: usize = 128;
 
 /// The keys of a Sobol' sampler's slots, `sobol::keys` of each slot's hash. They depend on the
@@ -150,7 +151,7 @@ impl Sampler {
     /// Make this the sampler [`Sampler::with_kind`] gives for `(kind, seed, index, sample)`,
     /// the same numbers, keeping what it can of the previous sample's work: a Sobol' sampler
     /// restarted on the pixel it last drew for reads its slots' keys back instead of hashing
-    /// them again ([`SlotKeys`]). The render restarts one sampler per tile for every sample.
+    /// them again (`SlotKeys`). The render restarts one sampler per tile for every sample.
     #[inline]
     pub fn restart(&mut self, kind: SamplerKind, seed: u64, index: u64, sample: u64) {
         match (kind, &mut self.inner) {

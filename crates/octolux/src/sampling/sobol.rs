@@ -112,7 +112,7 @@ fn scrambled_dim0(i: u32, seed: u32) -> u32 {
 
 /// The keys of one slot (from its 64-bit hash `key`): index shuffle, x scramble, y scramble.
 #[inline]
-pub(super) fn keys(key: u64) -> (u32, u32, u32) {
+pub fn keys(key: u64) -> (u32, u32, u32) {
     let a = super::mix64(key);
     let b = super::mix64(a ^ 0x2545_f491_4f6c_dd1d);
     (a as u32, (a >> 32) as u32, b as u32)
