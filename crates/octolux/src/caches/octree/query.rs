@@ -129,13 +129,25 @@ impl Octree {
     /// `keep`, when given, sees every valid leaf met and may drop it (`None`: out of both
     /// sums) or scale its value by a factor (leak control; see [`Octree::irradiance_where`]).
     #[inline]
-    fn blend<T, K>(
+    fn blend<T, K>(&self, p: Vec3, n: Vec3, zero: T, keep: Option<K>, leaf: impl Fn(usize, &([usize; 3], [f32; 3])) -> [T; 3]) -> Option<T>
+    where
+        T: Copy + std::ops::AddAssign + std::ops::Mul<f32, Output = T>,
+        K: FnMut(QueryLeaf) -> Option<f32>,
+    {
+        self.blend_over(p, n, zero, keep, leaf, None)
+    }
+
+    /// [`Octree::blend`] over the valid leaves the query box meets, or with `only = Some(v)`
+    /// over valid leaf `v` alone, of weight 1 ([`Octree::leaf_incident_matrix`]).
+    #[inline]
+    fn blend_over<T, K>(
         &self,
         p: Vec3,
         n: Vec3,
         zero: T,
         mut keep: Option<K>,
         leaf: impl Fn(usize, &([usize; 3], [f32; 3])) -> [T; 3],
+        only: Option<usize>,
     ) -> Option<T>
     where
         T: Copy + std::ops::AddAssign + std::ops::Mul<f32, Output = T>,
@@ -148,7 +160,7 @@ impl Octree {
         let mut sum = [zero; 3];
         let mut wsum = [0.0f32; 3];
         let leaves = keep.is_some().then(|| self.flat().leaves.as_slice());
-        self.visit_query(p, |v, g| {
+        let mut add = |v: usize, g: f32| {
             let f = match (keep.as_mut(), leaves) {
                 (Some(k), Some(leaves)) => match k(leaves[v]) {
                     Some(f) => f,
@@ -164,7 +176,11 @@ impl Octree {
                     wsum[a] += g;
                 }
             }
-        });
+        };
+        match only {
+            Some(v) => add(v, 1.0),
+            None => self.visit_query(p, &mut add),
+        }
         let mut out = zero;
         let mut norm = 0.0f32;
         let mut any = false;
@@ -220,27 +236,12 @@ impl Octree {
     /// atmospheric leaf, outside the cube, or where the leaf's matrices of `n`'s axes carry no
     /// value.
     pub fn leaf_incident_matrix(&self, p: Vec3, n: Vec3) -> Option<Mat3> {
-        if !n.is_finite() {
-            return None;
-        }
         let (node, _, _) = self.find_leaf(p)?;
         let v = self.nodes[node as usize].value();
         if v == NO_VALUE {
             return None;
         }
-        let v = v as usize;
-        let sel = selection(n);
-        let bits = self.facing.get(v).copied().unwrap_or(ALL_FACING);
-        let terms = self.leaf_matrix(v, &sel);
-        let (mut out, mut norm, mut any) = (Mat3::ZERO, 0.0f32, false);
-        for (a, term) in terms.into_iter().enumerate() {
-            if bits & (1 << sel.0[a]) != 0 {
-                any = true;
-                out += term * sel.1[a];
-                norm += sel.1[a];
-            }
-        }
-        any.then(|| if norm > 0.0 { out * (1.0 / norm) } else { Mat3::ZERO })
+        self.blend_over(p, n, Mat3::ZERO, None::<NoKeep>, |v, sel| self.leaf_matrix(v, sel), Some(v as usize))
     }
 
     /// The six matrices of the valid leaf containing `p` (decompressed), in the order
