@@ -13,7 +13,10 @@
 //! `flat_visit_equals_the_tree_walk`). Points outside the root cube take the tree walk.
 //!
 //! Built from the node array once per tree, at the first query or by
-//! [`Octree::prepare_query`] (render time, not stored in cache files).
+//! [`Octree::prepare_query`] (render time, not stored in cache files). The per-leaf part
+//! (bounds, anchors, decoded factors, the grid) is built first and alone where only single
+//! leaves are read ([`Octree::prepare_leaf_query`]); the lists, most of the build's time, at
+//! the first blend.
 //!
 //! Why the traversal's test is the cell's own bounds: the walk enters a child when the box
 //! starts below the parent's centre (lower half) or ends above it (upper half), per axis, so it
@@ -41,11 +44,9 @@ pub(super) struct FlatCell {
 /// Per leaf, the valid leaves its query boxes can meet; per valid leaf, its bounds and anchors.
 #[derive(Clone, Debug, Default)]
 pub(super) struct FlatQuery {
-    /// Per node: the start of its list in `lists` (`start[node + 1]` ends it; empty for
-    /// internal nodes).
-    start: Vec<u32>,
-    /// Valid leaf indices, ascending within each list.
-    lists: Vec<u32>,
+    /// The lists of the blend, built at its first query ([`FlatLists`]): a read of one leaf
+    /// alone (`mode = unbiased`) does not need them, and they are most of the build's time.
+    lists: std::sync::OnceLock<FlatLists>,
     /// Per valid leaf.
     cells: Vec<FlatCell>,
     /// Per valid leaf: its anchors in world space, as [`Octree`]'s `query_leaf` decodes them.
@@ -57,6 +58,16 @@ pub(super) struct FlatQuery {
     /// leaves at that depth, or the leaf holding it when that leaf is larger.
     grid: Vec<u32>,
     grid_depth: u32,
+}
+
+/// Per leaf, the valid leaves its query boxes can meet.
+#[derive(Clone, Debug, Default)]
+struct FlatLists {
+    /// Per node: the start of its list in `lists` (`start[node + 1]` ends it; empty for
+    /// internal nodes).
+    start: Vec<u32>,
+    /// Valid leaf indices, ascending within each list.
+    lists: Vec<u32>,
 }
 
 /// Depth of [`FlatQuery`]'s grid of nodes, at most (4 bytes per cell: 128 KiB).
@@ -81,6 +92,36 @@ impl FlatQuery {
             debug_assert_eq!(leaves.len(), v as usize, "valid leaves are numbered in depth-first order");
             leaves.push(tree.query_leaf(v as usize, depth, ijk));
         }
+        let decoded = match &tree.values {
+            LeafValues::Compressed(c) => c
+                .iter()
+                .map(|leaf| {
+                    std::array::from_fn(|k| {
+                        let (d, c) = decompress_factors(&leaf[k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]);
+                        [d, c]
+                    })
+                })
+                .collect(),
+            LeafValues::Full(_) => Vec::new(),
+        };
+        let grid_depth = tree.h_max.min(GRID_DEPTH);
+        let side = 1u32 << grid_depth;
+        let mut grid = vec![0u32; (side * side * side) as usize];
+        fill_grid(tree, 0, 0, [0; 3], grid_depth, &mut grid);
+        FlatQuery { lists: std::sync::OnceLock::new(), cells, leaves, decoded, grid, grid_depth }
+    }
+
+    /// The blend's lists, built at the first call.
+    fn lists(&self, tree: &Octree) -> &FlatLists {
+        self.lists.get_or_init(|| FlatLists::new(tree))
+    }
+}
+
+impl FlatLists {
+    fn new(tree: &Octree) -> FlatLists {
+        let view = tree.view();
+        let mut all = Vec::with_capacity(tree.stats.leaves);
+        view.visit(Vec3::NEG_INFINITY, Vec3::INFINITY, |node, depth, ijk, _| all.push((node, depth, ijk)));
         // a query point is located by quantisation, which may put a point within an ulp of a
         // face into the neighbouring cell: the margin covers it
         let reach = tree.query_half * (1.0 + 1e-3) + 1e-3 * tree.cell_size[tree.h_max as usize];
@@ -111,38 +152,18 @@ impl FlatQuery {
             let a = count[node as usize] as usize;
             flat[a..a + l.len()].copy_from_slice(l);
         }
-        let decoded = match &tree.values {
-            LeafValues::Compressed(c) => c
-                .iter()
-                .map(|leaf| {
-                    std::array::from_fn(|k| {
-                        let (d, c) = decompress_factors(&leaf[k * MATRIX_BYTES..(k + 1) * MATRIX_BYTES]);
-                        [d, c]
-                    })
-                })
-                .collect(),
-            LeafValues::Full(_) => Vec::new(),
-        };
-        let grid_depth = tree.h_max.min(GRID_DEPTH);
-        let side = 1u32 << grid_depth;
-        let mut grid = vec![0u32; (side * side * side) as usize];
-        fill_grid(tree, 0, 0, [0; 3], grid_depth, &mut grid);
-        FlatQuery { start: count, lists: flat, cells, leaves, decoded, grid, grid_depth }
+        FlatLists { start: count, lists: flat }
     }
+}
 
+impl FlatQuery {
     /// Bytes held at render time (not in the cache file).
     pub(super) fn bytes(&self) -> usize {
-        std::mem::size_of_val(self.start.as_slice())
-            + std::mem::size_of_val(self.lists.as_slice())
+        self.lists.get().map_or(0, |l| std::mem::size_of_val(l.start.as_slice()) + std::mem::size_of_val(l.lists.as_slice()))
             + std::mem::size_of_val(self.cells.as_slice())
             + std::mem::size_of_val(self.leaves.as_slice())
             + std::mem::size_of_val(self.decoded.as_slice())
             + std::mem::size_of_val(self.grid.as_slice())
-    }
-
-    /// Entries of all lists.
-    pub(super) fn entries(&self) -> usize {
-        self.lists.len()
     }
 
     /// Call `f(value, γ)` for every valid leaf the box `[qmin, qmax]` (centred on `p`, half
@@ -151,8 +172,9 @@ impl FlatQuery {
     #[inline]
     pub(super) fn visit<F: FnMut(usize, f32)>(&self, tree: &Octree, p: Vec3, qmin: Vec3, qmax: Vec3, mut f: F) -> bool {
         let Some(node) = self.locate(tree, p) else { return false };
-        let (a, b) = (self.start[node as usize] as usize, self.start[node as usize + 1] as usize);
-        for &v in &self.lists[a..b] {
+        let l = self.lists(tree);
+        let (a, b) = (l.start[node as usize] as usize, l.start[node as usize + 1] as usize);
+        for &v in &l.lists[a..b] {
             let c = &self.cells[v as usize];
             if qmin.cmplt(c.upper).all() && qmax.cmpgt(c.min).all() {
                 let o = c.max.min(qmax) - c.min.max(qmin);
@@ -223,13 +245,21 @@ impl Octree {
     /// Build the query's flat lists now rather than at the first query (render-time data,
     /// module `flat.rs`). Returns the bytes they hold.
     pub fn prepare_query(&self) -> usize {
+        self.flat().lists(self);
         self.flat().bytes()
     }
 
-    /// Entries of the flat query lists and their bytes (diagnostics; builds them if needed).
-    pub fn query_lists(&self) -> (usize, usize) {
-        let f = self.flat();
-        (f.entries(), f.bytes())
+    /// Build now what a read of one leaf alone needs ([`Octree::leaf_incident_matrix`]: the
+    /// per-leaf part of the flat query, not the blend's lists). Returns the bytes held.
+    pub fn prepare_leaf_query(&self) -> usize {
+        self.flat().bytes()
+    }
+
+    /// Entries of the flat query lists and the bytes of the flat query (diagnostics); `None`
+    /// while the lists are not built (no blend was read).
+    pub fn query_lists(&self) -> Option<(usize, usize)> {
+        let f = self.flat.get()?;
+        Some((f.lists.get()?.lists.len(), f.bytes()))
     }
 }
 
@@ -282,7 +312,9 @@ mod tests {
         for (h_max, n_max, alpha) in [(3, 200, 1.5), (6, 40, 1.5), (8, 20, 1.5), (7, 30, 4.0), (0, 10, 1.5)] {
             let settings = OctreeSettings { h_max: Depth::Fixed(h_max), n_max, n_min: 5, alpha, ..OctreeSettings::default() };
             let tree = Octree::build(&photons, bounds, &settings, None).unwrap();
-            let (entries, bytes) = tree.query_lists();
+            assert_eq!(tree.query_lists(), None, "the lists are built at the first blend");
+            tree.prepare_query();
+            let (entries, bytes) = tree.query_lists().unwrap();
             assert!(entries >= tree.stats().valid_leaves && bytes > 0);
             let b = tree.bounds();
             let ext = b.max - b.min;

@@ -236,12 +236,22 @@ impl Octree {
     /// atmospheric leaf, outside the cube, or where the leaf's matrices of `n`'s axes carry no
     /// value.
     pub fn leaf_incident_matrix(&self, p: Vec3, n: Vec3) -> Option<Mat3> {
-        let (node, _, _) = self.find_leaf(p)?;
+        self.leaf_edge_and_matrix(p, n)?.1
+    }
+
+    /// The edge of the leaf holding `p` (its [`LeafInfo::bounds`]' x extent) and, for a valid
+    /// leaf, its [`Octree::leaf_incident_matrix`]: one descent for both. `None` outside the
+    /// cube.
+    pub fn leaf_edge_and_matrix(&self, p: Vec3, n: Vec3) -> Option<(f32, Option<Mat3>)> {
+        let (node, depth, ijk) = self.find_leaf(p)?;
+        let min = self.view().cell_min(depth, ijk).x;
+        // as `info` forms the bounds, so that the edge is theirs to the last bit
+        let edge = (min + self.cell_size[depth as usize]) - min;
         let v = self.nodes[node as usize].value();
         if v == NO_VALUE {
-            return None;
+            return Some((edge, None));
         }
-        self.blend_over(p, n, Mat3::ZERO, None::<NoKeep>, |v, sel| self.leaf_matrix(v, sel), Some(v as usize))
+        Some((edge, self.blend_over(p, n, Mat3::ZERO, None::<NoKeep>, |v, sel| self.leaf_matrix(v, sel), Some(v as usize))))
     }
 
     /// The six matrices of the valid leaf containing `p` (decompressed), in the order

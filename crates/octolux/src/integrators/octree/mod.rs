@@ -212,11 +212,16 @@ impl OctreeIntegrator {
     }
 
     /// Build the octrees' flat query lists now (render-time data, `caches/octree/flat.rs`)
-    /// instead of at the first query.
+    /// instead of at the first query. Under `mode = unbiased` only what a read of one leaf
+    /// needs: its endings read no blend ([`Octree::prepare_leaf_query`]; an inserted object's
+    /// query builds the rest at its first read).
     pub fn prepare_query(&self) {
-        self.global.prepare_query();
-        if let Some(c) = &self.caustic {
-            c.prepare_query();
+        for t in [Some(&self.global), self.caustic.as_ref()].into_iter().flatten() {
+            if self.settings.mode == Mode::Unbiased {
+                t.prepare_leaf_query();
+            } else {
+                t.prepare_query();
+            }
         }
     }
 
@@ -241,13 +246,11 @@ impl OctreeIntegrator {
 
     /// What the leak test found (for out.json's `render_report`): per tree, the valid leaves
     /// around which the scene is one plane ([`LeafPlanes`], tested without a ray) and all valid
-    /// leaves; the sizes of the query's flat lists.
+    /// leaves; the sizes of the query's flat lists (null where no blend was read: `mode =
+    /// unbiased` reads single leaves).
     pub fn leak_report(&self) -> serde_json::Value {
         let count = |p: &Option<LeafPlanes>| p.as_ref().map(|p| serde_json::json!({ "planar": p.planar(), "valid": p.len() }));
-        let lists = |t: &Octree| {
-            let (entries, bytes) = t.query_lists();
-            serde_json::json!({ "entries": entries, "bytes": bytes })
-        };
+        let lists = |t: &Octree| t.query_lists().map(|(entries, bytes)| serde_json::json!({ "entries": entries, "bytes": bytes }));
         serde_json::json!({
             "leak_planes_global": count(&self.planes[0]),
             "leak_planes_caustic": count(&self.planes[1]),

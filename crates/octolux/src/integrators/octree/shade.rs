@@ -63,13 +63,22 @@ impl Ending for OctreeIntegrator {
                     return None;
                 }
                 let caustics = self.caustic_trusted(v.hit.p);
+                if s.mode == Mode::Unbiased && self.inserted.shapes.is_empty() {
+                    // one descent gives the footprint rule's leaf and the control variate's matrix
+                    let (edge, m) = counters.time_query(|| self.global.leaf_edge_and_matrix(v.hit.p, v.n))?;
+                    if !(v.footprint >= s.footprint * edge) {
+                        return None;
+                    }
+                    let (radiance, linear) = self.leaf_value(scene, v, m?, caustics, counters);
+                    let residual = self.residual(s.q, v, radiance, linear, sampler);
+                    return Some(CacheEnd { radiance, residual, ..read(true, s.min_alpha, caustics) });
+                }
                 let ends = at_end && self.global.leaf_at(v.hit.p).is_some_and(|leaf| v.footprint >= s.footprint * leaf.bounds.extent().x);
                 if ends && s.mode == Mode::Unbiased {
-                    return self.residual_end(scene, v, caustics, sampler, counters).map(|(radiance, residual)| CacheEnd {
-                        radiance,
-                        residual,
-                        ..read(true, s.min_alpha, caustics)
-                    });
+                    // an inserted object's scene: the biased renderer's value, a constant variate
+                    let radiance = self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters)?;
+                    let residual = self.residual(s.q, v, radiance, None, sampler);
+                    return Some(CacheEnd { radiance, residual, ..read(true, s.min_alpha, caustics) });
                 }
                 if ends {
                     if let Some(radiance) = self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters) {
@@ -102,69 +111,49 @@ impl OctreeIntegrator {
         }
     }
 
-    /// An ending under `mode = unbiased`: the cache's value `C` at `v` and, with probability
-    /// `q` (drawn here), the residual continuation that corrects it (`integrators::pathloop`,
-    /// "The residual"; docs/guide/octree.md "Without bias"). The matrix `M(N)` is that of the
+    /// The cache's value `C` at an ending under `mode = unbiased` and, where the wide lobes
+    /// are Lambertian, the linear field of its control variate (`integrators::pathloop`, "The
+    /// residual"; docs/guide/octree.md "Without bias"). `m` is `M(N)` of the global octree's
     /// valid leaf holding `v` alone, without the §7 blend over its neighbours and without the
     /// leak test: any `C` independent of the continuation keeps the estimate unbiased, and the
     /// leaf alone correlates with the continuation as well as the blend does at a fraction of
-    /// its cost (docs/lab/2026-12-07-unbiased-leaf-cv.md). Where the wide lobes are Lambertian
-    /// (of albedo `ρ`), the control variate is the linear incident field
-    /// `L̃_c(ω) = 3/(2π) m_c · ω` of the matrix's columns `m_c`: over the hemisphere of `N` it
-    /// has the irradiance vector `m_c` (`∫ ω ωᵀ dω = 2π/3 I` there), so its reflected mean is
-    /// `ρ/π m_c · N = C` exactly. Elsewhere it is the constant `C` ([`shade_matrix`]). On an
-    /// inserted object's scene, `C` is the biased renderer's value (its volume query and
-    /// occlusion correction) and the control variate constant. `None` where the leaf has no
-    /// value (the path goes on, unweighted).
-    fn residual_end(
-        &self,
-        scene: &Scene,
-        v: &CacheVertex,
-        caustics: bool,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-    ) -> Option<(Color, Option<Residual>)> {
-        let s = &self.settings;
-        let plain = self.inserted.shapes.is_empty();
-        let (c, linear) = if plain {
-            // the leaf holding the vertex alone: neither blend nor leak test (module docs)
-            let mut m = self.leaf_matrix(Tree::Global, v, counters)?;
-            if caustics {
-                if let Some(mc) = self.leaf_matrix(Tree::Caustic, v, counters) {
-                    m += mc;
-                }
+    /// its cost (docs/lab/2026-12-07-unbiased-leaf-cv.md); the caustic octree's leaf is added
+    /// with `caustics`. Where the wide lobes are Lambertian (of albedo `ρ`), the control variate
+    /// is the linear incident field `L̃_c(ω) = 3/(2π) m_c · ω` of the matrix's columns `m_c`:
+    /// over the hemisphere of `N` it has the irradiance vector `m_c` (`∫ ω ωᵀ dω = 2π/3 I`
+    /// there), so its reflected mean is `ρ/π m_c · N = C` exactly. Elsewhere it is the
+    /// constant `C` ([`shade_matrix`]).
+    fn leaf_value(&self, scene: &Scene, v: &CacheVertex, mut m: Mat3, caustics: bool, counters: &mut RayCounters) -> (Color, Option<Mat3>) {
+        if caustics {
+            if let Some(mc) = self.caustic.as_ref().and_then(|c| counters.time_query(|| c.leaf_incident_matrix(v.hit.p, v.n))) {
+                m += mc;
             }
-            match v.material.lambertian_albedo(&scene.images, v.hit.uv, v.wo) {
-                Some(rho) => {
-                    let e = Color::new(m.col(0).dot(v.n), m.col(1).dot(v.n), m.col(2).dot(v.n));
-                    (rho * e * std::f32::consts::FRAC_1_PI, Some(m * (1.5 * std::f32::consts::FRAC_1_PI)))
-                }
-                None => (shade_matrix(scene, v.hit, v.material, v.wo, &m, s.min_alpha), None),
+        }
+        match v.material.lambertian_albedo(&scene.images, v.hit.uv, v.wo) {
+            Some(rho) => {
+                let e = Color::new(m.col(0).dot(v.n), m.col(1).dot(v.n), m.col(2).dot(v.n));
+                (rho * e * std::f32::consts::FRAC_1_PI, Some(m * (1.5 * std::f32::consts::FRAC_1_PI)))
             }
-        } else {
-            (self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters)?, None)
-        };
-        // Survival in proportion to the share of the path's light the cache puts beyond the
-        // vertex (docs/guide/octree.md "Choosing q"): the cache drives the roulette.
+            None => (shade_matrix(scene, v.hit, v.material, v.wo, &m, self.settings.min_alpha), None),
+        }
+    }
+
+    /// Whether the path is traced on from an ending of value `c` under `mode = unbiased`, drawn
+    /// here: survival in proportion to the share of the path's light the cache puts beyond the
+    /// vertex, scaled by the setting `q` (docs/guide/octree.md "Choosing q"): the cache drives
+    /// the roulette. `linear`: the control variate's field ([`OctreeIntegrator::leaf_value`]),
+    /// else the constant `c`.
+    fn residual(&self, q_scale: f32, v: &CacheVertex, c: Color, linear: Option<Mat3>, sampler: &mut Sampler) -> Option<Residual> {
         let bc = crate::math::max_component(v.throughput * c);
         let share = bc / (crate::math::max_component(v.gathered) + bc);
-        let q = if share.is_finite() { (2.0 * s.q * share).clamp(Q_MIN, 1.0) } else { 1.0 };
-        let residual = (sampler.next_1d() < q).then_some(Residual {
+        let q = if share.is_finite() { (2.0 * q_scale * share).clamp(Q_MIN, 1.0) } else { 1.0 };
+        (sampler.next_1d() < q).then_some(Residual {
             q,
             cv: match linear {
                 Some(a) => ControlVariate::Linear(a),
                 None => ControlVariate::Constant(c),
             },
-        });
-        Some((c, residual))
-    }
-
-    /// `M(N)` of `tree`'s valid leaf holding `v` alone ([`Octree::leaf_incident_matrix`]):
-    /// the control variate's matrix under `mode = unbiased`. `None` in an atmospheric leaf or
-    /// without the tree.
-    fn leaf_matrix(&self, tree: Tree, v: &CacheVertex, counters: &mut RayCounters) -> Option<Mat3> {
-        let octree = self.tree(tree)?;
-        counters.time_query(|| octree.leaf_incident_matrix(v.hit.p, v.n))
+        })
     }
 
     /// The indirect light the octrees give at `v`, reflected towards `v.wo` by the lobes at
