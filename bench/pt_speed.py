@@ -30,8 +30,9 @@ Each (case, thread count) runs octolux then each Mitsuba variant, alternately. R
               untimed 1-spp warm-up pass so that kernel compilation is not counted);
   x           the speed-up from 1 to 2 threads (wall);
   cpu         samples per CPU-second (user+sys of the child process) x threads, less sensitive
-              to other load on a shared machine (octolux: the process's CPU time scaled by
-              render_s/total_s; Mitsuba: process_time() around the render);
+              to other load on a shared machine (octolux: out.json `timings.render_cpu_s`,
+              the process's CPU time around the render phase; Mitsuba: process_time() around
+              the render);
   TTFS        time to first sample: octolux's load + prepare (acceleration build) + integrator
               build from out.json, against Mitsuba's `mi.load_file` (parse, meshes, Embree
               build) from render.py; both at the largest thread count. Wall seconds, and CPU
@@ -185,8 +186,12 @@ def octolux_speed(binary: str, scene: str, spp: int, res: str, depth: int, threa
         stats = json.load(f)
     sps = float(stats["samples_per_second"])
     t = stats.get("timings", {})
-    # CPU time of the render phase, estimated as the process's CPU time scaled by render_s / total_s.
-    cpu_render = cpu * t["render_s"] / t["total_s"] if t.get("total_s") else cpu
+    # CPU time of the render phase: octolux's own clock around it (timings.render_cpu_s), else
+    # the process's CPU time scaled by render_s / total_s.
+    if t.get("render_cpu_s") is not None:
+        cpu_render = float(t["render_cpu_s"])
+    else:
+        cpu_render = cpu * t["render_s"] / t["total_s"] if t.get("total_s") else cpu
     samples = sps * t["render_s"] if t.get("render_s") else None
     ttfs = sum(t.get(k) or 0.0 for k in ("load_s", "prepare_s", "build_s"))
     return {"samples_per_second": sps, "samples_per_cpu_second": samples / cpu_render if samples and cpu_render > 0 else None,

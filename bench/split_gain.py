@@ -5,8 +5,8 @@ tracer's `split` setting, integrators/pathloop.rs "Splitting").
 For each scene and split factor k the path tracer renders S seeds at the same spp. Per pixel
 and channel the variance over the seeds, weighted by the relMSE's 1/(r² + 0.01) (r: the
 scene's reference, metrics.rs), estimates the expected relMSE of one render without any
-reference noise; its render time (out.json `render.render_s`, scene loading excluded) is the
-cost. The efficiency gain of k over k = 1 is (V_1 T_1) / (V_k T_k). The variance of the
+reference noise; its render's CPU time (out.json `timings.render_cpu_s`, all threads, scene
+loading excluded) is the cost. The efficiency gain of k over k = 1 is (V_1 T_1) / (V_k T_k). The variance of the
 fireflies' pixels is itself noisy: the printed 90% interval comes from a bootstrap over the
 seeds (both factors resampled together).
 
@@ -82,7 +82,7 @@ def main() -> int:
                     times.append(render(sc["scene"], sc["max_depth"], a.spp, a.res, 1000 + s, out, opts, integrator, binary))
                     imgs.append(read(out))
                 per_k[k] = (np.stack(imgs), np.array(times))
-                print(f"  {name} {label}: {np.mean(times):.3f} s per render", file=sys.stderr, flush=True)
+                print(f"  {name} {label}: {np.mean(times):.3f} CPU s per render", file=sys.stderr, flush=True)
 
             def eff(k: int, idx: np.ndarray) -> float:
                 x, t = per_k[k]

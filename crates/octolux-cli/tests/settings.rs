@@ -263,6 +263,11 @@ fn out_json_holds_the_render_time_counters() {
         }
         assert!(json["render_report"].is_object(), "{integrator}: {json}");
         assert!(json["timings"]["build_s"].as_f64().unwrap() >= 0.0);
+        // the render phase's CPU time, all threads: some, and at most what the threads had
+        let t = &json["timings"];
+        let (cpu, wall) = (t["render_cpu_s"].as_f64().expect("timings.render_cpu_s"), t["render_s"].as_f64().unwrap());
+        let threads = json["threads"].as_f64().unwrap();
+        assert!(cpu > 0.0 && cpu <= wall * threads * 1.05 + 0.01, "{integrator}: render_cpu_s {cpu}, render_s {wall}");
     }
     let (json, _) = rendered(&d.0, &["--integrator", "ward", "--photons", "3000"]);
     assert!(json["render_report"]["temporaries"].is_u64(), "{json}");

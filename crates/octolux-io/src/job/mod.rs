@@ -22,6 +22,7 @@
 //! per Python call).
 
 pub mod bake;
+mod cpu_clock;
 pub mod frames;
 pub mod insert;
 pub mod output;

@@ -269,7 +269,9 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
             (Some(ins), Some((m, shapes))) => Some(insert::report(ins, &scene, m, shapes, rebake_report.as_ref())),
             _ => None,
         };
+        let cpu0 = super::cpu_clock::process_cpu_s();
         let (image, rstats) = render_image(&scene, &integrator, &render_settings, fe, cancel);
+        let render_cpu_s = cpu0.zip(super::cpu_clock::process_cpu_s()).map(|(a, b)| b - a);
         if rstats.interrupted && rstats.passes == 0 {
             let msg = match (&frame, written.first(), written.last()) {
                 (Some((_, info)), Some(first), Some(last)) => format!(
@@ -297,7 +299,7 @@ fn render_job(job: &RenderJob, fe: &dyn Frontend, cancel: &AtomicBool) -> Result
             triangles: scene.triangle_count(),
             seed: job.integrator.seed,
             render_settings,
-            timings: stats::Timings { load_s, prepare_s, build_s, render_s: rstats.render_s, write_s: 0.0, total_s: 0.0 },
+            timings: stats::Timings { load_s, prepare_s, build_s, render_s: rstats.render_s, render_cpu_s, write_s: 0.0, total_s: 0.0 },
             samples_per_second: rstats.samples_per_second,
             rays_per_second: rstats.rays_per_second,
             render: &rstats,

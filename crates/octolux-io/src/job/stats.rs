@@ -14,6 +14,9 @@ pub struct Timings {
     /// The integrator's build (photon pass, cache construction, priming), seconds.
     pub build_s: f64,
     pub render_s: f64,
+    /// CPU seconds of the process during `render_s`, all threads (user and system): the cost
+    /// to divide by where the machine is shared. `None` where the platform has no such clock.
+    pub render_cpu_s: Option<f64>,
     pub write_s: f64,
     pub total_s: f64,
 }
