@@ -5,6 +5,11 @@ second at 1 and 2 threads, and time to first sample, in one table of ratios.
     python3 bench/pt_speed.py                       # every case below, threads 1 and 2
     python3 bench/pt_speed.py --case bitterli:65 --case box --threads 2 --json target/pt_speed.json
     python3 bench/pt_speed.py --variants llvm_ad_rgb,scalar_rgb --skip-octolux
+    python3 bench/pt_speed.py --variants llvm_ad_rgb,llvm_ad_rgb@avx2   # also as on an AVX2 machine
+
+A variant `VARIANT@TARGET` runs VARIANT with Dr.Jit's LLVM backend compiled for TARGET
+(tools/mitsuba/render.py --llvm-target): `llvm_ad_rgb@avx2` is what an AVX2 machine without
+AVX-512 runs (8 lanes), measured on this host's cores, clock and caches.
 
 Cases are SCENE[:MAX_DEPTH] with SCENE one of
   cornell-box, cornell-spheres  octolux's built-in scenes (Mitsuba renders the XML that
@@ -209,9 +214,12 @@ def octolux_ttfs_cpu(binary: str, scene: str, depth: int, threads: int, tmp: str
 
 def mitsuba_speed(xml: str, variant: str, spp: int, res: str, depth: int, threads: int, verbose: bool,
                   out: str | None = None) -> dict:
+    # `VARIANT@TARGET`: the variant with its LLVM backend compiled for TARGET (render.py
+    # --llvm-target, e.g. llvm_ad_rgb@avx2: 8 lanes, what an AVX2 machine runs)
+    variant, _, target = variant.partition("@")
     cmd = [MI_PY, MI_RENDER, xml, "--variant", variant, "--spp", str(spp), "--resolution", res,
            "--max-depth", str(depth), "--threads", str(threads), "--sampler", "independent", "--quiet",
-           "--passes", "1"] + (["-o", out] if out else [])
+           "--passes", "1"] + (["-o", out] if out else []) + (["--llvm-target", target] if target else [])
     if not variant.startswith("scalar"):
         cmd += ["--warmup", "--warmup-spp", "1"]
     p = run(cmd, stderr=None if verbose else subprocess.DEVNULL)

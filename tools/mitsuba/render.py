@@ -264,6 +264,42 @@ def default_variant() -> str:
     return os.environ.get("OCTOLUX_MI_VARIANT", "llvm_ad_rgb")
 
 
+# `--llvm-target` presets: (LLVM CPU, features, vector width). `avx2`: a Haswell-class core without
+# AVX-512, the JIT's 8 lanes instead of an AVX-512 host's 16.
+LLVM_TARGETS = {
+    "avx2": ("haswell", "+sse4.2,+avx,+avx2,+fma,+f16c,+bmi,+bmi2,+popcnt,+lzcnt,+movbe,-avx512f", 8),
+}
+
+
+def set_llvm_target(spec: str) -> int:
+    """Point Dr.Jit's LLVM backend at another CPU (`jit_llvm_set_target` of libdrjit-core, by
+    ctypes: Dr.Jit's Python API does not expose it): a preset of LLVM_TARGETS or
+    CPU:FEATURES:WIDTH. Returns the vector width the backend then uses."""
+    import ctypes
+
+    import drjit as dr
+
+    if spec in LLVM_TARGETS:
+        cpu, features, width = LLVM_TARGETS[spec]
+    else:
+        try:
+            cpu, features, w = spec.split(":")
+            width = int(w)
+        except ValueError:
+            raise SystemExit(f"--llvm-target {spec!r}: expected one of {sorted(LLVM_TARGETS)} or CPU:FEATURES:WIDTH")
+    lib = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
+    try:
+        set_target, get_width = lib._Z19jit_llvm_set_targetPKcS0_j, lib._Z21jit_llvm_vector_widthv
+    except AttributeError:
+        raise SystemExit(f"--llvm-target: this Dr.Jit ({dr.__version__}) has no jit_llvm_set_target to call")
+    set_target.argtypes, set_target.restype = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint32], None
+    get_width.restype = ctypes.c_uint32
+    set_target(cpu.encode(), features.encode(), width)
+    if get_width() != width:
+        raise SystemExit(f"--llvm-target {spec!r}: the backend kept vector width {get_width()}")
+    return width
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scene")
@@ -288,6 +324,9 @@ def main(argv=None) -> int:
                     help="override a <default> parameter of the scene")
     ap.add_argument("--write-patched", help="also save the patched XML here")
     ap.add_argument("--quiet", action="store_true", help="Mitsuba log level: errors only")
+    ap.add_argument("--llvm-target", default=None, metavar="PRESET|CPU:FEATURES:WIDTH",
+                    help="LLVM variants: compile for another CPU than the host's, e.g. `avx2` (8 lanes, no "
+                         "AVX-512) to measure what an AVX2 machine would run")
     args = ap.parse_args(argv)
 
     overrides = dict(d.split("=", 1) for d in args.defines)
@@ -300,6 +339,7 @@ def main(argv=None) -> int:
     if args.threads:
         dr.set_thread_count(args.threads)
     mi.set_variant(variant)
+    llvm_width = set_llvm_target(args.llvm_target) if args.llvm_target else None
     mi.set_log_level(mi.LogLevel.Error if args.quiet else mi.LogLevel.Warn)
     fr = mi.file_resolver() if hasattr(mi, "file_resolver") else mi.Thread.thread().file_resolver()
     fr.prepend(os.path.dirname(os.path.abspath(args.scene)))
@@ -369,6 +409,8 @@ def main(argv=None) -> int:
         "output": os.path.abspath(args.output) if args.output else None,
         "variant": variant,
         "mitsuba_version": mi.__version__,
+        "llvm_target": args.llvm_target,
+        "llvm_vector_width": llvm_width,
         "drjit_version": dr.__version__,
         "threads": dr.thread_count(),
         "width": w,
