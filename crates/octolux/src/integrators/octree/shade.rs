@@ -70,14 +70,14 @@ impl Ending for OctreeIntegrator {
                         return None;
                     }
                     let (radiance, linear) = self.leaf_value(scene, v, m?, caustics, counters);
-                    let residual = self.residual(s.q, v, radiance, linear, sampler);
+                    let residual = self.residual(v, radiance, linear, sampler);
                     return Some(CacheEnd { radiance, residual, ..read(true, s.min_alpha, caustics) });
                 }
                 let ends = at_end && self.global.leaf_at(v.hit.p).is_some_and(|leaf| v.footprint >= s.footprint * leaf.bounds.extent().x);
                 if ends && s.mode == Mode::Unbiased {
                     // an inserted object's scene: the biased renderer's value, a constant variate
                     let radiance = self.cache_radiance(scene, v, s.min_alpha, caustics, sampler, counters)?;
-                    let residual = self.residual(s.q, v, radiance, None, sampler);
+                    let residual = self.residual(v, radiance, None, sampler);
                     return Some(CacheEnd { radiance, residual, ..read(true, s.min_alpha, caustics) });
                 }
                 if ends {
@@ -143,10 +143,10 @@ impl OctreeIntegrator {
     /// vertex, scaled by the setting `q` (docs/guide/octree.md "Choosing q"): the cache drives
     /// the roulette. `linear`: the control variate's field ([`OctreeIntegrator::leaf_value`]),
     /// else the constant `c`.
-    fn residual(&self, q_scale: f32, v: &CacheVertex, c: Color, linear: Option<Mat3>, sampler: &mut Sampler) -> Option<Residual> {
+    fn residual(&self, v: &CacheVertex, c: Color, linear: Option<Mat3>, sampler: &mut Sampler) -> Option<Residual> {
         let bc = crate::math::max_component(v.throughput * c);
         let share = bc / (crate::math::max_component(v.gathered) + bc);
-        let q = if share.is_finite() { (2.0 * q_scale * share).clamp(Q_MIN, 1.0) } else { 1.0 };
+        let q = if share.is_finite() { (2.0 * self.settings.q * share).clamp(Q_MIN, 1.0) } else { 1.0 };
         (sampler.next_1d() < q).then_some(Residual {
             q,
             cv: match linear {
