@@ -9,12 +9,16 @@
 
 use super::{intersect_sphere, SphereShape};
 use crate::math::Ray;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// Scenes with at most this many spheres test them one by one.
 pub const LINEAR_MAX: usize = 16;
 /// Spheres per leaf at most.
 const LEAF_MAX: usize = 4;
+/// The box test's relative widening of both ends (pbrt's 2·gamma(3)): a sphere's `t` and the
+/// slabs' carry rounding errors of that order, which the box's pad does not cover far from the
+/// ray's origin.
+const WIDEN: f32 = 2.0 * 3.0 * f32::EPSILON;
 /// Traversal stack: the tree's depth stays below 64 (median splits: about `log2(n / LEAF_MAX)`).
 const STACK: usize = 64;
 
@@ -35,6 +39,22 @@ pub struct SphereBvh {
     nodes: Vec<Node>,
     /// Sphere indices, each leaf's contiguous.
     order: Vec<u32>,
+}
+
+/// What the box test reads of a ray: its origin, its direction's reciprocals (at most 1e30 in
+/// magnitude) and `tmin`.
+struct Slabs {
+    o: Vec3A,
+    inv: Vec3A,
+    tmin: f32,
+}
+
+impl Slabs {
+    #[inline]
+    fn new(ray: &Ray) -> Slabs {
+        let inv = ray.d.map(|x| 1.0 / if x.abs() < 1e-30 { 1e-30f32.copysign(x) } else { x });
+        Slabs { o: ray.o.into(), inv: inv.into(), tmin: ray.tmin }
+    }
 }
 
 /// A sphere's box, widened so that no hit [`intersect_sphere`] reports lies outside it (the
@@ -84,23 +104,17 @@ impl SphereBvh {
         self.nodes[node].count = 0;
     }
 
-    /// Entry distance of the ray into `n`'s box when it enters before `tmax` (`inv`: the
-    /// direction's reciprocals).
+    /// Entry distance of the ray into `n`'s box when it enters before `tmax`. Four lanes at a
+    /// time (`Vec3A`): every lane is finite or infinite, never NaN (the reciprocals are at most
+    /// 1e30 in magnitude), so the lanes' min and max are the scalar ones.
     #[inline]
-    fn enter(n: &Node, ray: &Ray, inv: Vec3, tmax: f32) -> Option<f32> {
-        let (t0, t1) = ((n.lo - ray.o) * inv, (n.hi - ray.o) * inv);
-        // both ends widened in proportion to the distance (pbrt's 2·gamma(3)): a sphere's `t`
-        // and the slabs' carry rounding errors of that order, which the box's pad does not
-        // cover far from the ray's origin
-        const WIDEN: f32 = 2.0 * 3.0 * f32::EPSILON;
+    fn enter(n: &Node, r: &Slabs, tmax: f32) -> Option<f32> {
+        let (t0, t1) = ((Vec3A::from(n.lo) - r.o) * r.inv, (Vec3A::from(n.hi) - r.o) * r.inv);
+        // both ends widened in proportion to the distance ([`WIDEN`])
         let near = t0.min(t1).max_element();
-        let near = (near - near.abs() * WIDEN).max(ray.tmin);
+        let near = (near - near.abs() * WIDEN).max(r.tmin);
         let far = t0.max(t1).min_element().min(tmax) * (1.0 + WIDEN);
         (near <= far).then_some(near)
-    }
-
-    fn inv_dir(ray: &Ray) -> Vec3 {
-        ray.d.map(|x| 1.0 / if x.abs() < 1e-30 { 1e-30f32.copysign(x) } else { x })
     }
 
     /// The nearest sphere the ray meets before `tmax` (index, `t`): what testing every sphere
@@ -117,16 +131,23 @@ impl SphereBvh {
             }
             return best;
         }
-        let inv = Self::inv_dir(ray);
-        let mut stack = [0u32; STACK];
+        let r = Slabs::new(ray);
+        // (node, its entry distance): a node's box is tested once, when its parent is popped;
+        // popped, it is kept while `near <= bound (1 + WIDEN)`, which is what testing its box
+        // again against the shrunk bound gives (`enter`'s far end is `min(box, bound)`, and
+        // scaling by a positive factor keeps the order of the minimum's operands)
+        let near = Self::enter(&self.nodes[0], &r, bound)?;
+        let mut stack = [(0u32, 0.0f32); STACK];
+        stack[0] = (0, near);
         let mut sp = 1;
         while sp > 0 {
             sp -= 1;
-            let n = &self.nodes[stack[sp] as usize];
+            let (at, near) = stack[sp];
             // a box entered exactly at the bound may hold a tie of lower index
-            if Self::enter(n, ray, inv, bound).is_none() {
+            if !(near <= bound * (1.0 + WIDEN)) {
                 continue;
             }
+            let n = &self.nodes[at as usize];
             if n.count > 0 {
                 for &i in &self.order[n.start as usize..(n.start + n.count) as usize] {
                     let s = &spheres[i as usize];
@@ -140,16 +161,24 @@ impl SphereBvh {
                 }
                 continue;
             }
-            let (a, b) = (stack[sp] + 1, n.start);
-            let (ta, tb) = (Self::enter(&self.nodes[a as usize], ray, inv, bound), Self::enter(&self.nodes[b as usize], ray, inv, bound));
+            let (a, b) = (at + 1, n.start);
             // the nearer child on top
-            let (first, second) = match (ta, tb) {
-                (Some(x), Some(y)) if y < x => (Some(b), Some(a)),
-                (ta, tb) => (ta.map(|_| a), tb.map(|_| b)),
-            };
-            for c in [second, first].into_iter().flatten() {
-                stack[sp] = c;
-                sp += 1;
+            match (Self::enter(&self.nodes[a as usize], &r, bound), Self::enter(&self.nodes[b as usize], &r, bound)) {
+                (Some(x), Some(y)) => {
+                    let (first, second) = if y < x { ((b, y), (a, x)) } else { ((a, x), (b, y)) };
+                    stack[sp] = second;
+                    stack[sp + 1] = first;
+                    sp += 2;
+                }
+                (Some(x), None) => {
+                    stack[sp] = (a, x);
+                    sp += 1;
+                }
+                (None, Some(y)) => {
+                    stack[sp] = (b, y);
+                    sp += 1;
+                }
+                (None, None) => {}
             }
         }
         best
@@ -160,14 +189,14 @@ impl SphereBvh {
         if self.nodes.is_empty() {
             return spheres.iter().any(|s| intersect_sphere(ray, s.center, s.radius, ray.tmax).is_some());
         }
-        let inv = Self::inv_dir(ray);
+        let r = Slabs::new(ray);
         let mut stack = [0u32; STACK];
         let mut sp = 1;
         while sp > 0 {
             sp -= 1;
             let at = stack[sp];
             let n = &self.nodes[at as usize];
-            if Self::enter(n, ray, inv, ray.tmax).is_none() {
+            if Self::enter(n, &r, ray.tmax).is_none() {
                 continue;
             }
             if n.count > 0 {
