@@ -2,7 +2,8 @@
 //! hold triangles only; a scene's spheres were tested one by one on every ray, which made a
 //! scene of a thousand small spheres 14x slower per ray than one of ten (measured:
 //! docs/lab/2026-12-07-path-overheads.md). [`SphereBvh`] answers the scene's sphere queries:
-//! up to [`LINEAR_MAX`] spheres by testing each, above through a binary tree of boxes, with
+//! up to [`LINEAR_MAX`] spheres by testing each, above through a tree of boxes four wide (a
+//! node's four boxes tested in one slab test, one lane each), with
 //! the same answers as the linear test: the nearest hit
 //! `t` (each sphere's by [`intersect_sphere`], the very function the linear test calls), ties
 //! to the lowest sphere index, as the linear test's strict `<` gives.
