@@ -112,13 +112,13 @@ fn scrambled_dim0(i: u32, seed: u32) -> u32 {
 
 /// The keys of one slot (from its 64-bit hash `key`): index shuffle, x scramble, y scramble.
 #[inline]
-pub fn keys(key: u64) -> (u32, u32, u32) {
+pub(super) fn keys(key: u64) -> (u32, u32, u32) {
     let a = super::mix64(key);
     let b = super::mix64(a ^ 0x2545_f491_4f6c_dd1d);
     (a as u32, (a >> 32) as u32, b as u32)
 }
 
-/// Sample `index` of the 2D slot whose [`keys`] are `(ks, kx, ky)`, as two 32-bit fractions,
+/// Sample `index` of the 2D slot whose `keys` are `(ks, kx, ky)`, as two 32-bit fractions,
 /// given the index with its bits reversed, `index_rev` (a sampler keeps it so, for all the
 /// slots of a sample): the scrambled index `i`, its radical inverse scrambled, Sobol'
 /// dimension 1 of `i` scrambled, with three bit reversals where the definition takes five.
@@ -131,7 +131,7 @@ pub fn sample_2d_rev(index_rev: u32, (ks, kx, ky): (u32, u32, u32)) -> (u32, u32
     ((both >> 32) as u32, both as u32)
 }
 
-/// Sample `index` of the 1D slot whose [`keys`] are `(ks, kx, _)`, as a 32-bit fraction,
+/// Sample `index` of the 1D slot whose `keys` are `(ks, kx, _)`, as a 32-bit fraction,
 /// given `index_rev` as for [`sample_2d_rev`].
 #[inline]
 pub fn sample_1d_rev(index_rev: u32, (ks, kx, _): (u32, u32, u32)) -> u32 {
